@@ -1,0 +1,8 @@
+// Debian's catkin builds gtest without gtest_main: every gtest executable links this.
+#include <gtest/gtest.h>
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
