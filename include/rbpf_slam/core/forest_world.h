@@ -1,0 +1,117 @@
+#ifndef RBPF_SLAM_CORE_FOREST_WORLD_H
+#define RBPF_SLAM_CORE_FOREST_WORLD_H
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/random.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief A tree trunk: a (possibly leaning, tapering) solid cone frustum standing on the ground. */
+struct TrunkSpec
+{
+  double x = 0.0;       ///< [m] centre of the trunk where it meets the ground
+  double y = 0.0;       ///< [m]
+  double radius = 0.2;  ///< [m] radius at the ground (breast-height radius = radius - taper * 1.3)
+  double height = 15.0; ///< [m] along the axis
+  double lean_x = 0.0;  ///< [-] axis direction (lean_x, lean_y, 1), normalised; 0.05 = 2.9 deg
+  double lean_y = 0.0;  ///< [-]
+  double taper = 0.0;   ///< [m/m] radius lost per metre along the axis
+};
+
+/** @brief A porous sphere of foliage (tree crown or bush): a ray inside it stops after an
+ * exponentially distributed free path with the given mean. */
+struct FoliageSpec
+{
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< [m]; z relative to the ground below it
+  double radius = 1.0;                               ///< [m]
+  double mean_free_path = 1.0;                       ///< [m]
+};
+
+/** @brief A solid sphere (rock), partly buried; center z relative to the ground below it. */
+struct RockSpec
+{
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  double radius = 0.3;
+};
+
+/** @brief A fallen branch: a solid cylinder lying on the ground between two end points (x, y). */
+struct BranchSpec
+{
+  Eigen::Vector2d a = Eigen::Vector2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  double radius = 0.08;  ///< [m]; the axis lies this far above the ground
+};
+
+/**
+ * @brief Gently undulating ground: h(x, y) = amplitude / K * sum_k sin(k_k . p + phase_k), so that
+ * |h| <= amplitude everywhere. Waves are drawn from a seed: K = 3 directions, wavelengths within
+ * [0.7, 1.3] x wavelength.
+ */
+struct GroundSpec
+{
+  double amplitude = 0.3;    ///< [m] bound of |h|; 0 gives flat ground at z = 0
+  double wavelength = 15.0;  ///< [m] mean wavelength of the undulation
+  std::uint64_t seed = 1;
+  /// [m] the ground (and with it the world) ends this far outside the stand bounds, as Gazebo's finite
+  /// floor plane did: a ray that leaves that box without a hit has no return.
+  double margin = 20.0;
+};
+
+/** @brief Random clutter added between the trunks (a naive extractor takes it for trunks). */
+struct ClutterSpec
+{
+  int bushes = 0;
+  int rocks = 0;
+  int branches = 0;
+  bool crowns = true;              ///< a foliage crown on each trunk
+  double crown_base = 5.0;         ///< [m] lowest foliage above ground
+  double clearance = 0.8;          ///< [m] clutter keeps at least this from any trunk surface
+  std::uint64_t seed = 1;
+};
+
+/** @brief Everything the ray caster sees. Coordinates are world (stand) coordinates. */
+struct ForestWorld
+{
+  std::vector<TrunkSpec> trunks;
+  std::vector<FoliageSpec> foliage;
+  std::vector<RockSpec> rocks;
+  std::vector<BranchSpec> branches;
+  GroundSpec ground;
+  double min_x = 0.0, min_y = 0.0, max_x = 30.0, max_y = 30.0;  ///< [m] stand bounds (for clutter)
+};
+
+/** @brief Adds crowns, bushes, rocks and branches to @p world as @p spec asks (deterministic). */
+void addClutter(const ClutterSpec& spec, ForestWorld* world);
+
+/** @brief Ground height model built from a GroundSpec. */
+class Ground
+{
+public:
+  explicit Ground(const GroundSpec& spec = GroundSpec());
+  double height(double x, double y) const;
+  /** @brief (dh/dx, dh/dy). */
+  Eigen::Vector2d gradient(double x, double y) const;
+  double amplitude() const { return amplitude_; }
+  /** @brief Bound of |grad h| (for safe ray marching). */
+  double maxSlope() const { return max_slope_; }
+  /** @brief Bound of |dh/ds| along the horizontal direction (ux, uy) (any length; scales with it). */
+  double slopeBoundAlong(double ux, double uy) const;
+
+private:
+  double amplitude_ = 0.0;
+  double max_slope_ = 0.0;
+  Eigen::Vector2d k_[3];
+  double phase_[3] = { 0.0, 0.0, 0.0 };
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FOREST_WORLD_H

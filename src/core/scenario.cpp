@@ -1,0 +1,31 @@
+#include "rbpf_slam/core/scenario.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+Scenario::Scenario(const ForestWorld& world, const ScenarioConfig& config, std::shared_ptr<const OccupancyImage> image)
+  : config_(config)
+  , sim_(world, config.sim, std::move(image))
+  , relay_(config.relay, config.sim.seed * 2654435761ull + 1)
+  , follower_(config.drive, config.follower)
+{
+}
+
+bool Scenario::step(SimulatorOutput* out)
+{
+  sim_.step(out);
+  for (const OdometrySample& odom : out->odometry)
+    sim_.setCommand(follower_.done() ? VelocityCommand() : relay_.apply(follower_.command(odom.pose)));
+  if (follower_.done() && done_time_ < 0.0)
+  {
+    sim_.setCommand(VelocityCommand());
+    done_time_ = sim_.time();
+  }
+  if (done_time_ >= 0.0 && sim_.time() >= done_time_ + config_.settle)
+    return false;
+  return !timedOut();
+}
+
+}  // namespace core
+}  // namespace rbpf_slam

@@ -1,0 +1,431 @@
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/core/forest_world.h"
+
+using rbpf_slam::core::addClutter;
+using rbpf_slam::core::BranchSpec;
+using rbpf_slam::core::ClutterSpec;
+using rbpf_slam::core::FoliageSpec;
+using rbpf_slam::core::ForestWorld;
+using rbpf_slam::core::Ground;
+using rbpf_slam::core::GroundSpec;
+using rbpf_slam::core::RockSpec;
+using rbpf_slam::core::TrunkSpec;
+
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+
+GroundSpec groundSpec(double amplitude, double wavelength, std::uint64_t seed)
+{
+  GroundSpec spec;
+  spec.amplitude = amplitude;
+  spec.wavelength = wavelength;
+  spec.seed = seed;
+  return spec;
+}
+
+TrunkSpec trunk(double x, double y, double radius, double lean_x = 0.0, double lean_y = 0.0)
+{
+  TrunkSpec t;
+  t.x = x;
+  t.y = y;
+  t.radius = radius;
+  t.lean_x = lean_x;
+  t.lean_y = lean_y;
+  return t;
+}
+
+/** A sparse 30 x 30 m stand (trunks on a 6 m grid, some leaning) with room for everything asked. */
+ForestWorld sparseStand()
+{
+  ForestWorld world;
+  int i = 0;
+  for (double x = 3.0; x < 30.0; x += 6.0)
+  {
+    for (double y = 3.0; y < 30.0; y += 6.0)
+    {
+      const double lean = (i++ % 3 == 0) ? 0.05 : 0.0;
+      world.trunks.push_back(trunk(x, y, 0.1 + 0.02 * (i % 5), lean, -lean));
+    }
+  }
+  return world;
+}
+
+ClutterSpec clutterSpec(std::uint64_t seed, int bushes, int rocks, int branches)
+{
+  ClutterSpec spec;
+  spec.seed = seed;
+  spec.bushes = bushes;
+  spec.rocks = rocks;
+  spec.branches = branches;
+  return spec;
+}
+
+double pointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b)
+{
+  const Eigen::Vector2d ab = b - a;
+  const double t = ab.squaredNorm() > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / ab.squaredNorm())) : 0.0;
+  return (p - a - t * ab).norm();
+}
+
+/** Distance between two 2D segments, sampled finely (independent of the code under test). */
+double segmentDistance(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
+                       const Eigen::Vector2d& d)
+{
+  double best = 1e300;
+  const int n = 400;
+  for (int i = 0; i <= n; ++i)
+    best = std::min(best, pointSegmentDistance(a + (b - a) * (double(i) / n), c, d));
+  return best;
+}
+
+/** Ground clutter as horizontal footprints (segment + radius), with the top height above ground. */
+struct Item
+{
+  Eigen::Vector2d a, b;
+  double radius;
+  double top;
+};
+
+std::vector<Item> groundItems(const ForestWorld& world)
+{
+  std::vector<Item> items;
+  for (const FoliageSpec& f : world.foliage)
+  {
+    if (f.center.z() - f.radius < 1.5)  // bushes, not crowns
+      items.push_back(Item{ f.center.head<2>(), f.center.head<2>(), f.radius, f.center.z() + f.radius });
+  }
+  for (const RockSpec& r : world.rocks)
+    items.push_back(Item{ r.center.head<2>(), r.center.head<2>(), r.radius, r.center.z() + r.radius });
+  for (const BranchSpec& b : world.branches)
+    items.push_back(Item{ b.a, b.b, b.radius, 2.0 * b.radius });
+  return items;
+}
+
+/** Smallest gap between any ground item and any trunk surface (the axis leans over the item's height). */
+double minTrunkGap(const ForestWorld& world)
+{
+  double best = 1e300;
+  for (const Item& item : groundItems(world))
+  {
+    for (const TrunkSpec& t : world.trunks)
+    {
+      const Eigen::Vector2d base(t.x, t.y);
+      const Eigen::Vector2d top = base + item.top * Eigen::Vector2d(t.lean_x, t.lean_y);
+      best = std::min(best, segmentDistance(item.a, item.b, base, top) - t.radius - item.radius);
+    }
+  }
+  return best;
+}
+
+double minItemGap(const ForestWorld& world)
+{
+  const std::vector<Item> items = groundItems(world);
+  double best = 1e300;
+  for (std::size_t i = 0; i < items.size(); ++i)
+  {
+    for (std::size_t j = i + 1; j < items.size(); ++j)
+    {
+      best = std::min(best, segmentDistance(items[i].a, items[i].b, items[j].a, items[j].b) - items[i].radius -
+                                items[j].radius);
+    }
+  }
+  return best;
+}
+
+bool sameWorld(const ForestWorld& a, const ForestWorld& b)
+{
+  if (a.foliage.size() != b.foliage.size() || a.rocks.size() != b.rocks.size() ||
+      a.branches.size() != b.branches.size())
+    return false;
+  for (std::size_t i = 0; i < a.foliage.size(); ++i)
+  {
+    if (a.foliage[i].center != b.foliage[i].center || a.foliage[i].radius != b.foliage[i].radius ||
+        a.foliage[i].mean_free_path != b.foliage[i].mean_free_path)
+      return false;
+  }
+  for (std::size_t i = 0; i < a.rocks.size(); ++i)
+  {
+    if (a.rocks[i].center != b.rocks[i].center || a.rocks[i].radius != b.rocks[i].radius)
+      return false;
+  }
+  for (std::size_t i = 0; i < a.branches.size(); ++i)
+  {
+    if (a.branches[i].a != b.branches[i].a || a.branches[i].b != b.branches[i].b ||
+        a.branches[i].radius != b.branches[i].radius)
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+// --- Ground ---------------------------------------------------------------------------------------
+
+TEST(Ground, HeightBoundedByAmplitude)
+{
+  for (std::uint64_t seed = 1; seed <= 5; ++seed)
+  {
+    const Ground ground(groundSpec(0.3, 15.0, seed));
+    double max_abs = 0.0;
+    for (double x = -40.0; x <= 70.0; x += 0.37)
+    {
+      for (double y = -40.0; y <= 70.0; y += 0.41)
+        max_abs = std::max(max_abs, std::fabs(ground.height(x, y)));
+    }
+    EXPECT_LE(max_abs, 0.3 + 1e-12) << "seed " << seed;
+    EXPECT_GT(max_abs, 0.1) << "seed " << seed << ": the ground should undulate visibly";
+  }
+}
+
+TEST(Ground, GradientMatchesFiniteDifferences)
+{
+  const Ground ground(groundSpec(0.3, 15.0, 3));
+  const double h = 1e-5;
+  for (double x = -5.0; x <= 35.0; x += 1.3)
+  {
+    for (double y = -5.0; y <= 35.0; y += 1.7)
+    {
+      const Eigen::Vector2d g = ground.gradient(x, y);
+      const double gx = (ground.height(x + h, y) - ground.height(x - h, y)) / (2.0 * h);
+      const double gy = (ground.height(x, y + h) - ground.height(x, y - h)) / (2.0 * h);
+      ASSERT_NEAR(g.x(), gx, 1e-8) << "at " << x << ", " << y;
+      ASSERT_NEAR(g.y(), gy, 1e-8) << "at " << x << ", " << y;
+    }
+  }
+}
+
+TEST(Ground, MaxSlopeBoundsTheGradientAndFollowsTheWavelengths)
+{
+  const double amplitude = 0.3;
+  const double wavelength = 15.0;
+  const Ground ground(groundSpec(amplitude, wavelength, 2));
+  // maxSlope = amplitude / 3 * sum |k|, each |k| = 2 pi / (f * wavelength) with f in [0.7, 1.3].
+  EXPECT_GE(ground.maxSlope(), amplitude * 2.0 * kPi / (1.3 * wavelength));
+  EXPECT_LE(ground.maxSlope(), amplitude * 2.0 * kPi / (0.7 * wavelength));
+  double max_gradient = 0.0;
+  for (double x = 0.0; x <= 60.0; x += 0.25)
+  {
+    for (double y = 0.0; y <= 60.0; y += 0.25)
+      max_gradient = std::max(max_gradient, ground.gradient(x, y).norm());
+  }
+  EXPECT_LE(max_gradient, ground.maxSlope() + 1e-12);
+  EXPECT_DOUBLE_EQ(ground.amplitude(), amplitude);
+}
+
+TEST(Ground, SameSeedSameGround)
+{
+  const Ground a(groundSpec(0.3, 15.0, 7));
+  const Ground b(groundSpec(0.3, 15.0, 7));
+  const Ground c(groundSpec(0.3, 15.0, 8));
+  int differs = 0;
+  for (double x = 0.0; x <= 30.0; x += 2.5)
+  {
+    for (double y = 0.0; y <= 30.0; y += 2.5)
+    {
+      ASSERT_EQ(a.height(x, y), b.height(x, y));
+      ASSERT_EQ(a.gradient(x, y), b.gradient(x, y));
+      differs += a.height(x, y) != c.height(x, y);
+    }
+  }
+  EXPECT_EQ(a.maxSlope(), b.maxSlope());
+  EXPECT_GT(differs, 100);
+}
+
+TEST(Ground, FlatWhenAmplitudeIsZero)
+{
+  const Ground ground(groundSpec(0.0, 15.0, 4));
+  for (double x = -10.0; x <= 40.0; x += 3.3)
+  {
+    for (double y = -10.0; y <= 40.0; y += 3.1)
+    {
+      ASSERT_EQ(ground.height(x, y), 0.0);
+      ASSERT_EQ(ground.gradient(x, y), Eigen::Vector2d::Zero());
+    }
+  }
+  EXPECT_EQ(ground.maxSlope(), 0.0);
+  EXPECT_EQ(ground.amplitude(), 0.0);
+}
+
+TEST(Ground, RejectsInvalidSpecs)
+{
+  EXPECT_THROW(Ground(groundSpec(-0.1, 15.0, 1)), std::invalid_argument);
+  EXPECT_THROW(Ground(groundSpec(std::nan(""), 15.0, 1)), std::invalid_argument);
+  EXPECT_THROW(Ground(groundSpec(0.3, 0.0, 1)), std::invalid_argument);
+  EXPECT_NO_THROW(Ground(groundSpec(0.0, 0.0, 1)));  // flat: the wavelength does not matter
+}
+
+// --- Clutter --------------------------------------------------------------------------------------
+
+TEST(Clutter, DeterministicBySeed)
+{
+  ForestWorld a = sparseStand();
+  ForestWorld b = sparseStand();
+  ForestWorld c = sparseStand();
+  addClutter(clutterSpec(5, 12, 6, 10), &a);
+  addClutter(clutterSpec(5, 12, 6, 10), &b);
+  addClutter(clutterSpec(6, 12, 6, 10), &c);
+  EXPECT_TRUE(sameWorld(a, b));
+  EXPECT_FALSE(sameWorld(a, c));
+}
+
+TEST(Clutter, PlacesWhatIsAskedWithinRanges)
+{
+  ForestWorld world = sparseStand();
+  addClutter(clutterSpec(2, 12, 6, 10), &world);
+  ASSERT_EQ(world.foliage.size(), world.trunks.size() + 12);
+  ASSERT_EQ(world.rocks.size(), 6u);
+  ASSERT_EQ(world.branches.size(), 10u);
+  for (std::size_t i = world.trunks.size(); i < world.foliage.size(); ++i)
+  {
+    const FoliageSpec& bush = world.foliage[i];
+    EXPECT_GE(bush.radius, 0.3);
+    EXPECT_LE(bush.radius, 0.8);
+    EXPECT_NEAR(bush.center.z(), 0.7 * bush.radius, 1e-12);
+    EXPECT_DOUBLE_EQ(bush.mean_free_path, 0.3);
+  }
+  for (const RockSpec& rock : world.rocks)
+  {
+    EXPECT_GE(rock.radius, 0.15);
+    EXPECT_LE(rock.radius, 0.5);
+    EXPECT_NEAR(rock.center.z(), 0.3 * rock.radius, 1e-12);
+  }
+  for (const BranchSpec& branch : world.branches)
+  {
+    EXPECT_GE((branch.b - branch.a).norm(), 1.0 - 1e-9);
+    EXPECT_LE((branch.b - branch.a).norm(), 4.0 + 1e-9);
+    EXPECT_GE(branch.radius, 0.04);
+    EXPECT_LE(branch.radius, 0.12);
+  }
+  for (const Item& item : groundItems(world))
+  {
+    for (const Eigen::Vector2d& p : { item.a, item.b })
+    {
+      EXPECT_GE(p.x() - item.radius, world.min_x);
+      EXPECT_LE(p.x() + item.radius, world.max_x);
+      EXPECT_GE(p.y() - item.radius, world.min_y);
+      EXPECT_LE(p.y() + item.radius, world.max_y);
+    }
+  }
+}
+
+TEST(Clutter, KeepsClearanceFromTrunksAndEachOther)
+{
+  for (std::uint64_t seed = 1; seed <= 4; ++seed)
+  {
+    ForestWorld world = sparseStand();
+    ClutterSpec spec = clutterSpec(seed, 15, 8, 12);
+    spec.clearance = 0.8;
+    addClutter(spec, &world);
+    ASSERT_GT(groundItems(world).size(), 20u);
+    // The sampled reference distance can only overestimate, so a tiny tolerance suffices.
+    EXPECT_GE(minTrunkGap(world), spec.clearance - 1e-9) << "seed " << seed;
+    EXPECT_GE(minItemGap(world), spec.clearance - 1e-9) << "seed " << seed;
+  }
+}
+
+TEST(Clutter, KeepsClearanceFromClutterAlreadyInTheWorld)
+{
+  ForestWorld world = sparseStand();
+  addClutter(clutterSpec(1, 6, 3, 5), &world);
+  ClutterSpec more = clutterSpec(2, 6, 3, 5);
+  more.crowns = false;
+  addClutter(more, &world);
+  EXPECT_EQ(groundItems(world).size(), 28u);
+  EXPECT_GE(minItemGap(world), more.clearance - 1e-9);
+}
+
+TEST(Clutter, CrownsSitOnTheirTrunks)
+{
+  ForestWorld world;
+  world.trunks.push_back(trunk(10.0, 10.0, 0.2));
+  world.trunks.push_back(trunk(20.0, 20.0, 0.2, 0.05, -0.02));  // leaning
+  world.trunks.push_back(trunk(5.0, 25.0, 0.2));
+  world.trunks.back().height = 30.0;  // crown radius clipped to 4 m
+  world.trunks.push_back(trunk(25.0, 5.0, 0.1));
+  world.trunks.back().height = 5.0;  // shorter than crown_base + radius: crown centred on the top
+  ClutterSpec spec = clutterSpec(1, 0, 0, 0);
+  spec.crown_base = 5.0;
+  addClutter(spec, &world);
+  ASSERT_EQ(world.foliage.size(), 4u);
+  EXPECT_TRUE(world.rocks.empty());
+  EXPECT_TRUE(world.branches.empty());
+
+  const FoliageSpec& upright = world.foliage[0];
+  EXPECT_DOUBLE_EQ(upright.radius, 3.75);  // 0.25 * 15 m
+  EXPECT_DOUBLE_EQ(upright.center.x(), 10.0);
+  EXPECT_DOUBLE_EQ(upright.center.y(), 10.0);
+  EXPECT_DOUBLE_EQ(upright.center.z() - upright.radius, 5.0);
+  EXPECT_DOUBLE_EQ(upright.mean_free_path, 0.6);
+
+  const TrunkSpec& t = world.trunks[1];
+  const double top = t.height / std::sqrt(1.0 + t.lean_x * t.lean_x + t.lean_y * t.lean_y);
+  const FoliageSpec& leaning = world.foliage[1];
+  EXPECT_NEAR(leaning.center.x(), t.x + t.lean_x * top, 1e-12);
+  EXPECT_NEAR(leaning.center.y(), t.y + t.lean_y * top, 1e-12);
+  EXPECT_NEAR(leaning.center.z() - leaning.radius, 5.0, 1e-12);
+
+  EXPECT_DOUBLE_EQ(world.foliage[2].radius, 4.0);
+  EXPECT_DOUBLE_EQ(world.foliage[3].radius, 1.5);
+  EXPECT_DOUBLE_EQ(world.foliage[3].center.z(), 5.0);
+
+  ForestWorld bare;
+  bare.trunks = world.trunks;
+  spec.crowns = false;
+  addClutter(spec, &bare);
+  EXPECT_TRUE(bare.foliage.empty());
+}
+
+TEST(Clutter, GivesUpInAStandTooDenseForIt)
+{
+  // Trunks every 1 m: with 0.8 m clearance nothing fits anywhere. Asking for a million items must
+  // still return at once (each kind is given up after a bounded number of failed items).
+  ForestWorld world;
+  for (double x = 0.5; x < 30.0; x += 1.0)
+  {
+    for (double y = 0.5; y < 30.0; y += 1.0)
+      world.trunks.push_back(trunk(x, y, 0.15));
+  }
+  ClutterSpec spec = clutterSpec(1, 1000000, 1000000, 1000000);
+  spec.crowns = false;
+  addClutter(spec, &world);
+  EXPECT_TRUE(world.foliage.empty());
+  EXPECT_TRUE(world.rocks.empty());
+  EXPECT_TRUE(world.branches.empty());
+}
+
+TEST(Clutter, FillsACrowdedStandPartlyAndStillKeepsClearance)
+{
+  // A small open stand: far more is asked than fits; what is placed keeps its clearance.
+  ForestWorld world;
+  world.min_x = 0.0;
+  world.min_y = 0.0;
+  world.max_x = 8.0;
+  world.max_y = 8.0;
+  world.trunks.push_back(trunk(4.0, 4.0, 0.3));
+  ClutterSpec spec = clutterSpec(3, 500, 500, 500);
+  spec.crowns = false;
+  addClutter(spec, &world);
+  const std::size_t placed = groundItems(world).size();
+  EXPECT_GT(placed, 3u);
+  EXPECT_LT(placed, 100u);
+  EXPECT_GE(minTrunkGap(world), spec.clearance - 1e-9);
+  EXPECT_GE(minItemGap(world), spec.clearance - 1e-9);
+}
+
+TEST(Clutter, RejectsInvalidSpecs)
+{
+  ForestWorld world = sparseStand();
+  EXPECT_THROW(addClutter(clutterSpec(1, -1, 0, 0), &world), std::invalid_argument);
+  ClutterSpec spec;
+  spec.clearance = -0.1;
+  EXPECT_THROW(addClutter(spec, &world), std::invalid_argument);
+  EXPECT_THROW(addClutter(ClutterSpec(), nullptr), std::invalid_argument);
+  world.max_x = world.min_x;
+  EXPECT_THROW(addClutter(ClutterSpec(), &world), std::invalid_argument);
+}

@@ -1,0 +1,273 @@
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/core/forest_simulator.h"
+#include "rbpf_slam/core/scenario.h"
+
+using namespace rbpf_slam::core;
+
+namespace
+{
+ForestWorld flatWorld()
+{
+  ForestWorld w;
+  w.ground.amplitude = 0.0;
+  return w;
+}
+
+SimulatorConfig quietConfig()
+{
+  SimulatorConfig c;
+  c.start = Pose2(0.0, 0.0, 0.0);
+  c.lidar3d.enabled = false;
+  c.robot.max_linear_accel = 1e6;
+  c.robot.max_angular_accel = 1e6;
+  c.odometry.wheel_sigma = 0.0;
+  c.odometry.left_scale = c.odometry.right_scale = 1.0;
+  return c;
+}
+
+/** @brief Drives at constant command for @p seconds; returns the last odometry sample. */
+OdometrySample drive(ForestSimulator* sim, const VelocityCommand& cmd, double seconds)
+{
+  sim->setCommand(cmd);
+  SimulatorOutput out;
+  OdometrySample last;
+  while (sim->time() < seconds - 1e-9)
+  {
+    out.clear();
+    sim->step(&out);
+    if (!out.odometry.empty())
+      last = out.odometry.back();
+  }
+  return last;
+}
+}  // namespace
+
+TEST(Simulator, ScaleMismatchCurvesDeadReckoningAsPredicted)
+{
+  SimulatorConfig c = quietConfig();
+  c.odometry.latency = 0.0;
+  c.odometry.left_scale = 1.0025;
+  c.odometry.right_scale = 0.9975;
+  ForestSimulator sim(flatWorld(), c);
+  const OdometrySample odom = drive(&sim, { 1.0, 0.0 }, 30.0);
+  // True motion: straight, 30 m. Odometry turns at (0.9975 - 1.0025) / 1.2 rad per metre.
+  EXPECT_NEAR(sim.robot().pose().x, 30.0, 1e-6);
+  EXPECT_NEAR(sim.robot().pose().y, 0.0, 1e-9);
+  const double rate = -0.005 / 1.2;
+  EXPECT_NEAR(odom.pose.theta, rate * 30.0, 1e-6);
+  EXPECT_NEAR(odom.pose.y, rate * 30.0 * 30.0 / 2.0, 0.01);  // y = rate s^2 / 2 for small angles
+}
+
+TEST(Simulator, TurnSlipMakesOdometryOverestimateRotation)
+{
+  SimulatorConfig c = quietConfig();
+  c.robot.turn_slip = 0.1;
+  ForestSimulator sim(flatWorld(), c);
+  const OdometrySample odom = drive(&sim, { 0.0, 0.5 }, 2.0);
+  EXPECT_NEAR(sim.robot().pose().theta, 1.0, 1e-6);
+  EXPECT_NEAR(odom.pose.theta, 1.1 * wrapAngle(sim.poseAt(odom.stamp).theta), 1e-3);
+}
+
+TEST(Simulator, WheelNoiseGrowsHeadingVarianceLinearlyWithDistance)
+{
+  const double sigma = 0.01, track = 1.2, distance = 20.0;
+  std::vector<double> headings;
+  for (int seed = 0; seed < 300; ++seed)
+  {
+    SimulatorConfig c = quietConfig();
+    c.odometry.wheel_sigma = sigma;
+    c.seed = static_cast<std::uint64_t>(seed);
+    ForestSimulator sim(flatWorld(), c);
+    headings.push_back(drive(&sim, { 1.0, 0.0 }, distance).pose.theta);
+  }
+  double mean = 0.0, var = 0.0;
+  for (double h : headings)
+    mean += h / headings.size();
+  for (double h : headings)
+    var += (h - mean) * (h - mean) / (headings.size() - 1);
+  // Each wheel's travel has variance sigma^2 * distance; heading = (r - l) / track.
+  const double expected = std::sqrt(2.0 * sigma * sigma * distance) / track;
+  EXPECT_NEAR(std::sqrt(var), expected, 0.15 * expected);
+  EXPECT_NEAR(mean, 0.0, 4.0 * expected / std::sqrt(headings.size()));
+}
+
+TEST(Simulator, OdometryIsStampedWithItsMeasurementTimeAndArrivesLate)
+{
+  SimulatorConfig c = quietConfig();
+  c.odometry.latency = 0.03;
+  c.odometry.rate = 50.0;
+  ForestSimulator sim(flatWorld(), c);
+  sim.setCommand({ 1.0, 0.0 });
+  SimulatorOutput out;
+  int seen = 0;
+  while (sim.time() < 2.0)
+  {
+    out.clear();
+    sim.step(&out);
+    for (const auto& o : out.odometry)
+    {
+      EXPECT_NEAR(sim.time() - o.stamp, 0.03, 1e-9);
+      EXPECT_NEAR(o.pose.x, sim.poseAt(o.stamp).x, 1e-9);  // noise-free: odometry equals truth then
+      ++seen;
+    }
+  }
+  EXPECT_EQ(seen, 98);  // 50 Hz over 2 s, the last 30 ms not yet delivered
+}
+
+TEST(Simulator, SweepPointsAreCastFromThePoseAtTheirOwnInstant)
+{
+  ForestWorld w = flatWorld();
+  for (int i = 0; i < 12; ++i)
+  {
+    TrunkSpec t;
+    t.x = 8.0 * std::cos(i * M_PI / 6);
+    t.y = 8.0 * std::sin(i * M_PI / 6);
+    t.radius = 0.3;
+    w.trunks.push_back(t);
+  }
+  SimulatorConfig c = quietConfig();
+  c.lidar3d.enabled = true;
+  c.lidar3d.range_sigma = 0.0;
+  c.robot.max_linear_accel = 1e6;
+  ForestSimulator sim(w, c);
+  sim.setCommand({ 2.0, 0.3 });
+  SimulatorOutput out;
+  std::vector<LidarSweep> sweeps;
+  while (sweeps.size() < 3)
+  {
+    out.clear();
+    sim.step(&out);
+    for (auto& s : out.sweeps)
+      sweeps.push_back(s);
+  }
+  const LidarSweep& sweep = sweeps.back();
+  ASSERT_GT(sweep.points.size(), 1000u);
+  const Eigen::Isometry3d mount = c.lidar3d.mount.transform();
+  int on_trunks = 0;
+  double worst = 0.0, worst_single_pose = 0.0;
+  const Eigen::Isometry3d sensor_at_start = sim.bodyPose(sim.poseAt(sweep.stamp)) * mount;
+  for (const LidarPoint& p : sweep.points)
+  {
+    ASSERT_GE(p.time, 0.0f);
+    ASSERT_LT(p.time, 0.1f);
+    const Eigen::Vector3d local(p.x, p.y, p.z);
+    const Eigen::Vector3d world = sim.bodyPose(sim.poseAt(sweep.stamp + p.time)) * mount * local;
+    const Eigen::Vector3d naive = sensor_at_start * local;
+    if (world.z() < 0.05)
+      continue;  // ground
+    double d = 1e9, d_naive = 1e9;
+    for (const auto& t : w.trunks)
+    {
+      d = std::min(d, std::abs(std::hypot(world.x() - t.x, world.y() - t.y) - t.radius));
+      d_naive = std::min(d_naive, std::abs(std::hypot(naive.x() - t.x, naive.y() - t.y) - t.radius));
+    }
+    worst = std::max(worst, d);
+    worst_single_pose = std::max(worst_single_pose, d_naive);
+    ++on_trunks;
+  }
+  EXPECT_GT(on_trunks, 500);
+  EXPECT_LT(worst, 1e-3);             // float storage of the points
+  EXPECT_GT(worst_single_pose, 0.05);  // the motion within a sweep is real and visible
+}
+
+TEST(Simulator, RingsHaveTheirElevationsOnFlatGround)
+{
+  SimulatorConfig c = quietConfig();
+  c.lidar3d.enabled = true;
+  c.lidar3d.range_sigma = 0.0;
+  c.lidar3d.max_range = 110.0;  // the -1 deg ring meets flat ground 103 m away (1.8 m / tan 1 deg)
+  ForestWorld world = flatWorld();
+  world.ground.margin = 200.0;  // and the ground reaches that far
+  ForestSimulator sim(world, c);
+  LidarSweep sweep;
+  sim.castSweep(0.0, &sweep);
+  int counted = 0;
+  for (const LidarPoint& p : sweep.points)
+  {
+    const double expected = c.lidar3d.min_elevation +
+                            (c.lidar3d.max_elevation - c.lidar3d.min_elevation) * p.ring / (c.lidar3d.rings - 1);
+    ASSERT_NEAR(std::atan2(p.z, std::hypot(p.x, p.y)), expected, 1e-5);
+    ASSERT_LT(expected, 0.0);  // only downward rings see a flat ground
+    ++counted;
+  }
+  EXPECT_EQ(counted, 8 * 1800);  // the 8 downward rings, every column
+}
+
+TEST(Simulator, SameSeedSameRunOtherSeedOtherRun)
+{
+  ForestWorld w;
+  w.ground.amplitude = 0.3;
+  TrunkSpec t;
+  t.x = 10.0;
+  t.y = 15.0;
+  w.trunks.push_back(t);
+  auto run = [&](std::uint64_t seed) {
+    SimulatorConfig c;
+    c.seed = seed;
+    ForestSimulator sim(w, c);
+    sim.setCommand({ 1.0, 0.1 });
+    SimulatorOutput out;
+    std::vector<double> values;
+    while (sim.time() < 0.5)
+    {
+      out.clear();
+      sim.step(&out);
+      for (const auto& o : out.odometry)
+        values.push_back(o.pose.y);
+      for (const auto& s : out.sweeps)
+        for (std::size_t i = 0; i < s.points.size(); i += 97)
+          values.push_back(s.points[i].x);
+    }
+    return values;
+  };
+  const auto a = run(4), b = run(4), c = run(5);
+  ASSERT_EQ(a, b);
+  EXPECT_NE(a, c);
+}
+
+TEST(Simulator, BodyFollowsTheGround)
+{
+  ForestWorld w;
+  w.ground.amplitude = 0.3;
+  ForestSimulator sim(w, SimulatorConfig());
+  const Ground& g = ForestRayCaster(w).ground();
+  for (double x = 0.0; x < 30.0; x += 3.7)
+  {
+    const Eigen::Isometry3d body = sim.bodyPose(Pose2(x, 15.0, 0.4));
+    const Eigen::Vector2d grad = g.gradient(x, 15.0);
+    const Eigen::Vector3d n = Eigen::Vector3d(-grad.x(), -grad.y(), 1.0).normalized();
+    EXPECT_NEAR(body.translation().z(), g.height(x, 15.0), 1e-12);
+    EXPECT_NEAR((body.linear().col(2) - n).norm(), 0.0, 1e-12);
+    // The heading stays the planar heading.
+    EXPECT_NEAR(std::atan2(body.linear()(1, 0), body.linear()(0, 0)), 0.4, 1e-12);
+  }
+}
+
+TEST(Scenario, StraightDriveFollowsOdometryToItsEnd)
+{
+  ForestWorld w = flatWorld();
+  ScenarioConfig c;
+  c.sim.lidar3d.enabled = false;
+  c.sim.seed = 2;
+  Scenario scenario(w, c);
+  SimulatorOutput out;
+  Pose2 odom;
+  while (true)
+  {
+    out.clear();
+    const bool running = scenario.step(&out);
+    for (const auto& o : out.odometry)
+      odom = o.pose;
+    if (!running)
+      break;
+  }
+  EXPECT_FALSE(scenario.timedOut());
+  EXPECT_TRUE(scenario.follower().done());
+  // The follower believes it drove 30 m along x: it did, by its own odometry.
+  EXPECT_NEAR(odom.x, 30.0, 0.6);
+  EXPECT_NEAR(odom.y, 0.0, 0.3);
+}

@@ -1,0 +1,111 @@
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/io/sim_config.h"
+
+using namespace rbpf_slam;
+
+namespace
+{
+std::string writeTemp(const std::string& name, const std::string& text)
+{
+  const std::string path = std::string(::testing::TempDir()) + name;
+  std::ofstream(path) << text;
+  return path;
+}
+}  // namespace
+
+TEST(SimConfig, ShippedConfigMatchesTheBuiltInDefaults)
+{
+  // config/forest_sim.yaml documents the defaults; reading it must change nothing.
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
+  core::ScenarioConfig read, defaults;
+  io::readScenarioConfig(params, &read);
+  EXPECT_EQ(read.sim.odometry.left_scale, defaults.sim.odometry.left_scale);
+  EXPECT_EQ(read.sim.odometry.right_scale, defaults.sim.odometry.right_scale);
+  EXPECT_EQ(read.sim.odometry.wheel_sigma, defaults.sim.odometry.wheel_sigma);
+  EXPECT_EQ(read.sim.odometry.latency, defaults.sim.odometry.latency);
+  EXPECT_EQ(read.sim.lidar3d.rings, defaults.sim.lidar3d.rings);
+  EXPECT_NEAR(read.sim.lidar3d.azimuth_resolution, defaults.sim.lidar3d.azimuth_resolution, 1e-12);
+  EXPECT_NEAR(read.sim.lidar3d.min_elevation, defaults.sim.lidar3d.min_elevation, 1e-12);
+  EXPECT_EQ(read.sim.lidar3d.mount.z, defaults.sim.lidar3d.mount.z);
+  EXPECT_EQ(read.sim.lidar3d.range_sigma, defaults.sim.lidar3d.range_sigma);
+  EXPECT_EQ(read.sim.robot.track_width, defaults.sim.robot.track_width);
+  EXPECT_EQ(read.sim.start.y, defaults.sim.start.y);
+  EXPECT_EQ(read.follower.speed, defaults.follower.speed);
+  EXPECT_EQ(read.relay.linear_sigma_abs, defaults.relay.linear_sigma_abs);
+  std::string unused;
+  for (const auto& k : params.unusedKeys())
+    unused += k + " ";
+  // Keys the nodelet reads itself (world, mode, frames) are the only ones this reader leaves.
+  for (const auto& k : params.unusedKeys())
+    EXPECT_TRUE(k == "world" || k == "indoor_map" || k == "real_time_factor" || k == "duration" ||
+                k == "lockstep" || k == "lockstep_timeout" || k == "lockstep_topics" || k == "publish_clock" ||
+                k == "time_base" || k.rfind("frames/", 0) == 0)
+        << "unexpected key " << k;
+}
+
+TEST(SimConfig, ValuesAreReadInTheirUnits)
+{
+  const std::string path = writeTemp("sim_units.yaml", "seed: 7\n"
+                                                        "start: {x: 1.0, y: 2.0, yaw_deg: 90}\n"
+                                                        "lidar3d: {rings: 32, azimuth_resolution_deg: 0.4,\n"
+                                                        "          mount: {z: 2.5, pitch_deg: 10}}\n"
+                                                        "odometry: {latency: 0.05}\n");
+  io::YamlParamSource params(path);
+  core::SimulatorConfig c;
+  io::readSimulatorConfig(params, &c);
+  EXPECT_EQ(c.seed, 7u);
+  EXPECT_NEAR(c.start.theta, M_PI / 2, 1e-12);
+  EXPECT_EQ(c.lidar3d.rings, 32);
+  EXPECT_NEAR(c.lidar3d.azimuth_resolution, 0.4 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(c.lidar3d.mount.z, 2.5);
+  EXPECT_NEAR(c.lidar3d.mount.pitch, 10.0 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(c.odometry.latency, 0.05);
+  std::remove(path.c_str());
+}
+
+TEST(SimConfig, WrongTypeAndInvalidValueNameTheKey)
+{
+  const std::string typed = writeTemp("sim_typed.yaml", "lidar3d:\n  rings: many\n");
+  io::YamlParamSource params(typed);
+  core::SimulatorConfig c;
+  try
+  {
+    io::readSimulatorConfig(params, &c);
+    FAIL() << "no error for a non-integer ring count";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("lidar3d/rings"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":2:"), std::string::npos) << e.what();
+  }
+  const std::string invalid = writeTemp("sim_invalid.yaml", "odometry: {rate: -5}\n");
+  io::YamlParamSource bad(invalid);
+  try
+  {
+    io::readSimulatorConfig(bad, &c);
+    FAIL() << "no error for a negative rate";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("rate"), std::string::npos) << e.what();
+  }
+  std::remove(typed.c_str());
+  std::remove(invalid.c_str());
+}
+
+TEST(SimConfig, UnknownKeysAreReported)
+{
+  const std::string path = writeTemp("sim_typo.yaml", "odometry: {latncy: 0.05}\n");
+  io::YamlParamSource params(path);
+  core::SimulatorConfig c;
+  io::readSimulatorConfig(params, &c);
+  ASSERT_EQ(params.unusedKeys().size(), 1u);
+  EXPECT_EQ(params.unusedKeys()[0], "odometry/latncy");
+  std::remove(path.c_str());
+}

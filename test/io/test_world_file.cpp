@@ -1,0 +1,404 @@
+#include <dirent.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/io/world_file.h"
+
+using rbpf_slam::core::ForestWorld;
+using rbpf_slam::core::TrunkSpec;
+using rbpf_slam::io::loadForestWorld;
+using rbpf_slam::io::loadTreeList;
+
+namespace
+{
+const std::string kSourceDir = RBPF_SLAM_SOURCE_DIR;
+const std::string kWorldDir = kSourceDir + "/config/worlds/";
+
+/** A fresh temporary folder per test, removed with its files afterwards. */
+class WorldFileTest : public ::testing::Test
+{
+protected:
+  void SetUp() override
+  {
+    char pattern[] = "/tmp/rbpf_slam_world_file_XXXXXX";
+    ASSERT_NE(mkdtemp(pattern), nullptr);
+    dir_ = pattern;
+  }
+
+  void TearDown() override
+  {
+    for (const std::string& f : files_)
+      unlink(f.c_str());
+    rmdir(dir_.c_str());
+  }
+
+  std::string write(const std::string& name, const std::string& text)
+  {
+    const std::string path = dir_ + "/" + name;
+    std::ofstream(path) << text;
+    files_.push_back(path);
+    return path;
+  }
+
+  /** The message of the std::runtime_error that loading @p path throws ("" if none is thrown). */
+  static std::string loadError(const std::string& path)
+  {
+    try
+    {
+      loadForestWorld(path);
+    }
+    catch (const std::runtime_error& e)
+    {
+      return e.what();
+    }
+    return std::string();
+  }
+
+  std::string dir_;
+  std::vector<std::string> files_;
+};
+
+/** True for a map_server map description (top-level `image:`), which shares config/worlds with forest worlds. */
+bool isMapImageYaml(const std::string& path)
+{
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line))
+  {
+    if (line.compare(0, 6, "image:") == 0)
+      return true;
+  }
+  return false;
+}
+
+/** Every forest world file in config/worlds (all YAML files but the map_server maps). */
+std::vector<std::string> shippedWorlds()
+{
+  std::vector<std::string> worlds;
+  DIR* dir = opendir(kWorldDir.c_str());
+  if (!dir)
+    return worlds;
+  while (const dirent* entry = readdir(dir))
+  {
+    const std::string name = entry->d_name;
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".yaml") == 0 && !isMapImageYaml(kWorldDir + name))
+      worlds.push_back(kWorldDir + name);
+  }
+  closedir(dir);
+  return worlds;
+}
+
+std::string readFile(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+const char* const kMinimalYamlTrees = "trees: [[1, 2, 0.2], [5, 6, 0.3, 12]]\n";
+}  // namespace
+
+// --- Tree lists -----------------------------------------------------------------------------------
+
+TEST_F(WorldFileTest, TreeListWithCommentsParses)
+{
+  const std::string path = write("stand.trees.txt",
+                                 "# x y radius [height]\n"
+                                 "\n"
+                                 "1.5 2.5 0.2\n"
+                                 "   # indented comment\n"
+                                 "3 4 0.25 12.5   # trailing comment\n"
+                                 "\t-1e1  7.0\t0.1\r\n"
+                                 "   \n");
+  const std::vector<TrunkSpec> trunks = loadTreeList(path);
+  ASSERT_EQ(trunks.size(), 3u);
+  EXPECT_DOUBLE_EQ(trunks[0].x, 1.5);
+  EXPECT_DOUBLE_EQ(trunks[0].y, 2.5);
+  EXPECT_DOUBLE_EQ(trunks[0].radius, 0.2);
+  EXPECT_DOUBLE_EQ(trunks[0].height, TrunkSpec().height);
+  EXPECT_DOUBLE_EQ(trunks[1].height, 12.5);
+  EXPECT_DOUBLE_EQ(trunks[2].x, -10.0);
+  EXPECT_DOUBLE_EQ(trunks[2].radius, 0.1);
+  for (const TrunkSpec& t : trunks)
+  {
+    EXPECT_EQ(t.lean_x, 0.0);
+    EXPECT_EQ(t.lean_y, 0.0);
+    EXPECT_EQ(t.taper, 0.0);
+  }
+}
+
+TEST_F(WorldFileTest, BadTreeLineNamesFileAndLine)
+{
+  const std::string path = write("bad.trees.txt", "# header\n1 2 0.2\n1.0 abc 0.2\n");
+  try
+  {
+    loadTreeList(path);
+    FAIL() << "no error for a non-number";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find(path + ":3: expected 'x y radius [height]', got '1.0 abc 0.2'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(WorldFileTest, EveryKindOfBadTreeLineIsAnError)
+{
+  const std::vector<std::string> bad_lines = { "1 2",      "1 2 0.2 15 3", "1 2 nan",  "1 2 inf",   "1 2 0",
+                                               "1 2 -0.2", "1 2 0.2 0",    "1 2 0.2x", "1,2,0.2",   "1 2 1e999",
+                                               "x y r",    "1 2 0x1p-3",   "1 2 .2.",  "1 2 0.2 #x 5 6 7 extra" };
+  for (std::size_t i = 0; i + 1 < bad_lines.size(); ++i)
+  {
+    const std::string path = write("bad" + std::to_string(i) + ".txt", "0 0 0.1\n\n" + bad_lines[i] + "\n");
+    try
+    {
+      loadTreeList(path);
+      ADD_FAILURE() << "no error for '" << bad_lines[i] << "'";
+    }
+    catch (const std::runtime_error& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(path + ":3: expected 'x y radius [height]', got '" + bad_lines[i] + "'"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  // The last line is valid: the comment holds the rest.
+  EXPECT_EQ(loadTreeList(write("good.txt", bad_lines.back() + "\n")).size(), 1u);
+}
+
+TEST_F(WorldFileTest, MissingFileIsAnErrorNamingIt)
+{
+  const std::string path = dir_ + "/no_such.trees.txt";
+  EXPECT_NE(loadError(path).find(path), std::string::npos);
+  EXPECT_NE(loadError(dir_ + "/no_such.yaml").find(dir_ + "/no_such.yaml"), std::string::npos);
+}
+
+TEST_F(WorldFileTest, BareTreeListIsFlatWithoutClutter)
+{
+  const std::string path = write("stand.txt", "1 2 0.2\n11 22 0.3\n");
+  const ForestWorld world = loadForestWorld(path);
+  ASSERT_EQ(world.trunks.size(), 2u);
+  EXPECT_EQ(world.ground.amplitude, 0.0);
+  EXPECT_TRUE(world.foliage.empty());
+  EXPECT_TRUE(world.rocks.empty());
+  EXPECT_TRUE(world.branches.empty());
+  EXPECT_DOUBLE_EQ(world.min_x, -1.0);
+  EXPECT_DOUBLE_EQ(world.min_y, 0.0);
+  EXPECT_DOUBLE_EQ(world.max_x, 13.0);
+  EXPECT_DOUBLE_EQ(world.max_y, 24.0);
+}
+
+// --- YAML world files -----------------------------------------------------------------------------
+
+TEST_F(WorldFileTest, YamlWithTreeFileAndDefaults)
+{
+  write("stand.trees.txt", "10 10 0.2\n20 20 0.25 18\n");
+  const std::string path = write("world.yaml", "trees: stand.trees.txt\n");
+  const ForestWorld world = loadForestWorld(path);
+  ASSERT_EQ(world.trunks.size(), 2u);
+  EXPECT_DOUBLE_EQ(world.trunks[0].height, 15.0);
+  EXPECT_DOUBLE_EQ(world.trunks[1].height, 18.0);
+  EXPECT_EQ(world.trunks[0].lean_x, 0.0);
+  EXPECT_EQ(world.trunks[0].taper, 0.0);
+  EXPECT_DOUBLE_EQ(world.ground.amplitude, 0.3);
+  EXPECT_DOUBLE_EQ(world.ground.wavelength, 15.0);
+  EXPECT_DOUBLE_EQ(world.min_x, 8.0);
+  EXPECT_DOUBLE_EQ(world.max_y, 22.0);
+  EXPECT_EQ(world.foliage.size(), 2u);  // crowns are on by default, no other clutter
+  EXPECT_TRUE(world.rocks.empty());
+  EXPECT_TRUE(world.branches.empty());
+}
+
+TEST_F(WorldFileTest, YamlWithEverySetting)
+{
+  const std::string path = write("world.yml",
+                                 "# a comment\n"
+                                 "trees: [[5, 5, 0.2], [15, 15, 0.1, 20]]\n"
+                                 "bounds: [0, 0, 20, 20]\n"
+                                 "tree: {height: 12, lean_sigma_deg: 2, taper: 0.01, seed: 3}\n"
+                                 "ground:\n"
+                                 "  amplitude: 0.2\n"
+                                 "  wavelength: 10\n"
+                                 "  seed: 4\n"
+                                 "clutter: {seed: 5, bushes: 3, rocks: 2, branches: 1, crowns: false, crown_base: 4,"
+                                 " clearance: 0.5}\n");
+  const ForestWorld world = loadForestWorld(path);
+  ASSERT_EQ(world.trunks.size(), 2u);
+  EXPECT_DOUBLE_EQ(world.trunks[0].height, 12.0);
+  EXPECT_DOUBLE_EQ(world.trunks[1].height, 20.0);
+  EXPECT_NE(world.trunks[0].lean_x, 0.0);
+  EXPECT_NE(world.trunks[1].lean_y, 0.0);
+  EXPECT_DOUBLE_EQ(world.trunks[0].taper, 0.01);
+  EXPECT_DOUBLE_EQ(world.trunks[1].taper, 0.01);
+  EXPECT_DOUBLE_EQ(world.ground.amplitude, 0.2);
+  EXPECT_DOUBLE_EQ(world.ground.wavelength, 10.0);
+  EXPECT_EQ(world.ground.seed, 4u);
+  EXPECT_DOUBLE_EQ(world.max_x, 20.0);
+  EXPECT_EQ(world.foliage.size(), 3u);  // bushes only
+  EXPECT_EQ(world.rocks.size(), 2u);
+  EXPECT_EQ(world.branches.size(), 1u);
+  // Same file, same world.
+  const ForestWorld again = loadForestWorld(path);
+  EXPECT_EQ(again.trunks[0].lean_x, world.trunks[0].lean_x);
+  EXPECT_EQ(again.foliage[0].center, world.foliage[0].center);
+}
+
+TEST_F(WorldFileTest, YamlUnknownKeyIsNamed)
+{
+  const std::string top = write("top.yaml", std::string(kMinimalYamlTrees) + "grund: {amplitude: 0.3}\n");
+  const std::string error = loadError(top);
+  EXPECT_NE(error.find(top + ":2:"), std::string::npos) << error;
+  EXPECT_NE(error.find("unknown key 'grund'"), std::string::npos) << error;
+
+  const std::string nested = write("nested.yaml", std::string(kMinimalYamlTrees) + "clutter:\n  bushs: 3\n");
+  const std::string nested_error = loadError(nested);
+  EXPECT_NE(nested_error.find(nested + ":3:"), std::string::npos) << nested_error;
+  EXPECT_NE(nested_error.find("unknown key 'clutter.bushs'"), std::string::npos) << nested_error;
+}
+
+TEST_F(WorldFileTest, YamlDuplicateKeyIsAnError)
+{
+  const std::string path =
+      write("dup.yaml", std::string(kMinimalYamlTrees) + "ground: {amplitude: 0.3, amplitude: 0}\n");
+  const std::string error = loadError(path);
+  EXPECT_NE(error.find(path), std::string::npos) << error;
+  EXPECT_NE(error.find("ground.amplitude"), std::string::npos) << error;
+}
+
+TEST_F(WorldFileTest, YamlWrongTypeNamesTheKey)
+{
+  struct Case
+  {
+    std::string text;
+    std::string key;
+  };
+  const std::vector<Case> cases = {
+    { "ground:\n  amplitude: abc\n", "'ground.amplitude' must be a finite number, got 'abc'" },
+    { "ground:\n  amplitude: [1, 2]\n", "'ground.amplitude'" },
+    { "clutter:\n  bushes: 2.5\n", "'clutter.bushes' must be an integer" },
+    { "clutter:\n  crowns: maybe\n", "'clutter.crowns' must be true or false" },
+    { "tree:\n  seed: -1\n", "'tree.seed'" },
+    { "ground: 5\n", "'ground' must be a map" },
+    { "bounds: [0, 0, 30]\n", "'bounds' must be [min_x, min_y, max_x, max_y]" },
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i)
+  {
+    const std::string name = "type" + std::to_string(i) + ".yaml";
+    const std::string path = write(name, std::string(kMinimalYamlTrees) + cases[i].text);
+    const std::string error = loadError(path);
+    EXPECT_NE(error.find(cases[i].key), std::string::npos) << error;
+    // yaml-cpp's mark gives the line of the offending value (line 2 or 3 of the file).
+    EXPECT_TRUE(error.find(path + ":2:") == 0 || error.find(path + ":3:") == 0) << error;
+  }
+}
+
+TEST_F(WorldFileTest, YamlValuesAreValidated)
+{
+  const std::vector<std::string> bad = {
+    "ground: {amplitude: -0.1}\n", "ground: {wavelength: 0}\n", "clutter: {rocks: -2}\n",
+    "clutter: {clearance: -1}\n",  "bounds: [10, 0, 5, 30]\n",  "bounds: [0, 0, 30, 0]\n",
+    "tree: {height: 0}\n",         "tree: {lean_sigma_deg: -1}\n", "tree: {taper: -0.01}\n",
+    "ground: {amplitude: .nan}\n",
+  };
+  for (std::size_t i = 0; i < bad.size(); ++i)
+  {
+    const std::string path = write("value" + std::to_string(i) + ".yaml", std::string(kMinimalYamlTrees) + bad[i]);
+    const std::string error = loadError(path);
+    EXPECT_EQ(error.find(path + ":2:"), 0u) << bad[i] << " -> " << error;
+  }
+  const std::string bad_tree = write("tree.yaml", "trees: [[1, 2, 0.2], [1, 2, -0.2]]\n");
+  EXPECT_NE(loadError(bad_tree).find("'trees[1]': radius must be > 0"), std::string::npos) << loadError(bad_tree);
+  const std::string no_trees = write("none.yaml", "ground: {amplitude: 0.3}\n");
+  EXPECT_NE(loadError(no_trees).find("'trees' is required"), std::string::npos) << loadError(no_trees);
+  const std::string empty = write("empty.yaml", "");
+  EXPECT_NE(loadError(empty).find(empty), std::string::npos);
+  const std::string syntax = write("syntax.yaml", "trees: [[1, 2, 0.2]\nground: {\n");
+  EXPECT_EQ(loadError(syntax).find(syntax + ":"), 0u) << loadError(syntax);
+}
+
+TEST_F(WorldFileTest, YamlTreeFileErrorsNameTheTreeFile)
+{
+  const std::string trees = write("broken.trees.txt", "1 2 0.2\n1 2\n");
+  const std::string path = write("world.yaml", "trees: broken.trees.txt\n");
+  EXPECT_NE(loadError(path).find(trees + ":2: expected 'x y radius [height]'"), std::string::npos) << loadError(path);
+}
+
+// --- Shipped worlds -------------------------------------------------------------------------------
+
+TEST(ShippedWorlds, AllLoad)
+{
+  const std::vector<std::string> worlds = shippedWorlds();
+  EXPECT_NE(std::find(worlds.begin(), worlds.end(), kWorldDir + "paper_forest.yaml"), worlds.end());
+  EXPECT_NE(std::find(worlds.begin(), worlds.end(), kWorldDir + "dense_forest.yaml"), worlds.end());
+  for (const std::string& path : worlds)
+  {
+    ForestWorld world;
+    EXPECT_NO_THROW(world = loadForestWorld(path)) << path;
+    EXPECT_FALSE(world.trunks.empty()) << path;
+  }
+}
+
+TEST(ShippedWorlds, PaperForestIsThePinnedStand)
+{
+  // The 16 trunks of /work/shared/scenarios/paper_forest.trees.txt (pinned; x y radius).
+  const double expected[16][3] = {
+    { 1.391, 7.417, 0.172 },   { 2.702, 22.942, 0.247 }, { 3.977, 11.912, 0.250 }, { 4.667, 3.012, 0.119 },
+    { 8.419, 26.358, 0.231 },  { 8.740, 1.880, 0.248 },  { 11.302, 12.354, 0.110 }, { 12.546, 18.753, 0.222 },
+    { 13.170, 5.469, 0.129 },  { 15.547, 2.064, 0.212 }, { 15.886, 13.393, 0.147 }, { 21.830, 12.799, 0.202 },
+    { 22.404, 27.825, 0.217 }, { 23.731, 4.704, 0.212 }, { 25.110, 22.308, 0.146 }, { 26.690, 18.377, 0.165 },
+  };
+  const ForestWorld world = loadForestWorld(kWorldDir + "paper_forest.yaml");
+  ASSERT_EQ(world.trunks.size(), 16u);
+  for (int i = 0; i < 16; ++i)
+  {
+    EXPECT_EQ(world.trunks[i].x, expected[i][0]) << i;
+    EXPECT_EQ(world.trunks[i].y, expected[i][1]) << i;
+    EXPECT_EQ(world.trunks[i].radius, expected[i][2]) << i;
+  }
+  // Pinned realism: stand 30 x 30 m, ground +-0.3 m, bushes and fallen branches between the trunks.
+  EXPECT_EQ(world.min_x, 0.0);
+  EXPECT_EQ(world.min_y, 0.0);
+  EXPECT_EQ(world.max_x, 30.0);
+  EXPECT_EQ(world.max_y, 30.0);
+  EXPECT_DOUBLE_EQ(world.ground.amplitude, 0.3);
+  EXPECT_GT(world.foliage.size(), world.trunks.size());  // crowns and bushes
+  EXPECT_FALSE(world.branches.empty());
+
+  // Where the shared scenarios are at hand, the copy must be byte-for-byte.
+  const std::string shared = "/work/shared/scenarios/paper_forest.trees.txt";
+  if (access(shared.c_str(), R_OK) == 0)
+  {
+    EXPECT_EQ(readFile(shared), readFile(kWorldDir + "paper_forest.trees.txt"));
+  }
+}
+
+TEST(ShippedWorlds, DenseForestKeepsTheDriveOpen)
+{
+  const ForestWorld world = loadForestWorld(kWorldDir + "dense_forest.yaml");
+  ASSERT_GE(world.trunks.size(), 120u);
+  EXPECT_EQ(world.max_x - world.min_x, 30.0);
+  EXPECT_EQ(world.max_y - world.min_y, 30.0);
+  for (std::size_t i = 0; i < world.trunks.size(); ++i)
+  {
+    const TrunkSpec& t = world.trunks[i];
+    EXPECT_GE(t.radius, 0.10);
+    EXPECT_LE(t.radius, 0.30);
+    EXPECT_GE(std::fabs(t.y - 15.0) - t.radius, 1.5) << "trunk " << i << " blocks the drive along y = 15";
+    for (std::size_t j = i + 1; j < world.trunks.size(); ++j)
+      EXPECT_GE(std::hypot(t.x - world.trunks[j].x, t.y - world.trunks[j].y), 1.5) << i << ", " << j;
+  }
+  EXPECT_DOUBLE_EQ(world.ground.amplitude, 0.3);
+  EXPECT_FALSE(world.branches.empty());
+}
