@@ -1,0 +1,300 @@
+// Trunk detector on synthetic clouds whose answer is known.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/trunk_detector.h"
+
+using rbpf_slam::core::PlanarScan;
+using rbpf_slam::core::Random;
+using rbpf_slam::core::TrunkDetector;
+using rbpf_slam::core::TrunkDetectorConfig;
+using rbpf_slam::core::TrunkDetectorStats;
+using rbpf_slam::core::TrunkMethod;
+using rbpf_slam::core::TrunkObservation;
+
+namespace
+{
+constexpr double kSensorHeight = 1.8;
+
+/** Points on the side of a vertical cylinder facing the sensor (origin), seen over @p arc_deg. */
+void addTrunk(std::vector<Eigen::Vector3f>* pts, double cx, double cy, double r, double arc_deg, Random& rnd,
+              double sigma = 0.01, double z0 = -kSensorHeight, double z1 = 1.0, double tilt_x = 0.0)
+{
+  const double facing = std::atan2(-cy, -cx);
+  const double half = 0.5 * arc_deg * M_PI / 180.0;
+  for (double z = z0; z <= z1; z += 0.1)
+    for (double a = facing - half; a <= facing + half; a += 0.01 / r)
+    {
+      const double rr = r + rnd.gaussian(sigma);
+      const double h = z - z0;
+      pts->emplace_back(static_cast<float>(cx + rr * std::cos(a) + tilt_x * h), static_cast<float>(cy + rr * std::sin(a)),
+                        static_cast<float>(z));
+    }
+}
+
+/** A flat ground ring of points around the sensor. */
+void addGround(std::vector<Eigen::Vector3f>* pts, double z = -kSensorHeight)
+{
+  for (double r = 2.0; r < 20.0; r += 0.5)
+    for (double a = -M_PI; a < M_PI; a += 0.02)
+      pts->emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)), static_cast<float>(z));
+}
+
+TrunkDetectorConfig config()
+{
+  TrunkDetectorConfig c;
+  c.sensor_height = kSensorHeight;
+  return c;
+}
+
+const TrunkObservation* nearest(const std::vector<TrunkObservation>& obs, double x, double y)
+{
+  const TrunkObservation* best = nullptr;
+  double d = 1e9;
+  for (const auto& o : obs)
+  {
+    const double e = std::hypot(o.center.x() - x, o.center.y() - y);
+    if (e < d)
+    {
+      d = e;
+      best = &o;
+    }
+  }
+  return best;
+}
+}  // namespace
+
+TEST(TrunkDetector, NoisyArcsSeenOver60To120DegreesGiveCentreAndRadius)
+{
+  for (double arc : { 60.0, 90.0, 120.0 })
+  {
+    Random rnd(static_cast<std::uint64_t>(arc));
+    std::vector<Eigen::Vector3f> pts;
+    addGround(&pts);
+    addTrunk(&pts, 6.0, 2.0, 0.2, arc, rnd);
+    TrunkDetector det(config());
+    const auto obs = det.detect(pts);
+    ASSERT_EQ(obs.size(), 1u) << "arc " << arc;
+    EXPECT_NEAR(obs[0].center.x(), 6.0, 0.02) << arc;
+    EXPECT_NEAR(obs[0].center.y(), 2.0, 0.02) << arc;
+    EXPECT_NEAR(obs[0].radius, 0.2, 0.015) << arc;
+    EXPECT_EQ(obs[0].method, TrunkMethod::kCircle);
+    EXPECT_NEAR(obs[0].range, std::hypot(6.0, 2.0), 0.02);
+    EXPECT_NEAR(obs[0].bearing, std::atan2(2.0, 6.0), 0.005);
+    EXPECT_GT(obs[0].covariance(0, 0), 0.0);
+  }
+}
+
+TEST(TrunkDetector, CovarianceGrowsForShortArcsAndFewPoints)
+{
+  Random rnd(1);
+  std::vector<Eigen::Vector3f> wide, narrow;
+  addTrunk(&wide, 5.0, 0.0, 0.25, 120.0, rnd);
+  addTrunk(&narrow, 5.0, 0.0, 0.25, 30.0, rnd);
+  TrunkDetectorConfig c = config();
+  c.min_points = 3;
+  TrunkDetector det(c);
+  const auto a = det.detect(wide), b = det.detect(narrow);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_GT(b[0].covariance.trace(), 4.0 * a[0].covariance.trace());
+  EXPECT_GT(b[0].radius_variance, a[0].radius_variance);
+}
+
+TEST(TrunkDetector, CentroidIsBiasedTowardsTheSensorCircleIsNot)
+{
+  Random rnd(2);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  addTrunk(&pts, 8.0, 0.0, 0.25, 120.0, rnd);
+  TrunkDetectorConfig c = config();
+  c.method = TrunkMethod::kCentroid;
+  TrunkDetector centroid(c);
+  TrunkDetector circle(config());
+  const auto a = centroid.detect(pts), b = circle.detect(pts);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(a[0].method, TrunkMethod::kCentroid);
+  // The visible side's centroid is about r * sin(60)/(60 deg in rad) = 0.83 r from the centre.
+  EXPECT_LT(a[0].center.x(), 8.0 - 0.15);
+  EXPECT_NEAR(b[0].center.x(), 8.0, 0.02);
+}
+
+TEST(TrunkDetector, TwoTrunksAlmostTouchingAreBothFound)
+{
+  Random rnd(3);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  // Surfaces 0.4 m apart (more than the cluster tolerance).
+  addTrunk(&pts, 7.0, -0.4, 0.2, 100.0, rnd);
+  addTrunk(&pts, 7.0, 0.6, 0.2, 100.0, rnd);
+  TrunkDetector det(config());
+  const auto obs = det.detect(pts);
+  ASSERT_EQ(obs.size(), 2u);
+  EXPECT_NEAR(nearest(obs, 7.0, -0.4)->center.y(), -0.4, 0.03);
+  EXPECT_NEAR(nearest(obs, 7.0, 0.6)->center.y(), 0.6, 0.03);
+}
+
+TEST(TrunkDetector, BushBesideATrunkIsRejected)
+{
+  Random rnd(4);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  addTrunk(&pts, 6.0, 0.0, 0.2, 100.0, rnd);
+  // A porous bush: random points inside a 0.6 m sphere whose centre is 0.5 m above ground, 2 m away.
+  for (int i = 0; i < 1500; ++i)
+  {
+    Eigen::Vector3d q(rnd.uniform(-1, 1), rnd.uniform(-1, 1), rnd.uniform(-1, 1));
+    if (q.norm() > 1.0)
+      continue;
+    q = q * 0.6 + Eigen::Vector3d(6.0, 2.0, -kSensorHeight + 0.6);
+    pts.emplace_back(q.cast<float>());
+  }
+  TrunkDetector det(config());
+  TrunkDetectorStats st;
+  const auto obs = det.detect(pts, Eigen::Matrix3d::Identity(), &st);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_NEAR(obs[0].center.y(), 0.0, 0.03);
+  EXPECT_GE(st.clusters, 2);
+}
+
+TEST(TrunkDetector, SlopedGroundKeepsTheBandAboveTheLocalGround)
+{
+  Random rnd(5);
+  std::vector<Eigen::Vector3f> pts;
+  // Ground rising 0.15 m per metre along x; trunks stand on it, their lower parts are in the band.
+  for (double x = 2.0; x < 16.0; x += 0.3)
+    for (double y = -8.0; y < 8.0; y += 0.3)
+      pts.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(-kSensorHeight + 0.15 * x));
+  addTrunk(&pts, 12.0, 1.0, 0.2, 100.0, rnd, 0.01, -kSensorHeight + 1.8, -kSensorHeight + 1.8 + 2.5);
+  // A low rock-like blob on the near ground would be in a naive fixed band (z in [-1.3, 0.2]) only if it
+  // were high: it is 0.3 m tall, so it stays out of the band above the local ground.
+  for (double a = -1.0; a < 1.0; a += 0.05)
+    for (double z = 0.0; z < 0.3; z += 0.05)
+      pts.emplace_back(static_cast<float>(9.0 + 0.3 * std::cos(a + M_PI)), static_cast<float>(-2.0 + 0.3 * std::sin(a + M_PI)),
+                       static_cast<float>(-kSensorHeight + 0.15 * 9.0 + z));
+  TrunkDetector det(config());
+  const auto obs = det.detect(pts);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_NEAR(obs[0].center.x(), 12.0, 0.03);
+}
+
+TEST(TrunkDetector, TiltedSensorIsLevelledByTheTrunks)
+{
+  Random rnd(6);
+  std::vector<Eigen::Vector3f> pts;
+  // Trunks that lean 5 deg in the sensor frame (the sensor is tilted), centres given at band middle.
+  const double t = std::tan(5.0 * M_PI / 180.0);
+  for (auto c : { Eigen::Vector2d(6, 3), Eigen::Vector2d(8, -2), Eigen::Vector2d(4, -4) })
+    addTrunk(&pts, c.x() - t * 1.05, c.y(), 0.2, 100.0, rnd, 0.01, -kSensorHeight + 0.3, -kSensorHeight + 2.4, t);
+  TrunkDetectorConfig c = config();
+  c.sensor_height = 0.0;  // no ground points here; band from the lowest points
+  TrunkDetector det(c);
+  TrunkDetectorStats st;
+  const auto obs = det.detect(pts, Eigen::Matrix3d::Identity(), &st);
+  ASSERT_EQ(obs.size(), 3u);
+  EXPECT_NEAR(st.tilt_pitch, -5.0 * M_PI / 180.0, 0.01);
+  for (const auto& o : obs)
+    EXPECT_NEAR(o.radius, 0.2, 0.02);
+}
+
+TEST(TrunkDetector, EmptyAndNonFiniteInputGiveNothing)
+{
+  TrunkDetector det(config());
+  EXPECT_TRUE(det.detect({}).empty());
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<Eigen::Vector3f> bad(100, Eigen::Vector3f(nan, 1.0f, 0.0f));
+  bad.emplace_back(inf, 0.0f, 0.0f);
+  TrunkDetectorStats st;
+  EXPECT_TRUE(det.detect(bad, Eigen::Matrix3d::Identity(), &st).empty());
+  EXPECT_EQ(st.finite_points, 0);
+  // NaN points mixed into a good trunk do not disturb it.
+  Random rnd(7);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  addTrunk(&pts, 5.0, 0.0, 0.2, 100.0, rnd);
+  pts.insert(pts.begin() + 10, bad.begin(), bad.end());
+  const auto obs = det.detect(pts);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_NEAR(obs[0].center.x(), 5.0, 0.02);
+}
+
+TEST(TrunkDetector, ScanArcsGiveTrunksAndWallsDoNot)
+{
+  // A 2D scan: a trunk of radius 0.15 at (4, 1) and a straight wall at x = 9 behind everything.
+  PlanarScan scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 720;
+  scan.range_min = 0.05;
+  scan.range_max = 30.0;
+  Random rnd(8);
+  for (int i = 0; i <= 720; ++i)
+  {
+    const double a = scan.angle_min + i * scan.angle_increment;
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double r = std::numeric_limits<double>::infinity();
+    if (d.x() > 1e-6)
+      r = 9.0 / d.x();
+    // Ray-circle intersection.
+    const Eigen::Vector2d c(4.0, 1.0);
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - 0.15 * 0.15);
+    if (disc >= 0.0)
+      r = std::min(r, b - std::sqrt(disc));
+    scan.ranges.push_back(r > 25.0 ? std::numeric_limits<float>::infinity() : static_cast<float>(r + rnd.gaussian(0.005)));
+  }
+  scan.ranges[5] = std::numeric_limits<float>::quiet_NaN();
+  TrunkDetectorConfig c = config();
+  c.min_points = 3;
+  TrunkDetector det(c);
+  const auto obs = det.detectScan(scan);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_NEAR(obs[0].center.x(), 4.0, 0.03);
+  EXPECT_NEAR(obs[0].center.y(), 1.0, 0.03);
+  EXPECT_NEAR(obs[0].radius, 0.15, 0.03);
+}
+
+TEST(TrunkDetector, FarArcOfFewBeamsUsesTheArcFallbackWithALargeCovariance)
+{
+  PlanarScan scan;
+  scan.angle_min = -0.2;
+  scan.angle_increment = 0.006;
+  scan.range_min = 0.05;
+  scan.range_max = 30.0;
+  const Eigen::Vector2d c(15.0, 0.0);
+  for (int i = 0; i < 67; ++i)
+  {
+    const double a = scan.angle_min + i * scan.angle_increment;
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - 0.2 * 0.2);
+    scan.ranges.push_back(disc >= 0.0 ? static_cast<float>(b - std::sqrt(disc)) : std::numeric_limits<float>::infinity());
+  }
+  TrunkDetectorConfig cfg = config();
+  cfg.min_points = 3;
+  TrunkDetector det(cfg);
+  const auto obs = det.detectScan(scan);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_EQ(obs[0].method, TrunkMethod::kArc);
+  EXPECT_NEAR(obs[0].center.x(), 15.0, 0.15);
+  EXPECT_NEAR(obs[0].bearing, 0.0, 0.01);
+  EXPECT_GT(obs[0].covariance(0, 0), 1e-3);  // along the ray: the radius is hardly known
+}
+
+TEST(TrunkDetector, ConfigValidationNamesTheParameter)
+{
+  TrunkDetectorConfig c;
+  c.max_height = 0.1;
+  EXPECT_NE(c.validate().find("max_height"), std::string::npos);
+  c = TrunkDetectorConfig();
+  c.min_radius = -1;
+  EXPECT_NE(c.validate().find("min_radius"), std::string::npos);
+  EXPECT_THROW(TrunkDetector{ c }, std::invalid_argument);
+  TrunkMethod m;
+  EXPECT_TRUE(rbpf_slam::core::parseTrunkMethod("centroid", &m));
+  EXPECT_EQ(m, TrunkMethod::kCentroid);
+  EXPECT_FALSE(rbpf_slam::core::parseTrunkMethod("magic", &m));
+}
