@@ -286,11 +286,30 @@ double Ground::height(double x, double y) const
   return amplitude_ / kWaves * sum;
 }
 
-double Ground::slopeBoundAlong(double ux, double uy) const
+double Ground::curvatureBoundAlong(double ux, double uy) const
 {
   double sum = 0.0;
   for (int i = 0; i < kWaves; ++i)
-    sum += std::abs(k_[i].x() * ux + k_[i].y() * uy);
+  {
+    const double ku = k_[i].x() * ux + k_[i].y() * uy;
+    sum += ku * ku;
+  }
+  return amplitude_ / kWaves * sum;
+}
+
+double Ground::heightAndGradient(double x, double y, Eigen::Vector2d* gradient) const
+{
+  gradient->setZero();
+  if (amplitude_ == 0.0)
+    return 0.0;
+  double sum = 0.0;
+  for (int i = 0; i < kWaves; ++i)
+  {
+    const double arg = k_[i].x() * x + k_[i].y() * y + phase_[i];
+    sum += groundSin(arg);
+    *gradient += groundCos(arg) * k_[i];
+  }
+  *gradient *= amplitude_ / kWaves;
   return amplitude_ / kWaves * sum;
 }
 

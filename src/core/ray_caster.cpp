@@ -278,23 +278,24 @@ double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::V
       return kInf;
     t = (o.z() - amp) / -d.z();  // first point at which the ray can touch the highest ground
   }
-  // f(t) = z(t) - h(x(t), y(t)) falls no faster than |dz| + slope * horiz: sphere tracing with that
-  // bound never steps over the first crossing.
-  // The slope along this ray's horizontal direction is bounded per wave: sum |dh_k/ds| <= A/K sum |k_k . u|.
-  const double rate = std::max(1e-9, std::max(0.0, -d.z()) + ground_.slopeBoundAlong(d.x(), d.y()));
+  // f(t) = z(t) - h(x(t), y(t)). Along the ray |f''| <= K = A/W sum (k_i . d_xy)^2, so from any t with f > 0
+  // the parabola f + f' s - K s^2 / 2 bounds f from below: its first root is a step that never passes the
+  // first crossing (and is Newton's step where the ground is flat). The floor kMinStep bounds the work of
+  // grazing rays (a bump thinner than that may be stepped over); a crossing is then refined on its bracket.
+  const double curvature = std::max(1e-12, ground_.curvatureBoundAlong(d.x(), d.y()));
   const auto clearance = [&](double s) {
     const Eigen::Vector3d p = o + s * d;
     return p.z() - ground_.height(p.x(), p.y());
   };
   if (clearance(t) <= 0.0)
     return t <= t_max ? t : kInf;  // starts under ground (only possible at t = 0) or touches at the top
-  // March until the ray is below the ground; the step f / rate never passes the first crossing, the floor of
-  // kMinStep bounds the work of grazing rays (a bump thinner than that may be stepped over). Then bisect.
   constexpr double kMinStep = 0.01;
   double t_above = t;
   for (int i = 0; i < 2000; ++i)
   {
-    const double f = clearance(t);
+    const Eigen::Vector3d p = o + t * d;
+    Eigen::Vector2d grad;
+    const double f = p.z() - ground_.heightAndGradient(p.x(), p.y(), &grad);
     if (f <= 0.0)
     {
       // Regula falsi (Illinois variant) on the bracket [t_above, t]: f is nearly linear over it.
@@ -332,8 +333,12 @@ double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::V
       return kInf;
     if (d.z() >= 0.0 && o.z() + t * d.z() > amp)
       return kInf;  // climbing above the highest ground
+    if (f < 1e-6)
+      return t <= t_max ? t : kInf;  // on the ground (the safe steps approach it from above)
     t_above = t;
-    t += std::max(f / rate, kMinStep);
+    const double df = d.z() - grad.dot(d.head<2>());
+    const double safe = (df + std::sqrt(df * df + 2.0 * curvature * f)) / curvature;
+    t += std::max(safe, kMinStep);
   }
   return kInf;
 }

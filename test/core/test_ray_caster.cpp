@@ -153,7 +153,9 @@ TEST(RayCaster, GridTraversalMatchesBruteForce)
     const RayHit hit = caster.cast(o, d, 60.0, r);
     ASSERT_EQ(hit.index, best_index) << "ray " << i;
     if (best_index >= 0)
+    {
       ASSERT_NEAR(hit.range, best, 1e-9);
+    }
   }
 }
 

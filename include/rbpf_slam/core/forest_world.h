@@ -101,8 +101,10 @@ public:
   double amplitude() const { return amplitude_; }
   /** @brief Bound of |grad h| (for safe ray marching). */
   double maxSlope() const { return max_slope_; }
-  /** @brief Bound of |dh/ds| along the horizontal direction (ux, uy) (any length; scales with it). */
-  double slopeBoundAlong(double ux, double uy) const;
+  /** @brief Bound of |d2h/ds2| along the horizontal direction (ux, uy) (scales with its squared length). */
+  double curvatureBoundAlong(double ux, double uy) const;
+  /** @brief height() and gradient() at once (cheaper than both). */
+  double heightAndGradient(double x, double y, Eigen::Vector2d* gradient) const;
 
 private:
   double amplitude_ = 0.0;
