@@ -1,0 +1,142 @@
+#ifndef RBPF_SLAM_CORE_FASTSLAM_H
+#define RBPF_SLAM_CORE_FASTSLAM_H
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/particle_filter.h"
+#include "rbpf_slam/core/pose2.h"
+#include "rbpf_slam/core/random.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+struct TrunkObservation;
+
+/** @brief One range-bearing observation of a landmark centre, in the sensor frame. */
+struct LandmarkObservation
+{
+  double range = 0.0;    ///< [m]
+  double bearing = 0.0;  ///< [rad]
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  ///< of (range, bearing)
+  double radius = 0.0;           ///< [m] observed trunk radius (0: unknown)
+  double radius_variance = 0.0;  ///< [m^2] (0: unknown, the radius is not used)
+};
+
+/** @brief Range-bearing form of a detected trunk (its Cartesian covariance carried through the Jacobian). */
+LandmarkObservation toLandmarkObservation(const TrunkObservation& trunk);
+
+struct FastSlamConfig
+{
+  int particles = 100;
+  OdometryMotionNoise motion;
+
+  // Observation noise floor (added in quadrature to each observation's own covariance): the detector's
+  // covariance is that of its fit and does not know of the sensor's systematic errors.
+  double range_sigma_floor = 0.03;     ///< [m]
+  double bearing_sigma_floor = 0.005;  ///< [rad]
+
+  // Visibility scope of the sensor (landmarks outside are neither matched nor missed).
+  double min_range = 1.0;      ///< [m]
+  double max_range = 12.0;     ///< [m]
+  double field_of_view = 6.283185307179586;  ///< [rad], centred on the sensor's x axis
+
+  // Association: squared Mahalanobis distance (2 dof) within which a landmark may take an observation; an
+  // observation whose best landmark is further (likelihood below that of the gate) makes a new landmark.
+  double association_gate = 13.8;  ///< 99.9 % of a true match
+  bool use_radius = true;          ///< add the trunk radius's consistency to the likelihood
+  double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
+
+  // Landmark existence (log odds): + evidence_hit per match, - evidence_miss per expected miss (inside the
+  // scope, not hidden behind a nearer landmark); removed below delete_evidence; provisional until seen
+  // confirm_observations times.
+  double evidence_hit = 1.0;
+  double evidence_miss = 1.0;
+  double evidence_max = 6.0;
+  double delete_evidence = -1.5;
+  int confirm_observations = 3;
+
+  // Resampling.
+  double resample_threshold = 0.5;  ///< resample when Neff < threshold * N
+  bool roughening = false;          ///< jitter resampled poses (the study did; bends the factorisation)
+  double roughening_sigma_xy = 0.01;     ///< [m]
+  double roughening_sigma_theta = 0.002; ///< [rad]
+
+  std::uint64_t seed = 0;
+
+  /** @brief Empty when valid, else a message naming the first bad parameter. */
+  std::string validate() const;
+};
+
+struct Particle
+{
+  Pose2 pose;               ///< base_link in the map frame
+  double log_weight = 0.0;  ///< normalised after each update
+  LandmarkMap map;
+};
+
+/** @brief Counters of one update() for diagnostics. */
+struct FastSlamUpdateStats
+{
+  int observations = 0;
+  int matched = 0;     ///< in the best particle
+  int created = 0;     ///< in the best particle
+  int ignored = 0;     ///< lost the matching but inside a gate: neither matched nor new (best particle)
+  int deleted = 0;     ///< in the best particle
+  double neff = 0.0;   ///< before resampling
+  bool resampled = false;
+};
+
+/**
+ * @brief FastSLAM 1.0 over point landmarks with radii: per particle a pose and a map of independent 2D EKFs.
+ * Association per particle by maximum likelihood solved for all observations of a scan at once with
+ * Gale-Shapley stable matching. ROS-free, deterministic for a given seed.
+ */
+class FastSlam
+{
+public:
+  explicit FastSlam(const FastSlamConfig& config);
+
+  /** @brief All particles at @p start with empty maps and equal weights. */
+  void initialize(const Pose2& start = Pose2());
+  /** @brief Samples every particle's motion for one odometry increment. */
+  void predict(const OdometryIncrement& u);
+  /**
+   * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
+   * is low. @p sensor is the sensor's pose on base_link (its planar part).
+   */
+  FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor);
+
+  const std::vector<Particle>& particles() const { return particles_; }
+  const FastSlamConfig& config() const { return config_; }
+  /** @brief Index of the particle with the largest weight. */
+  std::size_t bestIndex() const;
+  const Particle& best() const { return particles_[bestIndex()]; }
+  /** @brief Weighted mean pose (circular mean of the heading). */
+  Pose2 meanPose() const;
+  /** @brief Weighted covariance of (x, y, theta). */
+  Eigen::Matrix3d poseCovariance() const;
+
+  /** @brief Gale-Shapley on a likelihood table (rows observations, columns landmarks; -inf = not allowed). */
+  static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood);
+
+private:
+  void updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
+                      FastSlamUpdateStats* stats);
+
+  FastSlamConfig config_;
+  std::vector<Particle> particles_;
+  Random random_;
+  int next_id_ = 0;
+  std::vector<double> weights_;
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FASTSLAM_H

@@ -1,0 +1,58 @@
+#ifndef RBPF_SLAM_CORE_FOREST_SLAM_RUNNER_H
+#define RBPF_SLAM_CORE_FOREST_SLAM_RUNNER_H
+
+#include <vector>
+
+#include "rbpf_slam/core/evaluation.h"
+#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/forest_world.h"
+#include "rbpf_slam/core/scenario.h"
+#include "rbpf_slam/core/trunk_detector.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+struct ForestSlamRunConfig
+{
+  ScenarioConfig scenario;
+  TrunkDetectorConfig detector;
+  FastSlamConfig filter;
+};
+
+/** @brief What one run produced, and its score against the truth (the truth is read only here). */
+struct ForestSlamRunResult
+{
+  std::vector<double> stamps;          ///< [s] of each filter update (the middle of each sweep)
+  std::vector<Pose2> estimate;         ///< best particle, start frame (= map frame)
+  std::vector<Pose2> odometry;         ///< dead reckoning at the same stamps
+  std::vector<Pose2> truth;            ///< true pose at the same stamps, start frame
+  std::vector<Landmark> landmarks;     ///< best particle's map at the end
+  std::vector<MapPoint> trees;         ///< true trees (breast-height centre and radius), start frame
+  std::vector<bool> tree_seen;         ///< came inside the visibility scope of the true sensor
+  MapScore map;
+  double final_error = 0.0;        ///< [m] position of the best particle at the end
+  double final_error_odometry = 0.0;
+  double ate = 0.0;                ///< [m] RMS over the updates
+  double ate_odometry = 0.0;
+  double seconds_extraction = 0.0; ///< wall time spent in extraction
+  double seconds_filter = 0.0;     ///< wall time spent in the filter
+  int sweeps = 0;
+};
+
+/**
+ * @brief The deterministic in-process runner: simulator, noise relay and path follower in lockstep (the
+ * Scenario), trunk extraction on each sweep, FastSLAM on odometry and trunks, as fast as it computes.
+ * Extraction and filter see only the sensor data and odometry (the truth firewall); the truth is used to
+ * score the result at the end.
+ *
+ * Timing: wheel odometry arrives late (its latency); a sweep is processed once odometry covers it. Each trunk
+ * is seen at its own instant of the sweep (its column); its position is carried to the sweep's middle by the
+ * odometry between the two instants, and the filter updates at the middle.
+ */
+ForestSlamRunResult runForestSlam(const ForestWorld& world, const ForestSlamRunConfig& config);
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FOREST_SLAM_RUNNER_H

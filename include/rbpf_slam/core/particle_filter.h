@@ -1,0 +1,66 @@
+#ifndef RBPF_SLAM_CORE_PARTICLE_FILTER_H
+#define RBPF_SLAM_CORE_PARTICLE_FILTER_H
+
+#include <string>
+#include <vector>
+
+#include "rbpf_slam/core/pose2.h"
+#include "rbpf_slam/core/random.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/**
+ * @brief Noise of the odometry motion model rot1 - trans - rot2 (Thrun, Burgard, Fox: Probabilistic
+ * Robotics, 5.4): standard deviations
+ *   rot1, rot2: alpha1 |rot| + alpha2 trans,   trans: alpha3 trans + alpha4 (|rot1| + |rot2|).
+ * (Standard deviations, not variances, so that the alphas read as "m per m" and "rad per rad".)
+ */
+struct OdometryMotionNoise
+{
+  // Defaults: the accuracy class "skid-steer wheel odometry on rough ground": 5 % of a rotation, 0.02 rad
+  // (1.1 deg) of heading per metre driven, 2 % of the distance, 1 cm per radian turned; per odometry step as
+  // the filter takes them (one per sweep, about 0.1 m). A class, not the simulator's true noise.
+  double alpha1 = 0.05;  ///< [rad/rad] rotation noise from rotation
+  double alpha2 = 0.02;  ///< [rad/m] rotation noise from translation
+  double alpha3 = 0.02;  ///< [m/m] translation noise from translation
+  double alpha4 = 0.01;  ///< [m/rad] translation noise from rotation
+
+  /** @brief Empty when valid, else a message naming the bad parameter. */
+  std::string validate() const;
+};
+
+/** @brief The rot1, trans, rot2 decomposition of the odometry increment from @p a to @p b. */
+struct OdometryIncrement
+{
+  double rot1 = 0.0, trans = 0.0, rot2 = 0.0;
+};
+OdometryIncrement decomposeOdometry(const Pose2& a, const Pose2& b);
+
+/**
+ * @brief Samples a successor of @p pose for the odometry increment (a -> b). Small translations (below
+ * 1 cm) keep rot1 = 0 so that turning on the spot does not get a random heading for its translation.
+ */
+Pose2 sampleOdometryMotion(const Pose2& pose, const OdometryIncrement& u, const OdometryMotionNoise& noise,
+                           Random& random);
+
+/**
+ * @brief Turns log-weights into normalised weights (in place, the max subtracted first so nothing
+ * underflows); returns the log of the normaliser (the log of the sum of the input weights).
+ */
+double normalizeLogWeights(std::vector<double>* log_weights, std::vector<double>* weights);
+
+/** @brief 1 / sum w^2 of normalised weights. */
+double effectiveSampleSize(const std::vector<double>& weights);
+
+/**
+ * @brief Low-variance (systematic) resampling: indices of the particles to keep, count = weights.size().
+ * One uniform draw; particle i is copied about N w_i times.
+ */
+std::vector<int> lowVarianceResample(const std::vector<double>& weights, Random& random);
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_PARTICLE_FILTER_H

@@ -1,0 +1,105 @@
+#include "rbpf_slam/core/particle_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace rbpf_slam
+{
+namespace core
+{
+std::string OdometryMotionNoise::validate() const
+{
+  const auto ok = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  if (!ok(alpha1))
+    return "alpha1 must be >= 0";
+  if (!ok(alpha2))
+    return "alpha2 must be >= 0";
+  if (!ok(alpha3))
+    return "alpha3 must be >= 0";
+  if (!ok(alpha4))
+    return "alpha4 must be >= 0";
+  return "";
+}
+
+OdometryIncrement decomposeOdometry(const Pose2& a, const Pose2& b)
+{
+  OdometryIncrement u;
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  u.trans = std::hypot(dx, dy);
+  // Below 1 cm the direction of travel is noise: treat the motion as a turn on the spot.
+  u.rot1 = u.trans < 0.01 ? 0.0 : wrapAngle(std::atan2(dy, dx) - a.theta);
+  u.rot2 = wrapAngle(b.theta - a.theta - u.rot1);
+  return u;
+}
+
+Pose2 sampleOdometryMotion(const Pose2& pose, const OdometryIncrement& u, const OdometryMotionNoise& n, Random& random)
+{
+  const double rot1 = u.rot1 - random.gaussian(n.alpha1 * std::abs(u.rot1) + n.alpha2 * u.trans);
+  const double trans = u.trans - random.gaussian(n.alpha3 * u.trans + n.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2)));
+  const double rot2 = u.rot2 - random.gaussian(n.alpha1 * std::abs(u.rot2) + n.alpha2 * u.trans);
+  const double heading = pose.theta + rot1;
+  return Pose2(pose.x + trans * std::cos(heading), pose.y + trans * std::sin(heading), wrapAngle(heading + rot2));
+}
+
+double normalizeLogWeights(std::vector<double>* log_weights, std::vector<double>* weights)
+{
+  weights->resize(log_weights->size());
+  if (log_weights->empty())
+    return 0.0;
+  const double max = *std::max_element(log_weights->begin(), log_weights->end());
+  if (!std::isfinite(max))
+  {
+    // All weights zero (or broken): fall back to uniform rather than NaN.
+    std::fill(weights->begin(), weights->end(), 1.0 / static_cast<double>(weights->size()));
+    std::fill(log_weights->begin(), log_weights->end(), 0.0);
+    return -std::numeric_limits<double>::infinity();
+  }
+  double sum = 0.0;
+  for (std::size_t i = 0; i < log_weights->size(); ++i)
+  {
+    (*weights)[i] = std::exp((*log_weights)[i] - max);
+    sum += (*weights)[i];
+  }
+  for (std::size_t i = 0; i < weights->size(); ++i)
+  {
+    (*weights)[i] /= sum;
+    (*log_weights)[i] = std::log((*weights)[i]);
+  }
+  return max + std::log(sum);
+}
+
+double effectiveSampleSize(const std::vector<double>& weights)
+{
+  double s2 = 0.0;
+  for (double w : weights)
+    s2 += w * w;
+  return s2 > 0.0 ? 1.0 / s2 : 0.0;
+}
+
+std::vector<int> lowVarianceResample(const std::vector<double>& weights, Random& random)
+{
+  const std::size_t n = weights.size();
+  std::vector<int> out;
+  out.reserve(n);
+  if (n == 0)
+    return out;
+  const double step = 1.0 / static_cast<double>(n);
+  const double r = random.uniform() * step;
+  double c = weights[0];
+  std::size_t i = 0;
+  for (std::size_t m = 0; m < n; ++m)
+  {
+    const double u = r + static_cast<double>(m) * step;
+    while (u > c && i + 1 < n)
+    {
+      ++i;
+      c += weights[i];
+    }
+    out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+}  // namespace core
+}  // namespace rbpf_slam

@@ -1,0 +1,239 @@
+// Particle-filter skeleton, FastSLAM and the evaluator on cases whose answer is known.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "rbpf_slam/core/evaluation.h"
+#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/particle_filter.h"
+
+using namespace rbpf_slam::core;
+
+namespace
+{
+/** An exact observation of world point (x, y) from sensor pose s. */
+LandmarkObservation observe(const Pose2& s, double x, double y, double sigma_r = 0.02, double sigma_b = 0.003,
+                            double radius = 0.2)
+{
+  LandmarkObservation o;
+  const double dx = x - s.x, dy = y - s.y;
+  o.range = std::hypot(dx, dy);
+  o.bearing = wrapAngle(std::atan2(dy, dx) - s.theta);
+  o.covariance << sigma_r * sigma_r, 0, 0, sigma_b * sigma_b;
+  o.radius = radius;
+  o.radius_variance = 0.01 * 0.01;
+  return o;
+}
+
+FastSlamConfig quietConfig(int particles = 1)
+{
+  FastSlamConfig c;
+  c.particles = particles;
+  c.motion.alpha1 = c.motion.alpha2 = c.motion.alpha3 = c.motion.alpha4 = 0.0;
+  c.confirm_observations = 1;
+  return c;
+}
+}  // namespace
+
+TEST(ParticleFilter, OdometryMotionMomentsMatchTheModel)
+{
+  OdometryMotionNoise n;
+  n.alpha1 = 0.1;
+  n.alpha2 = 0.02;
+  n.alpha3 = 0.05;
+  n.alpha4 = 0.01;
+  const OdometryIncrement u = decomposeOdometry(Pose2(0, 0, 0), Pose2(1.0, 0.0, 0.0));
+  EXPECT_NEAR(u.trans, 1.0, 1e-12);
+  EXPECT_NEAR(u.rot1, 0.0, 1e-12);
+  Random r(1);
+  const int n_samples = 20000;
+  double sx = 0, sxx = 0, st = 0, stt = 0;
+  for (int i = 0; i < n_samples; ++i)
+  {
+    const Pose2 p = sampleOdometryMotion(Pose2(), u, n, r);
+    sx += p.x;
+    sxx += p.x * p.x;
+    st += p.theta;
+    stt += p.theta * p.theta;
+  }
+  const double mx = sx / n_samples, vx = sxx / n_samples - mx * mx;
+  const double mt = st / n_samples, vt = stt / n_samples - mt * mt;
+  EXPECT_NEAR(mx, 1.0, 0.002);
+  EXPECT_NEAR(std::sqrt(vx), 0.05, 0.002);  // alpha3 * trans (rot1 ~ 0 adds only second order)
+  // Heading: rot1 and rot2 each alpha2 * trans -> sqrt(2) * 0.02.
+  EXPECT_NEAR(mt, 0.0, 0.001);
+  EXPECT_NEAR(std::sqrt(vt), std::sqrt(2.0) * 0.02, 0.001);
+}
+
+TEST(ParticleFilter, LowVarianceResamplingPreservesTheWeights)
+{
+  const std::vector<double> w{ 0.5, 0.25, 0.125, 0.125 };
+  Random r(2);
+  std::vector<int> counts(4, 0);
+  for (int rep = 0; rep < 2000; ++rep)
+    for (int k : lowVarianceResample(w, r))
+      ++counts[static_cast<std::size_t>(k)];
+  for (std::size_t i = 0; i < w.size(); ++i)
+    EXPECT_NEAR(counts[i] / (2000.0 * 4), w[i], 1e-9);  // systematic: exactly N w_i copies here
+  EXPECT_NEAR(effectiveSampleSize({ 0.25, 0.25, 0.25, 0.25 }), 4.0, 1e-12);
+  std::vector<double> lw{ -1000.0, -1001.0 }, out;
+  normalizeLogWeights(&lw, &out);
+  EXPECT_NEAR(out[0], 1.0 / (1.0 + std::exp(-1.0)), 1e-12);
+}
+
+TEST(FastSlam, EkfUpdateMatchesAHandComputedCase)
+{
+  FastSlam f(quietConfig());
+  f.initialize(Pose2());
+  // First sighting at (2, 0): covariance G R G^T with G = diag(1, 2) at bearing 0.
+  f.update({ observe(Pose2(), 2.0, 0.0, 0.1, 0.05) }, Pose2());
+  ASSERT_EQ(f.best().map.size(), 1u);
+  const Landmark& l0 = f.best().map[0];
+  const double r_var = 0.1 * 0.1 + 0.03 * 0.03;        // with the floors
+  const double b_var = 0.05 * 0.05 + 0.005 * 0.005;
+  EXPECT_NEAR(l0.covariance(0, 0), r_var, 1e-12);
+  EXPECT_NEAR(l0.covariance(1, 1), 4.0 * b_var, 1e-12);
+  // A second observation at range 2.1: the range is a scalar Kalman update, K = P / (P + R) = 1/2.
+  LandmarkObservation o = observe(Pose2(), 2.1, 0.0, 0.1, 0.05);
+  f.update({ o }, Pose2());
+  const Landmark& l1 = f.best().map[0];
+  EXPECT_NEAR(l1.mean.x(), 2.05, 1e-9);
+  EXPECT_NEAR(l1.mean.y(), 0.0, 1e-9);
+  EXPECT_NEAR(l1.covariance(0, 0), r_var / 2.0, 1e-12);
+  EXPECT_EQ(l1.observations, 2);
+}
+
+TEST(FastSlam, StableMatchingKeepsTwoNearbyTreesApartWhereGreedyFuses)
+{
+  // Two landmarks 0.4 m apart; observation A lies between them but nearer L1, B next to L1 too, but B is
+  // the best for L1 and A is then still acceptable for L0. Greedy (A first, its best) would take L1 for A
+  // and leave B to start a duplicate of L1.
+  std::vector<std::vector<double>> ll{ { -2.0, -1.0 },   // A: prefers L1
+                                       { -9.0, -0.5 } };  // B: only fits L1, and fits it better than A
+  const std::vector<int> m = FastSlam::stableMatching(ll);
+  EXPECT_EQ(m[0], 0);
+  EXPECT_EQ(m[1], 1);
+  // A greedy pass in observation order would give A -> L1 and B -> nothing.
+  // Rows with nothing allowed stay unmatched.
+  const double ninf = -std::numeric_limits<double>::infinity();
+  const std::vector<int> m2 = FastSlam::stableMatching({ { ninf, ninf }, { -1.0, ninf } });
+  EXPECT_EQ(m2[0], -1);
+  EXPECT_EQ(m2[1], 0);
+}
+
+TEST(FastSlam, TwoObservationsNeverClaimOneLandmarkInTheFilter)
+{
+  FastSlamConfig c = quietConfig();
+  FastSlam f(c);
+  f.update({ observe(Pose2(), 5.0, 0.0), observe(Pose2(), 5.0, 0.6) }, Pose2());
+  ASSERT_EQ(f.best().map.size(), 2u);
+  // Both seen again, slightly moved towards each other: both landmarks are updated, none is created.
+  const FastSlamUpdateStats st = f.update({ observe(Pose2(), 5.0, 0.05), observe(Pose2(), 5.0, 0.55) }, Pose2());
+  EXPECT_EQ(st.matched, 2);
+  EXPECT_EQ(st.created, 0);
+  EXPECT_EQ(f.best().map.size(), 2u);
+}
+
+TEST(FastSlam, LandmarkThatDisappearsIsDeletedOneBehindAnotherIsNot)
+{
+  FastSlamConfig c = quietConfig();
+  FastSlam f(c);
+  // A at 4 m; B at 8 m straight behind A (hidden); C at 6 m to the side.
+  f.update({ observe(Pose2(), 4.0, 0.0), observe(Pose2(), 6.0, 3.0) }, Pose2());
+  f.update({ observe(Pose2(), 4.0, 0.0), observe(Pose2(), 6.0, 3.0) }, Pose2());
+  // Now B appears from another pose where it is visible.
+  ASSERT_EQ(f.best().map.size(), 2u);
+  // C vanishes (the clutter that was no tree): repeated misses remove it; A stays.
+  for (int i = 0; i < 6; ++i)
+    f.update({ observe(Pose2(), 4.0, 0.0) }, Pose2());
+  ASSERT_EQ(f.best().map.size(), 1u);
+  EXPECT_NEAR(f.best().map[0].mean.x(), 4.0, 1e-6);
+  // A landmark hidden behind A is not missed.
+  FastSlam g(c);
+  g.update({ observe(Pose2(), 4.0, 0.0), observe(Pose2(), 8.0, 0.0, 0.02, 0.003) }, Pose2(0, 0, 0));
+  for (int i = 0; i < 6; ++i)
+    g.update({ observe(Pose2(), 4.0, 0.0) }, Pose2());
+  EXPECT_EQ(g.best().map.size(), 2u);
+}
+
+TEST(FastSlam, NoDuplicateAcrossPlusMinusPi)
+{
+  FastSlam f(quietConfig());
+  const Pose2 s(0, 0, 0);
+  f.update({ observe(s, -5.0, 0.001) }, Pose2());   // bearing just below +pi
+  f.update({ observe(s, -5.0, -0.001) }, Pose2());  // just above -pi
+  EXPECT_EQ(f.best().map.size(), 1u);
+}
+
+TEST(FastSlam, SameSeedSameResultOtherSeedOther)
+{
+  FastSlamConfig c;
+  c.particles = 30;
+  const auto run = [&](std::uint64_t seed) {
+    c.seed = seed;
+    FastSlam f(c);
+    Pose2 odom_prev;
+    for (int k = 1; k <= 20; ++k)
+    {
+      const Pose2 odom(0.1 * k, 0.0, 0.0);
+      f.predict(decomposeOdometry(odom_prev, odom));
+      odom_prev = odom;
+      f.update({ observe(odom, 5.0, 2.0), observe(odom, 6.0, -3.0) }, Pose2());
+    }
+    return f.best().pose;
+  };
+  const Pose2 a = run(3), b = run(3), d = run(4);
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.theta, b.theta);
+  EXPECT_NE(a.x, d.x);
+}
+
+TEST(FastSlam, ResamplingSharesMapsInsteadOfCopyingThem)
+{
+  LandmarkMap a;
+  for (int i = 0; i < 40; ++i)
+  {
+    Landmark l;
+    l.id = i;
+    a.add(l);
+  }
+  LandmarkMap b = a;
+  EXPECT_EQ(b.sharedChunks(), 3u);
+  b.mutableAt(5).radius = 1.0;  // copies one chunk only
+  EXPECT_EQ(b.sharedChunks(), 2u);
+  EXPECT_EQ(a[5].radius, 0.0);
+  b.remove(0);  // the last moves into slot 0
+  EXPECT_EQ(b.size(), 39u);
+  EXPECT_EQ(b[0].id, 39);
+  EXPECT_EQ(a[0].id, 0);
+}
+
+TEST(Evaluation, OptimalAssignmentBeatsGreedy)
+{
+  // Greedy would take (0,0) = 1 and then (1,1) = 10; the optimum is (0,1) + (1,0) = 2 + 2.
+  const std::vector<int> a = optimalAssignment({ { 1.0, 2.0 }, { 2.0, 10.0 } }, 1e6);
+  EXPECT_EQ(a[0], 1);
+  EXPECT_EQ(a[1], 0);
+  const std::vector<int> b = optimalAssignment({ { 1e6, 0.3 } }, 1e6);
+  EXPECT_EQ(b[0], 1);
+}
+
+TEST(Evaluation, MapScoreCountsRecallDuplicatesAndSpurious)
+{
+  std::vector<MapPoint> trees{ { Eigen::Vector2d(0, 0), 0.2 }, { Eigen::Vector2d(5, 0), 0.2 },
+                               { Eigen::Vector2d(10, 0), 0.2 } };
+  std::vector<bool> seen{ true, true, false };
+  std::vector<MapPoint> features{ { Eigen::Vector2d(0.1, 0), 0.21 }, { Eigen::Vector2d(0.7, 0), 0.2 },
+                                  { Eigen::Vector2d(5.0, 0.2), 0.19 }, { Eigen::Vector2d(20, 0), 0.2 } };
+  const MapScore s = scoreMap(trees, seen, features);
+  EXPECT_EQ(s.matched, 2);
+  EXPECT_EQ(s.trees_seen, 2);
+  EXPECT_NEAR(s.recall, 1.0, 1e-12);
+  EXPECT_EQ(s.duplicates, 1);
+  EXPECT_EQ(s.spurious, 1);
+  EXPECT_NEAR(s.mean_distance, 0.15, 1e-12);
+  EXPECT_NEAR(s.radius_rms, 0.01, 1e-12);
+}
