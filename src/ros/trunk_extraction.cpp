@@ -1,0 +1,507 @@
+#include "rbpf_slam/ros/trunk_extraction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <limits>
+#include <sstream>
+
+#include <boost/make_shared.hpp>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <std_msgs/String.h>
+#include <std_msgs/UInt64.h>
+#include <tf2/exceptions.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "rbpf_slam/ros/params.h"
+#include "rbpf_slam/ros/ros_param_source.h"
+
+namespace rbpf_slam
+{
+namespace
+{
+/** @brief Reads one key; a value of the wrong type is reported (naming the key) and @p value kept. */
+template <typename T>
+void readKey(const RosParamSource& params, const std::string& key, T* value)
+{
+  try
+  {
+    params.get(key, value);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s; keeping %s at its default", e.what(), key.c_str());
+  }
+}
+
+/** @brief Every field of the detector's configuration, from parameters named like the fields. */
+core::TrunkDetectorConfig readDetectorConfig(const ros::NodeHandle& pnh)
+{
+  core::TrunkDetectorConfig c;
+  const RosParamSource params(pnh);
+  std::string method = core::trunkMethodName(c.method);
+  readKey(params, "method", &method);
+  if (!core::parseTrunkMethod(method, &c.method))
+    ROS_ERROR("%s must be \"centroid\" or \"circle\", not \"%s\"; keeping %s", pnh.resolveName("method").c_str(),
+              method.c_str(), core::trunkMethodName(c.method));
+  readKey(params, "ground_cell", &c.ground_cell);
+  readKey(params, "ground_max_slope", &c.ground_max_slope);
+  readKey(params, "sensor_height", &c.sensor_height);
+  readKey(params, "min_height", &c.min_height);
+  readKey(params, "max_height", &c.max_height);
+  readKey(params, "voxel_size", &c.voxel_size);
+  readKey(params, "level_by_trunks", &c.level_by_trunks);
+  readKey(params, "cluster_tolerance", &c.cluster_tolerance);
+  readKey(params, "min_points", &c.min_points);
+  readKey(params, "max_points", &c.max_points);
+  readKey(params, "min_radius", &c.min_radius);
+  readKey(params, "max_radius", &c.max_radius);
+  readKey(params, "ransac_threshold", &c.ransac_threshold);
+  readKey(params, "ransac_iterations", &c.ransac_iterations);
+  readKey(params, "min_inlier_ratio", &c.min_inlier_ratio);
+  readKey(params, "min_vertical_extent", &c.min_vertical_extent);
+  readKey(params, "max_tilt", &c.max_tilt);
+  readKey(params, "max_arc_angle", &c.max_arc_angle);
+  readKey(params, "min_fit_points", &c.min_fit_points);
+  readKey(params, "min_fit_arc", &c.min_fit_arc);
+  readKey(params, "arc_radius_prior", &c.arc_radius_prior);
+  readKey(params, "arc_radius_sigma", &c.arc_radius_sigma);
+  readKey(params, "range_sigma", &c.range_sigma);
+  readKey(params, "min_range", &c.min_range);
+  readKey(params, "max_range", &c.max_range);
+  c.seed = readSeed(pnh);
+  return c;
+}
+
+/** @brief The run-time tunable subset (cfg/TrunkExtraction.cfg) of @p c. */
+rbpf_slam::TrunkExtractionConfig toDynamic(const core::TrunkDetectorConfig& c)
+{
+  rbpf_slam::TrunkExtractionConfig d = rbpf_slam::TrunkExtractionConfig::__getDefault__();
+  d.method = core::trunkMethodName(c.method);
+  d.min_height = c.min_height;
+  d.max_height = c.max_height;
+  d.cluster_tolerance = c.cluster_tolerance;
+  d.min_points = c.min_points;
+  d.min_radius = c.min_radius;
+  d.max_radius = c.max_radius;
+  d.ransac_threshold = c.ransac_threshold;
+  d.min_inlier_ratio = c.min_inlier_ratio;
+  d.min_vertical_extent = c.min_vertical_extent;
+  d.max_range = c.max_range;
+  d.level_by_trunks = c.level_by_trunks;
+  d.voxel_size = c.voxel_size;
+  return d;
+}
+
+/** @brief Sets the tunable fields of @p c from @p d; empty string when @p c is then valid, else the error. */
+std::string fromDynamic(const rbpf_slam::TrunkExtractionConfig& d, core::TrunkDetectorConfig* c)
+{
+  if (!core::parseTrunkMethod(d.method, &c->method))
+    return "method must be centroid or circle, not \"" + d.method + "\"";
+  c->min_height = d.min_height;
+  c->max_height = d.max_height;
+  c->cluster_tolerance = d.cluster_tolerance;
+  c->min_points = d.min_points;
+  c->min_radius = d.min_radius;
+  c->max_radius = d.max_radius;
+  c->ransac_threshold = d.ransac_threshold;
+  c->min_inlier_ratio = d.min_inlier_ratio;
+  c->min_vertical_extent = d.min_vertical_extent;
+  c->max_range = d.max_range;
+  c->level_by_trunks = d.level_by_trunks;
+  c->voxel_size = d.voxel_size;
+  return c->validate();
+}
+
+bool isFloat32Field(const sensor_msgs::PointCloud2& cloud, const std::string& name, std::string* why)
+{
+  for (const auto& f : cloud.fields)
+  {
+    if (f.name != name)
+      continue;
+    if (f.datatype != sensor_msgs::PointField::FLOAT32 || f.count != 1)
+    {
+      *why = "field " + name + " is not a single float32";
+      return false;
+    }
+    if (static_cast<std::uint64_t>(f.offset) + 4 > cloud.point_step)
+    {
+      *why = "field " + name + " lies outside point_step";
+      return false;
+    }
+    return true;
+  }
+  *why = "no field " + name;
+  return false;
+}
+
+/**
+ * @brief The finite points of @p cloud (fields x, y, z, float32). False with the reason when the cloud is
+ * empty or malformed (missing or non-float32 fields, foreign byte order, padded rows, short data).
+ */
+bool toPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vector3f>* points, std::string* why)
+{
+  points->clear();
+  const std::uint64_t n = static_cast<std::uint64_t>(cloud.width) * cloud.height;
+  if (n == 0)
+  {
+    *why = "empty cloud";
+    return false;
+  }
+  if (!isFloat32Field(cloud, "x", why) || !isFloat32Field(cloud, "y", why) || !isFloat32Field(cloud, "z", why))
+    return false;
+  const std::uint16_t one = 1;
+  const bool host_big_endian = *reinterpret_cast<const std::uint8_t*>(&one) == 0;
+  if (static_cast<bool>(cloud.is_bigendian) != host_big_endian)
+  {
+    *why = "byte order differs from this machine's";
+    return false;
+  }
+  if (static_cast<std::uint64_t>(cloud.row_step) != static_cast<std::uint64_t>(cloud.width) * cloud.point_step)
+  {
+    *why = "row_step != width * point_step (padded rows are not supported)";
+    return false;
+  }
+  if (cloud.data.size() < n * cloud.point_step)
+  {
+    *why = "data holds fewer bytes than width * height * point_step";
+    return false;
+  }
+  points->reserve(n);
+  sensor_msgs::PointCloud2ConstIterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (std::uint64_t i = 0; i < n; ++i, ++x, ++y, ++z)
+  {
+    if (std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z))
+      points->emplace_back(*x, *y, *z);
+  }
+  return true;
+}
+
+std::uint8_t toMsgMethod(core::TrunkMethod method)
+{
+  switch (method)
+  {
+    case core::TrunkMethod::kCentroid:
+      return rbpf_slam::Trunk::METHOD_CENTROID;
+    case core::TrunkMethod::kCircle:
+      return rbpf_slam::Trunk::METHOD_CIRCLE;
+    case core::TrunkMethod::kArc:
+      return rbpf_slam::Trunk::METHOD_ARC;
+  }
+  return rbpf_slam::Trunk::METHOD_CIRCLE;
+}
+
+rbpf_slam::Trunk toMsg(const core::TrunkObservation& t)
+{
+  rbpf_slam::Trunk m;
+  m.center.x = t.center.x();
+  m.center.y = t.center.y();
+  m.center.z = t.height;
+  m.radius = t.radius;
+  m.radius_variance = t.radius_variance;
+  m.range = t.range;
+  m.bearing = t.bearing;
+  m.covariance[0] = t.covariance(0, 0);
+  m.covariance[1] = t.covariance(0, 1);
+  m.covariance[2] = t.covariance(1, 0);
+  m.covariance[3] = t.covariance(1, 1);
+  m.num_points = static_cast<std::uint32_t>(std::max(0, t.num_points));
+  m.num_inliers = static_cast<std::uint32_t>(std::max(0, t.num_inliers));
+  m.score = static_cast<float>(t.score);
+  m.method = toMsgMethod(t.method);
+  m.id = -1;
+  return m;
+}
+
+/** @brief A DELETEALL, then per trunk a cylinder (diameter, band high, coloured by method) and a label. */
+visualization_msgs::MarkerArray::Ptr toMarkers(const rbpf_slam::TrunkArray& trunks, double band_height)
+{
+  auto msg = boost::make_shared<visualization_msgs::MarkerArray>();
+  visualization_msgs::Marker clear;
+  clear.header = trunks.header;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  msg->markers.push_back(clear);
+  int id = 0;
+  for (const auto& t : trunks.trunks)
+  {
+    visualization_msgs::Marker m;
+    m.header = trunks.header;
+    m.ns = "trunks";
+    m.id = id;
+    m.type = visualization_msgs::Marker::CYLINDER;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.position = t.center;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = m.scale.y = std::max(0.02, 2.0 * t.radius);
+    m.scale.z = band_height;
+    m.color.a = 0.8f;
+    switch (t.method)
+    {
+      case rbpf_slam::Trunk::METHOD_CENTROID:  // orange
+        m.color.r = 1.0f;
+        m.color.g = 0.5f;
+        break;
+      case rbpf_slam::Trunk::METHOD_CIRCLE:  // green
+        m.color.r = 0.1f;
+        m.color.g = 0.8f;
+        m.color.b = 0.1f;
+        break;
+      case rbpf_slam::Trunk::METHOD_ARC:  // blue
+        m.color.r = 0.2f;
+        m.color.g = 0.4f;
+        m.color.b = 1.0f;
+        break;
+      default:  // grey
+        m.color.r = m.color.g = m.color.b = 0.6f;
+    }
+    msg->markers.push_back(m);
+
+    visualization_msgs::Marker label;
+    label.header = trunks.header;
+    label.ns = "trunk_labels";
+    label.id = id;
+    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    label.action = visualization_msgs::Marker::ADD;
+    label.pose.position = t.center;
+    label.pose.position.z += 0.5 * band_height + 0.25;
+    label.pose.orientation.w = 1.0;
+    label.scale.z = 0.25;
+    label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.1f cm", 100.0 * t.radius);
+    label.text = text;
+    msg->markers.push_back(label);
+    ++id;
+  }
+  return msg;
+}
+
+}  // namespace
+
+TrunkExtraction::TrunkExtraction(ros::NodeHandle nh, ros::NodeHandle pnh)
+  : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
+{
+  core::TrunkDetectorConfig config = readDetectorConfig(pnh_);
+  const std::string error = config.validate();
+  if (!error.empty())
+  {
+    ROS_ERROR("%s: invalid parameter: %s; using the default configuration", name_.c_str(), error.c_str());
+    const std::uint64_t seed = config.seed;
+    config = core::TrunkDetectorConfig();
+    config.seed = seed;
+  }
+  detector_.reset(new core::TrunkDetector(config));
+
+  pnh_.param("level_frame", level_frame_, level_frame_);
+  pnh_.param("tf_timeout", tf_timeout_, tf_timeout_);
+  pnh_.param("debug_report_address", debug_report_address_, debug_report_address_);
+  if (!(tf_timeout_ >= 0.0))
+  {
+    ROS_ERROR("%s: invalid parameter: tf_timeout must be >= 0; using 0.05", name_.c_str());
+    tf_timeout_ = 0.05;
+  }
+  if (!level_frame_.empty())
+  {
+    tf_buffer_.reset(new tf2_ros::Buffer());
+    tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
+  }
+
+  // The server loads (and clamps) the parameters itself; give it exactly the configuration read above,
+  // so the YAML values win over the .cfg defaults, before the callback is attached.
+  reconfigure_.reset(new dynamic_reconfigure::Server<rbpf_slam::TrunkExtractionConfig>(reconfigure_mutex_, pnh_));
+  reconfigure_->updateConfig(toDynamic(config));
+  reconfigure_->setCallback(boost::bind(&TrunkExtraction::onReconfigure, this, boost::placeholders::_1,
+                                        boost::placeholders::_2));
+
+  trunks_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("trunks", 10);
+  markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("trunk_markers", 2);
+  stats_pub_ = pnh_.advertise<std_msgs::String>("stats", 10);
+  if (debug_report_address_)
+    address_pub_ = pnh_.advertise<std_msgs::UInt64>("input_address", 10);
+  cloud_sub_ = nh_.subscribe("points", 5, &TrunkExtraction::onCloud, this);
+  scan_sub_ = nh_.subscribe("scan", 10, &TrunkExtraction::onScan, this);
+
+  ROS_INFO("%s: trunks from %s and %s -> %s; method %s, band %.2f..%.2f m, radius %.2f..%.2f m, range <= %.1f m, "
+           "levelled by %s%s",
+           name_.c_str(), cloud_sub_.getTopic().c_str(), scan_sub_.getTopic().c_str(), trunks_pub_.getTopic().c_str(),
+           core::trunkMethodName(config.method), config.min_height, config.max_height, config.min_radius,
+           config.max_radius, config.max_range, level_frame_.empty() ? "nothing (no ~level_frame)" : level_frame_.c_str(),
+           config.level_by_trunks ? " and the trunks' verticality" : "");
+}
+
+TrunkExtraction::~TrunkExtraction() = default;
+
+void TrunkExtraction::onReconfigure(rbpf_slam::TrunkExtractionConfig& dyn, std::uint32_t /*level*/)
+{
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  core::TrunkDetectorConfig config = detector_->config();
+  const std::string error = fromDynamic(dyn, &config);
+  if (!error.empty())
+  {
+    ROS_ERROR("%s: dynamic_reconfigure: invalid parameter: %s; keeping the previous configuration", name_.c_str(),
+              error.c_str());
+    dyn = toDynamic(detector_->config());  // the server then shows what is in force
+    return;
+  }
+  detector_->setConfig(config);
+  ROS_DEBUG("%s: reconfigured: method %s, band %.2f..%.2f m", name_.c_str(), core::trunkMethodName(config.method),
+            config.min_height, config.max_height);
+}
+
+bool TrunkExtraction::anyOutputSubscribed() const
+{
+  return trunks_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0 ||
+         stats_pub_.getNumSubscribers() > 0;
+}
+
+Eigen::Matrix3d TrunkExtraction::levelRotation(const std::string& frame, const ros::Time& stamp)
+{
+  if (!tf_buffer_)
+    return Eigen::Matrix3d::Identity();
+  geometry_msgs::TransformStamped t;
+  try
+  {
+    t = tf_buffer_->lookupTransform(level_frame_, frame, stamp, ros::Duration(tf_timeout_));
+  }
+  catch (const tf2::TransformException& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: no transform %s -> %s at %.3f (%s); not levelling", name_.c_str(), frame.c_str(),
+                      level_frame_.c_str(), stamp.toSec(), e.what());
+    return Eigen::Matrix3d::Identity();
+  }
+  const auto& q = t.transform.rotation;
+  Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+  if (!rotation.coeffs().allFinite() || !(rotation.norm() > 0.5))
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: transform %s -> %s has an invalid rotation; not levelling", name_.c_str(),
+                      frame.c_str(), level_frame_.c_str());
+    return Eigen::Matrix3d::Identity();
+  }
+  // Sensor -> level_frame, without the heading between them: turned back about z so that the sensor's x axis
+  // keeps its direction. The trunks then stay in the sensor frame (the TrunkArray's header), only levelled.
+  const Eigen::Matrix3d r = rotation.normalized().toRotationMatrix();
+  const double yaw = std::atan2(r(1, 0), r(0, 0));
+  return Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * r;
+}
+
+void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
+{
+  if (debug_report_address_)
+  {
+    std_msgs::UInt64::Ptr address = boost::make_shared<std_msgs::UInt64>();
+    address->data = static_cast<std::uint64_t>(reinterpret_cast<std::uintptr_t>(msg.get()));
+    address_pub_.publish(std_msgs::UInt64::ConstPtr(address));
+  }
+  ++inputs_;
+  if (!anyOutputSubscribed())
+    return;
+
+  std::vector<Eigen::Vector3f> points;
+  std::string why;
+  std::vector<core::TrunkObservation> trunks;
+  core::TrunkDetectorStats stats;
+  stats.input_points = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(msg->width) * msg->height,
+                                                                 static_cast<std::uint64_t>(std::numeric_limits<int>::max())));
+  double band_height = 1.0;
+  if (!toPoints(*msg, &points, &why))
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s (frame '%s'): %s; publishing no trunks", name_.c_str(),
+                      cloud_sub_.getTopic().c_str(), msg->header.frame_id.c_str(), why.c_str());
+  }
+  else if (points.empty())
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s has no finite point; publishing no trunks", name_.c_str(),
+                      cloud_sub_.getTopic().c_str());
+  }
+  else
+  {
+    const Eigen::Matrix3d level = levelRotation(msg->header.frame_id, msg->header.stamp);
+    std::lock_guard<std::mutex> lock(detector_mutex_);
+    band_height = detector_->config().max_height - detector_->config().min_height;
+    try
+    {
+      trunks = detector_->detect(points, level, &stats);
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; publishing no trunks", name_.c_str(), e.what());
+      trunks.clear();
+    }
+  }
+  publish(msg->header, trunks, stats, band_height, "cloud");
+}
+
+void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
+{
+  ++inputs_;
+  if (!anyOutputSubscribed())
+    return;
+
+  std::vector<core::TrunkObservation> trunks;
+  core::TrunkDetectorStats stats;
+  stats.input_points = static_cast<int>(msg->ranges.size());
+  double band_height = 1.0;
+  if (msg->ranges.empty() || !std::isfinite(msg->angle_min) || !std::isfinite(msg->angle_increment) ||
+      msg->angle_increment == 0.0f)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: scan on %s (frame '%s') is empty or has no valid angles; publishing no trunks",
+                      name_.c_str(), scan_sub_.getTopic().c_str(), msg->header.frame_id.c_str());
+  }
+  else
+  {
+    // The core projects the scan itself (REP-117: NaN, +-Inf and out-of-limit ranges are no returns), so
+    // laser_geometry is not needed.
+    core::PlanarScan scan;
+    scan.ranges = msg->ranges;
+    scan.angle_min = msg->angle_min;
+    scan.angle_increment = msg->angle_increment;
+    scan.range_min = msg->range_min;
+    scan.range_max = msg->range_max;
+    std::lock_guard<std::mutex> lock(detector_mutex_);
+    band_height = detector_->config().max_height - detector_->config().min_height;
+    try
+    {
+      trunks = detector_->detectScan(scan, &stats);
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; publishing no trunks", name_.c_str(), e.what());
+      trunks.clear();
+    }
+  }
+  publish(msg->header, trunks, stats, band_height, "scan");
+}
+
+void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
+                              const core::TrunkDetectorStats& stats, double band_height, const char* input)
+{
+  auto out = boost::make_shared<rbpf_slam::TrunkArray>();
+  out->header = header;
+  out->trunks.reserve(trunks.size());
+  for (const auto& t : trunks)
+    out->trunks.push_back(toMsg(t));
+
+  if (markers_pub_.getNumSubscribers() > 0)
+  {
+    markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(toMarkers(*out, band_height)));
+    ++markers_published_;
+  }
+  if (stats_pub_.getNumSubscribers() > 0)
+  {
+    std::ostringstream s;
+    s << "input=" << input << " stamp=" << header.stamp << " input_points=" << stats.input_points
+      << " finite_points=" << stats.finite_points << " band_points=" << stats.band_points
+      << " clusters=" << stats.clusters << " rejected_size=" << stats.rejected_size
+      << " rejected_radius=" << stats.rejected_radius << " rejected_inliers=" << stats.rejected_inliers
+      << " rejected_shape=" << stats.rejected_shape << " trunks=" << out->trunks.size()
+      << " tilt_roll=" << stats.tilt_roll << " tilt_pitch=" << stats.tilt_pitch << " inputs=" << inputs_
+      << " markers_published=" << markers_published_;
+    auto text = boost::make_shared<std_msgs::String>();
+    text->data = s.str();
+    stats_pub_.publish(std_msgs::String::ConstPtr(text));
+  }
+  trunks_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(out));
+}
+
+}  // namespace rbpf_slam
