@@ -62,6 +62,8 @@ std::string FastSlamConfig::validate() const
     return "association_gate must be > 0";
   if (!(radius_sigma_floor > 0.0))
     return "radius_sigma_floor must be > 0";
+  if (!(min_trunk_gap >= 0.0))
+    return "min_trunk_gap must be >= 0";
   if (!(evidence_hit > 0.0) || !(evidence_miss >= 0.0) || !(evidence_max > 0.0))
     return "evidence_hit and evidence_max must be > 0, evidence_miss >= 0";
   if (!(delete_evidence < 0.0))
@@ -268,6 +270,21 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     Landmark l;
     const double a = s.theta + obs[i].bearing;
     l.mean = Eigen::Vector2d(s.x + obs[i].range * std::cos(a), s.y + obs[i].range * std::sin(a));
+    // Trunks do not overlap: an observation whose centre lies inside an existing trunk (plus a margin) is
+    // that trunk seen badly (e.g. with a heading error at long range), not a new one.
+    bool overlaps = false;
+    for (const auto& cd : cand)
+    {
+      const Landmark& other = p->map[cd.index];
+      overlaps = overlaps || (other.mean - l.mean).norm() < other.radius + obs[i].radius + c.min_trunk_gap;
+    }
+    if (overlaps)
+    {
+      log_w += log_new[i];
+      if (stats)
+        ++stats->ignored;
+      continue;
+    }
     Eigen::Matrix2d G;  // d(landmark) / d(range, bearing)
     G << std::cos(a), -obs[i].range * std::sin(a), std::sin(a), obs[i].range * std::cos(a);
     l.covariance = G * R[i] * G.transpose();
@@ -300,12 +317,16 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     const double r = cand[k].z.x(), b = cand[k].z.y();
     if (r < c.min_range || r > c.max_range || std::abs(b) > 0.5 * c.field_of_view)
       continue;
+    // Hidden: a nearer landmark, clearly in front (not a near-duplicate of this one at almost the same
+    // place, which must be missed to be removed), covers its bearing.
     bool hidden = false;
+    const double own_radius = p->map[cand[k].index].radius;
     for (std::size_t m = 0; m < cand.size() && !hidden; ++m)
     {
-      if (m == k || cand[m].z.x() >= r)
+      const double other_radius = p->map[cand[m].index].radius;
+      if (m == k || cand[m].z.x() >= r - (own_radius + other_radius + 0.1))
         continue;
-      const double half = (p->map[cand[m].index].radius + 0.15) / cand[m].z.x();
+      const double half = (other_radius + 0.15) / cand[m].z.x();
       hidden = std::abs(wrapAngle(cand[m].z.y() - b)) < half;
     }
     if (hidden)

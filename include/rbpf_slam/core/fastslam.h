@@ -51,6 +51,7 @@ struct FastSlamConfig
   double association_gate = 13.8;  ///< 99.9 % of a true match
   bool use_radius = true;          ///< add the trunk radius's consistency to the likelihood
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
+  double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
 
   // Landmark existence (log odds): + evidence_hit per match, - evidence_miss per expected miss (inside the
   // scope, not hidden behind a nearer landmark); removed below delete_evidence; provisional until seen
