@@ -250,13 +250,15 @@ def fix_stamps(stamps, max_backward=MAX_BACKWARD_STEP):
     return isotonic_increasing(stamps), count_backward(stamps), invalid
 
 
-def last_of_equal_runs(stamps):
-    """Indices that keep only the last element of each run of equal stamps (stamps non-decreasing)."""
+def last_of_equal_runs(stamps, tolerance=1e-6):
+    """Indices that keep only the last element of each run of equal stamps (stamps non-decreasing;
+    closer than ``tolerance`` [s] counts as equal: bags store nanoseconds, and pooled stamps may differ
+    in their last bits)."""
     stamps = np.asarray(stamps, dtype=float)
     if len(stamps) == 0:
         return np.zeros(0, dtype=int)
     keep = np.ones(len(stamps), dtype=bool)
-    keep[:-1] = stamps[1:] != stamps[:-1]
+    keep[:-1] = np.diff(stamps) > tolerance
     return np.nonzero(keep)[0]
 
 
