@@ -298,9 +298,10 @@ class Conversion:
         self.n_backward_odom = cc.count_backward([records[i].ts for i, k in zip(timed, kinds) if k is Odom])[0]
         self.n_backward_laser = cc.count_backward([records[i].ts for i, k in zip(timed, kinds) if k is Laser])[0]
         if self.n_backward:
-            self.notes.append('time stamps going backwards: %d lines have a stamp earlier than the line before (%d ODOM '
-                              'after ODOM, %d laser after laser); %d lines in all are earlier than some line before '
-                              'them, by up to %.3f s; made non-decreasing by a least-squares (isotonic) fit'
+            self.notes.append('time stamps going backwards: %d lines have a stamp earlier than the line before '
+                              '(%d ODOM after ODOM, %d laser after laser); %d lines in all are earlier than some '
+                              'line before them, by up to %.3f s; made non-decreasing by a least-squares (isotonic) '
+                              'fit'
                               % (self.n_backward, self.n_backward_odom, self.n_backward_laser, self.n_out_of_order,
                                  self.max_backward))
         if self.n_invalid_stamps:

@@ -8,10 +8,10 @@
   origin of the course's world, so ``odom`` and ``map`` coincide at the start), and per step a
   ``landmarks`` rbpf_slam/TrunkArray in ``base_link`` with the step's observations, even when empty:
   centre (range cos bearing, range sin bearing), range, bearing (a negative range, which the noise
-  gives once in the course data, becomes the same point at |range| and bearing + pi), radius 0 (unknown), the 2 x 2
-  covariance of the centre from the stated sensor noise (``--range-sigma`` 0.1 m, ``--bearing-sigma``
-  0.1 rad: the course's EKF-SLAM exercise's Q = 0.01 I) through the polar-to-Cartesian Jacobian,
-  method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
+  gives once in the course data, becomes the same point at |range| and bearing + pi), radius 0
+  (unknown), the 2 x 2 covariance of the centre from the stated sensor noise (``--range-sigma``
+  0.1 m, ``--bearing-sigma`` 0.1 rad: the course's EKF-SLAM exercise's Q = 0.01 I) through the
+  polar-to-Cartesian Jacobian, method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
 * ``id`` is -1 (unknown) unless ``--keep-ids``: the course data gives each observation the true
   landmark's id, i.e. the true data association, which is ground truth and must not reach a filter
   behind the truth firewall (``../shared/scenarios/README.md``). ``--keep-ids`` reproduces the course's
@@ -129,7 +129,8 @@ def build_parser():
     p.add_argument('--world', help='default DIRECTORY/world.dat (optional)')
     p.add_argument('--rate', type=cc.positive_float, default=10.0, help='steps per second (default 10)')
     p.add_argument('--start-time', type=float, default=1.0, help='stamp of the start pose [s] (default 1)')
-    p.add_argument('--range-sigma', type=cc.positive_float, default=RANGE_SIGMA, help='range noise [m] (default %(default)s)')
+    p.add_argument('--range-sigma', type=cc.positive_float, default=RANGE_SIGMA,
+                   help='range noise [m] (default %(default)s)')
     p.add_argument('--bearing-sigma', type=cc.positive_float, default=BEARING_SIGMA,
                    help='bearing noise [rad] (default %(default)s)')
     p.add_argument('--keep-ids', action='store_true',
