@@ -352,6 +352,8 @@ class BagOutput:
         if last is not None and stamp < last:
             raise RuntimeError('internal error: %s stamp %.6f after %.6f' % (topic, stamp, last))
         self._last[topic] = stamp
+        if self.time_offset:
+            _shift_times(msg, self.time_offset)
         header = None
         if latch:  # rosbag play latches a topic whose connection header says so (as rosbag record writes it)
             header = {'topic': topic, 'type': msg._type, 'md5sum': msg._md5sum,
@@ -367,6 +369,21 @@ class BagOutput:
         scans that need them)."""
         for stamp, topic, msg, latch in heapq.merge(*streams, key=lambda e: e[0]):
             self.write(topic, msg, stamp, latch)
+
+
+def _shift_times(msg, offset):
+    """Add ``offset`` seconds to every ``time`` field of a message, nested ones included (header stamps,
+    the transforms of a TFMessage, the poses of a Path)."""
+    import rospy
+    for slot, slot_type in zip(msg.__slots__, msg._slot_types):
+        value = getattr(msg, slot)
+        if slot_type == 'time':
+            setattr(msg, slot, value + rospy.Duration.from_sec(offset))
+        elif hasattr(value, '_slot_types'):
+            _shift_times(value, offset)
+        elif isinstance(value, list) and value and hasattr(value[0], '_slot_types'):
+            for item in value:
+                _shift_times(item, offset)
 
 
 def add_common_arguments(parser, topics=(), frames=()):

@@ -69,6 +69,16 @@ def test_keep_ids_and_rate(tmp_path):
     assert [t.id for t in bag['/landmarks'][1][1].trunks] == [3, 4]
 
 
+def test_time_offset_moves_headers_and_bag_time(tmp_path):
+    out = str(tmp_path / 'o.bag')
+    assert freiburg.main([write(tmp_path / 'd'), '-o', out, '-q', '--time-offset', '1000']) == 0
+    bag = read_bag(out)
+    assert_stamps_monotonic(bag)  # header stamps equal the bag time
+    assert [t for t, _ in bag['/odom']] == pytest.approx([1001.0, 1001.1, 1001.2, 1001.3])
+    assert bag['/tf'][0][1].transforms[0].header.stamp.to_sec() == pytest.approx(1001.0)
+    assert bag['/ground_truth/landmarks'][0][1].header.stamp.to_sec() == pytest.approx(1001.0)
+
+
 @pytest.mark.parametrize('sensor, pattern', [
     ('ODOMETRY 0.1 0.2\n', 'sensor_data.dat:1: expected ODOMETRY r1 t r2 (4 fields), got 3 fields'),
     ('ODOMETRY 0 1 0\nSENSOR 1 abc 0.2\n', "sensor_data.dat:2: expected numbers as range bearing, got 'abc'"),
