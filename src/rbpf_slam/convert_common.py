@@ -1,0 +1,483 @@
+"""Shared machinery of the log converters (``*_to_bag``): errors, text parsing, skipped lines, time stamps,
+planar kinematics, the summary and the bag output.
+
+Nothing here imports ROS at module level: the parsing and integration functions are plain numpy, so
+they can be tested (and reused) without a ROS environment. ROS messages are built in
+:mod:`rbpf_slam.convert_msgs`, the bag is opened by :func:`run`.
+"""
+import argparse
+import collections
+import gzip
+import heapq
+import math
+import os
+import sys
+import time
+import zlib
+
+import numpy as np
+
+from rbpf_slam.atomic import atomic_output
+
+#: A stamp this much earlier than the latest one before it is not a late clock but garbage (e.g. the
+#: uninitialised time stamps of some CARMEN lines): it is replaced, not pooled (see fix_stamps).
+MAX_BACKWARD_STEP = 5.0  # [s]
+
+
+class ConversionError(Exception):
+    """A malformed input. Its text is ``file:line: expected <what>, got <what was there>``.
+
+    ``line`` is None for whole-file problems (empty file, wrong .mat layout): ``file: expected ...``.
+    """
+
+    def __init__(self, path, line, expected, got=None):
+        self.path = str(path)
+        self.line = line
+        self.expected = expected
+        self.got = got
+        where = '%s:%d' % (self.path, line) if line else self.path
+        text = '%s: expected %s' % (where, expected)
+        if got is not None:
+            got = str(got)
+            text += ', got %s' % (got if len(got) <= 80 else got[:77] + '...')
+        super().__init__(text)
+
+
+class BadLines:
+    """Malformed lines: the first one stops the conversion, or with ``--skip-bad`` each is counted and
+    reported in the summary (by what was expected, with the first few places)."""
+
+    def __init__(self, skip_bad=False, examples=5):
+        self.skip_bad = skip_bad
+        self.count = 0
+        self.reasons = collections.Counter()
+        self.examples = []
+        self._max_examples = examples
+
+    def __call__(self, error):
+        if not self.skip_bad:
+            raise error
+        self.count += 1
+        self.reasons[error.expected] += 1
+        if len(self.examples) < self._max_examples:
+            self.examples.append(str(error))
+
+
+# --- Text logs ---------------------------------------------------------------------------------------
+
+
+def open_text(path):
+    """Open a text log for reading, plain or gzip-compressed (recognised by its magic bytes)."""
+    with open(path, 'rb') as f:
+        magic = f.read(2)
+    if magic == b'\x1f\x8b':
+        return gzip.open(path, 'rt', encoding='latin-1', newline=None)
+    return open(path, 'r', encoding='latin-1', newline=None)
+
+
+def read_tokens(path, limit=None):
+    """Yield ``(line_number, tokens)`` for every non-blank line of a text log that is not a ``#`` comment.
+
+    Handles CRLF line ends and gzip. A gzip stream cut short raises ConversionError at the line where
+    it ends. ``limit``: stop after that many yielded lines.
+    """
+    n = 0
+    line_no = 0
+    with open_text(path) as f:
+        try:
+            for line_no, line in enumerate(f, 1):
+                tokens = line.split()
+                if not tokens or tokens[0].startswith('#'):
+                    continue
+                yield line_no, tokens
+                n += 1
+                if limit is not None and n >= limit:
+                    return
+        except (EOFError, zlib.error, gzip.BadGzipFile) as e:
+            raise ConversionError(path, line_no + 1, 'more data (the compressed file is cut short or damaged)',
+                                  got=e)
+
+
+def parse_floats(tokens, path, line, what):
+    """tokens as float64; a token that is not a number raises ConversionError naming ``what``."""
+    try:
+        values = np.array(tokens, dtype=float)
+    except ValueError:
+        bad = next(t for t in tokens if not _is_float(t))
+        raise ConversionError(path, line, what, got='%r' % bad)
+    return values
+
+
+def parse_ints(tokens, path, line, what):
+    """tokens as int64; a token that is not an integer raises ConversionError naming ``what``."""
+    try:
+        return np.array([int(t) for t in tokens], dtype=np.int64)
+    except ValueError:
+        bad = next(t for t in tokens if not _is_int(t))
+        raise ConversionError(path, line, what, got='%r' % bad)
+
+
+def _is_float(token):
+    try:
+        float(token)
+        return True
+    except ValueError:
+        return False
+
+
+def _is_int(token):
+    try:
+        int(token)
+        return True
+    except ValueError:
+        return False
+
+
+def require_fields(tokens, count, path, line, what, exact=True):
+    """Check that a line has ``count`` tokens (at least ``count`` when not exact)."""
+    if len(tokens) < count or (exact and len(tokens) != count):
+        raise ConversionError(path, line, '%s (%d fields)' % (what, count),
+                              got='%d field%s' % (len(tokens), '' if len(tokens) == 1 else 's'))
+
+
+# --- Planar kinematics (REP-103: metres, radians) -------------------------------------------------
+
+
+def wrap_angle(a):
+    """Angles wrapped to [-pi, pi)."""
+    return (np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi
+
+
+def se2_compose(a, b):
+    """a (+) b for poses (x, y, theta): b expressed in a's frame, put in a's parent frame."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], float(wrap_angle(a[2] + b[2])))
+
+
+def se2_between(a, b):
+    """The pose of b in a's frame: a^-1 (+) b."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return (c * dx + s * dy, -s * dx + c * dy, float(wrap_angle(b[2] - a[2])))
+
+
+def integrate_arcs(ds, dtheta, pose0=(0.0, 0.0, 0.0)):
+    """Dead reckoning over steps that each drive an arc of length ``ds`` turning by ``dtheta``.
+
+    Exact for a differential (or skid-steer) drive whose wheel speeds are constant within a step: the
+    step moves by the arc's chord, ds * sin(dtheta/2) / (dtheta/2), along the heading halfway through
+    the turn. Returns arrays x, y, theta (after each step; theta wrapped to [-pi, pi)).
+    """
+    ds = np.asarray(ds, dtype=float)
+    dtheta = np.asarray(dtheta, dtype=float)
+    half = dtheta / 2.0
+    chord = ds * np.sinc(half / np.pi)
+    heading_before = pose0[2] + np.concatenate(([0.0], np.cumsum(dtheta)[:-1]))
+    heading = heading_before + half
+    x = pose0[0] + np.cumsum(chord * np.cos(heading))
+    y = pose0[1] + np.cumsum(chord * np.sin(heading))
+    theta = wrap_angle(pose0[2] + np.cumsum(dtheta))
+    return x, y, theta
+
+
+def diff_drive_steps(d_left, d_right, track):
+    """Arc length and heading change of each step from the distances the left and right wheels
+    (or tracks) travelled: ds = (l + r) / 2, dtheta = (r - l) / track."""
+    d_left = np.asarray(d_left, dtype=float)
+    d_right = np.asarray(d_right, dtype=float)
+    return (d_left + d_right) / 2.0, (d_right - d_left) / float(track)
+
+
+# --- Time stamps ----------------------------------------------------------------------------------
+
+
+def isotonic_increasing(values):
+    """The non-decreasing sequence closest to ``values`` in the least-squares sense (pool adjacent
+    violators). A single late stamp is pulled down to its successor, a single early one up to its
+    predecessor: stamps that were in order stay untouched."""
+    values = np.asarray(values, dtype=float)
+    sums, counts = [], []
+    for v in values:
+        sums.append(v)
+        counts.append(1)
+        while len(sums) > 1 and sums[-2] / counts[-2] > sums[-1] / counts[-1]:
+            s, c = sums.pop(), counts.pop()
+            sums[-1] += s
+            counts[-1] += c
+    out = np.empty_like(values)
+    i = 0
+    for s, c in zip(sums, counts):
+        out[i:i + c] = s / c
+        i += c
+    return out
+
+
+def count_backward(stamps):
+    """How many stamps are earlier than the one just before them; how many are earlier than the latest
+    one before them (the lines a backward step puts out of order); and the largest such lag [s]."""
+    stamps = np.asarray(stamps, dtype=float)
+    if len(stamps) < 2:
+        return 0, 0, 0.0
+    steps = int(np.sum(np.diff(stamps) < 0))
+    lag = np.maximum.accumulate(stamps)[:-1] - stamps[1:]
+    late = int(np.sum(lag > 0))
+    return steps, late, float(lag.max()) if late else 0.0
+
+
+def fix_stamps(stamps, max_backward=MAX_BACKWARD_STEP):
+    """Make stamps (in file order) non-decreasing, changing as little as possible.
+
+    A stamp more than ``max_backward`` seconds earlier than the latest one before it, or not finite,
+    or not positive, is invalid: it takes the previous stamp. The rest are made non-decreasing by
+    :func:`isotonic_increasing`. Returns (fixed stamps, number of backward stamps, largest backward
+    step [s], number of invalid stamps).
+    """
+    stamps = np.array(stamps, dtype=float)
+    invalid = 0
+    latest = -np.inf
+    for i in range(len(stamps)):
+        t = stamps[i]
+        if not np.isfinite(t) or t <= 0.0 or t < latest - max_backward:
+            stamps[i] = latest if np.isfinite(latest) else np.nan
+            invalid += 1
+        else:
+            latest = max(latest, t)
+    if np.isnan(stamps).any():  # invalid stamps before the first valid one take the first valid one
+        valid = stamps[~np.isnan(stamps)]
+        if len(valid) == 0:
+            raise ValueError('no valid time stamp')
+        stamps[np.isnan(stamps)] = valid[0]
+    return isotonic_increasing(stamps), count_backward(stamps), invalid
+
+
+def last_of_equal_runs(stamps, tolerance=1e-6):
+    """Indices that keep only the last element of each run of equal stamps (stamps non-decreasing;
+    closer than ``tolerance`` [s] counts as equal: bags store nanoseconds, and pooled stamps may differ
+    in their last bits)."""
+    stamps = np.asarray(stamps, dtype=float)
+    if len(stamps) == 0:
+        return np.zeros(0, dtype=int)
+    keep = np.ones(len(stamps), dtype=bool)
+    keep[:-1] = np.diff(stamps) > tolerance
+    return np.nonzero(keep)[0]
+
+
+# --- Summary and output -----------------------------------------------------------------------------
+
+
+class Summary:
+    """What a conversion wrote (messages per topic, time span), skipped and why, and notes on the data."""
+
+    def __init__(self, prog):
+        self.prog = prog
+        self.counts = collections.Counter()
+        self.first = None
+        self.last = None
+        self.skipped = collections.Counter()  # reason -> count
+        self.notes = []
+        self.bad = None
+        self.elapsed = None
+        self.output = None
+
+    def message(self, topic, stamp):
+        self.counts[topic] += 1
+        if self.first is None or stamp < self.first:
+            self.first = stamp
+        if self.last is None or stamp > self.last:
+            self.last = stamp
+
+    def skip(self, reason, n=1):
+        if n:
+            self.skipped[reason] += n
+
+    def note(self, text):
+        self.notes.append(text)
+
+    @property
+    def span(self):
+        return 0.0 if self.first is None else self.last - self.first
+
+    def text(self):
+        lines = ['%s: wrote %s' % (self.prog, self.output)]
+        if self.first is not None:
+            lines.append('  time span %.3f s (stamps %.3f .. %.3f)' % (self.span, self.first, self.last))
+        if self.elapsed is not None:
+            speed = ('%.0fx faster than the log' % (self.span / self.elapsed)) if self.elapsed > 0 else ''
+            lines.append('  converted in %.2f s %s' % (self.elapsed, speed))
+        lines.append('  %-34s %10s' % ('topic', 'messages'))
+        for topic in sorted(self.counts):
+            lines.append('  %-34s %10d' % (topic, self.counts[topic]))
+        if self.skipped:
+            lines.append('  skipped:')
+            for reason, n in sorted(self.skipped.items()):
+                lines.append('    %7d  %s' % (n, reason))
+        if self.bad is not None and self.bad.count:
+            lines.append('  malformed lines skipped (--skip-bad): %d' % self.bad.count)
+            for reason, n in self.bad.reasons.most_common():
+                lines.append('    %7d  expected %s' % (n, reason))
+            for example in self.bad.examples:
+                lines.append('      e.g. %s' % example)
+        if self.notes:
+            lines.append('  notes:')
+            lines.extend('    - %s' % n for n in self.notes)
+        return '\n'.join(lines)
+
+
+def ros_topic(name):
+    """Topic names in the bag are absolute (``odom`` -> ``/odom``), as rosbag record writes them."""
+    return name if name.startswith('/') else '/' + name
+
+
+class BagOutput:
+    """Writes messages to an open rosbag.Bag with the bag time equal to the header stamp, counts them in
+    the summary and refuses a stamp going backwards on a topic (that would be a converter bug)."""
+
+    def __init__(self, bag, summary, time_offset=0.0, progress=None):
+        self.bag = bag
+        self.summary = summary
+        self.time_offset = time_offset
+        self.progress = progress
+        self._last = {}
+
+    def expect(self, n):
+        """Tell the progress bar how many messages will be written."""
+        if self.progress is not None:
+            self.progress.total = n
+            self.progress.refresh()
+
+    def write(self, topic, msg, stamp, latch=False):
+        from rbpf_slam.convert_msgs import ros_time
+        topic = ros_topic(topic)
+        last = self._last.get(topic)
+        if last is not None and stamp < last:
+            raise RuntimeError('internal error: %s stamp %.6f after %.6f' % (topic, stamp, last))
+        self._last[topic] = stamp
+        if self.time_offset:
+            _shift_times(msg, self.time_offset)
+        header = None
+        if latch:  # rosbag play latches a topic whose connection header says so (as rosbag record writes it)
+            header = {'topic': topic, 'type': msg._type, 'md5sum': msg._md5sum,
+                      'message_definition': msg._full_text, 'latching': '1'}
+        self.bag.write(topic, msg, ros_time(stamp + self.time_offset), connection_header=header)
+        self.summary.message(topic, stamp)
+        if self.progress is not None:
+            self.progress.update(1)
+
+    def write_merged(self, streams):
+        """Write several streams of ``(stamp, topic, msg, latch)`` (each in stamp order) in global stamp
+        order; at equal stamps the stream listed first goes first (static TF and odometry before the
+        scans that need them)."""
+        for stamp, topic, msg, latch in heapq.merge(*streams, key=lambda e: e[0]):
+            self.write(topic, msg, stamp, latch)
+
+
+def _shift_times(msg, offset):
+    """Add ``offset`` seconds to every ``time`` field of a message, nested ones included (header stamps,
+    the transforms of a TFMessage, the poses of a Path)."""
+    import rospy
+    for slot, slot_type in zip(msg.__slots__, msg._slot_types):
+        value = getattr(msg, slot)
+        if slot_type == 'time':
+            setattr(msg, slot, value + rospy.Duration.from_sec(offset))
+        elif hasattr(value, '_slot_types'):
+            _shift_times(value, offset)
+        elif isinstance(value, list) and value and hasattr(value[0], '_slot_types'):
+            for item in value:
+                _shift_times(item, offset)
+
+
+def add_common_arguments(parser, topics=(), frames=()):
+    """Options every converter has. ``topics``/``frames``: (option, default, help) triples."""
+    parser.add_argument('-o', '--output', required=True, metavar='BAG',
+                        help='the bag to write (*.bag; written to a temporary name and renamed when complete)')
+    parser.add_argument('--skip-bad', action='store_true',
+                        help='skip malformed lines (counted and reported) instead of stopping at the first')
+    parser.add_argument('--limit', type=int, default=None, metavar='N',
+                        help='convert only the first N records (see above what a record is here)')
+    parser.add_argument('--time-offset', type=float, default=0.0, metavar='S',
+                        help='add S seconds to every stamp (default 0: the log\'s own times)')
+    parser.add_argument('--compression', choices=('none', 'bz2', 'lz4'), default='none',
+                        help='bag compression (default none)')
+    parser.add_argument('-q', '--quiet', action='store_true', help='no progress bar (the summary is still printed)')
+    group = parser.add_argument_group('topics')
+    for option, default, text in topics:
+        group.add_argument(option, default=default, help='%s (default %s)' % (text, default))
+    group = parser.add_argument_group('frames')
+    for option, default, text in frames:
+        group.add_argument(option, default=default, help='%s (default %s)' % (text, default))
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    pass
+
+
+def make_parser(prog, doc):
+    return argparse.ArgumentParser(prog=prog, description=doc, formatter_class=HelpFormatter)
+
+
+def positive_float(text):
+    """argparse type: a number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError('not a number: %r' % text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError('must be > 0: %r' % text)
+    return value
+
+
+def run(parser, convert, argv=None, expected_messages=None):
+    """Parse the command line, convert into a bag atomically and print the summary.
+
+    ``convert(args, out, bad, summary)`` writes through ``out`` (a BagOutput). Returns the exit code:
+    0 done, 1 malformed input (``file:line: expected ...`` on stderr, no bag written), 130 interrupted.
+    """
+    args = parser.parse_args(argv)
+    prog = parser.prog
+    if not args.output.endswith('.bag'):
+        parser.error('the output must be a .bag file: %s' % args.output)
+    if args.limit is not None and args.limit <= 0:
+        parser.error('--limit must be positive')
+    summary = Summary(prog)
+    bad = BadLines(args.skip_bad)
+    summary.bad = bad
+    try:
+        summary = convert_to_bag(convert, args, summary, bad, progress=not args.quiet)
+    except ConversionError as e:
+        print('%s: error: %s' % (prog, e), file=sys.stderr)
+        print('%s: no bag written' % prog, file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print('\n%s: interrupted, no bag written' % prog, file=sys.stderr)
+        return 130
+    except FileNotFoundError as e:
+        print('%s: error: %s' % (prog, e), file=sys.stderr)
+        return 1
+    print(summary.text())
+    return 0
+
+
+def convert_to_bag(convert, args, summary=None, bad=None, progress=False):
+    """Run ``convert`` into ``args.output`` atomically; returns the Summary. Raises ConversionError."""
+    import rosbag
+    summary = summary or Summary(getattr(args, 'prog', 'convert'))
+    bad = bad or BadLines(getattr(args, 'skip_bad', False))
+    summary.bad = bad
+    summary.output = args.output
+    started = time.monotonic()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(unit=' msg', desc=os.path.basename(args.output), disable=None, leave=False, mininterval=0.5)
+    try:
+        with atomic_output(args.output) as tmp:
+            with rosbag.Bag(tmp, 'w', compression=args.compression) as bag:
+                out = BagOutput(bag, summary, time_offset=args.time_offset, progress=bar)
+                convert(args, out, bad, summary)
+                if not summary.counts:
+                    raise ConversionError(args.output, None, 'at least one message to write', got='none')
+    finally:
+        if bar is not None:
+            bar.close()
+    summary.elapsed = time.monotonic() - started
+    return summary
