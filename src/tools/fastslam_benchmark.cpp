@@ -7,6 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <sys/stat.h>
 #include <string>
 #include <vector>
 
@@ -27,6 +30,31 @@ double worst(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
 }
+/** Writes a trajectory in the TUM format (t x y z qx qy qz qw) that evo reads. */
+void writeTum(const std::string& path, const std::vector<double>& t, const std::vector<core::Pose2>& poses)
+{
+  std::ofstream out(path);
+  out.precision(9);
+  for (std::size_t i = 0; i < poses.size() && i < t.size(); ++i)
+    out << t[i] << ' ' << poses[i].x << ' ' << poses[i].y << " 0 0 0 " << std::sin(0.5 * poses[i].theta) << ' '
+        << std::cos(0.5 * poses[i].theta) << '\n';
+  if (!out)
+    throw std::runtime_error(path + ": cannot write");
+}
+
+std::string jsonStats(const char* name, const std::vector<double>& v, bool larger_is_worse = true)
+{
+  std::ostringstream o;
+  o.precision(6);
+  o << "\"" << name << "\": {\"median\": " << median(v) << ", \"worst\": "
+    << (v.empty() ? 0.0 : (larger_is_worse ? *std::max_element(v.begin(), v.end()) : *std::min_element(v.begin(), v.end())))
+    << ", \"values\": [";
+  for (std::size_t i = 0; i < v.size(); ++i)
+    o << (i ? ", " : "") << v[i];
+  o << "]}";
+  return o.str();
+}
+
 double best(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end());
@@ -38,7 +66,8 @@ int main(int argc, char** argv)
   std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml";
   std::string drive = "straight", method = "circle";
   int particles = 100, seeds = 20, first_seed = 1;
-  bool ideal = false;  // diagnostic: odometry without noise, mismatch or latency
+  bool ideal = false;
+  std::string out_dir;  // --out DIR: TUM trajectories, maps and summary.json  // diagnostic: odometry without noise, mismatch or latency
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -53,6 +82,8 @@ int main(int argc, char** argv)
       seeds = std::atoi(argv[++i]);
     else if (a == "--first-seed" && has)
       first_seed = std::atoi(argv[++i]);
+    else if (a == "--out" && has)
+      out_dir = argv[++i];
     else if (a == "--ideal-odometry")
       ideal = true;
     else if (a == "--method" && has)
@@ -61,7 +92,7 @@ int main(int argc, char** argv)
     {
       std::fprintf(stderr,
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N] [--seeds K] "
-                   "[--method circle|centroid] [--first-seed S] [--ideal-odometry]\n",
+                   "[--method circle|centroid] [--first-seed S] [--ideal-odometry] [--out DIR]\n",
                    argv[0]);
       return 2;
     }
@@ -112,6 +143,25 @@ int main(int argc, char** argv)
       spur.push_back(r.map.spurious);
       rate.push_back(hz);
       failed += r.final_error > 1.0;
+      if (!out_dir.empty())
+      {
+        mkdir(out_dir.c_str(), 0755);
+        const std::string base = out_dir + "/seed" + std::to_string(s);
+        writeTum(base + "_estimate.tum", r.stamps, r.estimate);
+        writeTum(base + "_odometry.tum", r.stamps, r.odometry);
+        writeTum(base + "_truth.tum", r.stamps, r.truth);
+        std::ofstream map(base + "_map.csv");
+        map << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
+        for (const auto& l : r.landmarks)
+          map << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
+              << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
+              << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
+        std::ofstream trees(base + "_trees.csv");
+        trees << "x,y,radius,seen\n";
+        for (std::size_t k = 0; k < r.trees.size(); ++k)
+          trees << r.trees[k].position.x() << ',' << r.trees[k].position.y() << ',' << r.trees[k].radius << ','
+                << (r.tree_seen[k] ? 1 : 0) << '\n';
+      }
     }
     std::printf("median %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", median(fin), median(fin_dr),
                 median(ate), median(ate_dr), median(dist), 100.0 * median(recall), median(dup), median(spur),
@@ -119,6 +169,19 @@ int main(int argc, char** argv)
     std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", worst(fin), best(fin_dr),
                 worst(ate), best(ate_dr), worst(dist), 100.0 * best(recall), worst(dup), worst(spur), 100.0 * worst(rad),
                 "", best(rate));
+    if (!out_dir.empty())
+    {
+      std::ofstream js(out_dir + "/summary.json");
+      js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << particles
+         << ", \"method\": \"" << method << "\", \"first_seed\": " << first_seed << ", \"seeds\": " << seeds
+         << ", \"failed\": " << failed << ",\n " << jsonStats("final_error_m", fin) << ",\n "
+         << jsonStats("final_error_dead_reckoning_m", fin_dr, false) << ",\n " << jsonStats("ate_m", ate) << ",\n "
+         << jsonStats("ate_dead_reckoning_m", ate_dr, false) << ",\n " << jsonStats("tree_to_feature_m", dist)
+         << ",\n " << jsonStats("recall", recall, false) << ",\n " << jsonStats("duplicates", dup) << ",\n "
+         << jsonStats("spurious", spur) << ",\n " << jsonStats("radius_rms_m", rad) << ",\n "
+         << jsonStats("rate_hz", rate, false) << "}\n";
+      std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", out_dir.c_str());
+    }
     std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "
                 "'worst' DR = the smallest drift)\n",
                 failed, seeds);
