@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <chrono>
 #include <unordered_map>
 
 #include <Eigen/Dense>
@@ -114,20 +115,24 @@ bool refineCircle(const std::vector<Eigen::Vector2d>& p, const TrunkDetectorConf
   const double prior_w = 1.0 / (cfg.arc_radius_sigma * cfg.arc_radius_sigma);
   const double sigma2 = cfg.range_sigma * cfg.range_sigma;
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  // Large clusters (near trunks) are thinned to about 400 evenly spread points for the iterations; each
+  // point then stands for `weight` points, so the information (and the covariance) stays that of all.
+  const std::size_t stride = std::max<std::size_t>(1, p.size() / 400);
+  const double weight = static_cast<double>(p.size()) / static_cast<double>((p.size() + stride - 1) / stride);
   for (int it = 0; it < 10; ++it)
   {
     H.setZero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (const auto& q : p)
+    for (std::size_t i = 0; i < p.size(); i += stride)
     {
-      const Eigen::Vector2d d = q - x.head<2>();
+      const Eigen::Vector2d d = p[i] - x.head<2>();
       const double n = d.norm();
       if (n < 1e-9)
         continue;
       const double res = n - x.z();
       const Eigen::Vector3d J(-d.x() / n, -d.y() / n, -1.0);
-      H += J * J.transpose() / sigma2;
-      g += J * res / sigma2;
+      H += weight * J * J.transpose() / sigma2;
+      g += weight * J * res / sigma2;
     }
     H(2, 2) += prior_w;
     g.z() += prior_w * (x.z() - cfg.arc_radius_prior);
@@ -303,7 +308,28 @@ Fit fitCluster(const std::vector<Eigen::Vector2d>& p, const TrunkDetectorConfig&
   Eigen::Vector2d c = mean + mean.normalized() * cfg.arc_radius_prior;
   double r = cfg.arc_radius_prior;
   bool have_ransac = false;
+  // A clean cluster (the algebraic fit on all points already explains 95 % of them) needs no RANSAC; the
+  // robust sampler is for clusters with clutter in them.
+  bool clean = false;
   if (n >= cfg.min_fit_points)
+  {
+    Eigen::Vector2d kc;
+    double kr = 0.0;
+    if (kasaFit(p, &kc, &kr) && kc.norm() > mean.norm() && kr >= cfg.min_radius && kr <= cfg.max_radius)
+    {
+      int inliers = 0;
+      for (const auto& q : p)
+        inliers += std::abs((q - kc).norm() - kr) <= cfg.ransac_threshold;
+      if (inliers >= 0.95 * n)
+      {
+        c = kc;
+        r = kr;
+        have_ransac = true;
+        clean = true;
+      }
+    }
+  }
+  if (n >= cfg.min_fit_points && !clean)
   {
     pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
     cloud->points.reserve(p.size());
@@ -427,6 +453,12 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   if (pts.empty())
     return out;
 
+  auto lap = std::chrono::steady_clock::now();
+  const auto split = [&lap](double* acc) {
+    const auto now = std::chrono::steady_clock::now();
+    *acc += std::chrono::duration<double, std::milli>(now - lap).count();
+    lap = now;
+  };
   // 2. Ground: lowest point per cell, the lowest over the 3 x 3 neighbourhood, capped by what the slope
   //    allows from the ground under the sensor when its height is known.
   const double cell = cfg.ground_cell;
@@ -500,11 +532,12 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   if (band->points.size() < static_cast<std::size_t>(cfg.min_points))
     return out;
 
+  split(&st->ms_band);
   // 4. Euclidean clustering of the horizontal projection (trunks stand upright, and the rings of a far trunk
   //    are further apart vertically than any sensible tolerance). To keep the neighbour searches short the
   //    projection is first reduced to one point per 2D cell of a fifth of the tolerance; each point then
   //    belongs to the cluster of its cell.
-  const double leaf = cfg.cluster_tolerance / 5.0;
+  const double leaf = cfg.cluster_tolerance / 3.0;
   const auto cellKey = [leaf](float x, float y) {
     const auto ix = static_cast<std::int64_t>(std::floor(x / leaf));
     const auto iy = static_cast<std::int64_t>(std::floor(y / leaf));
@@ -577,6 +610,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
     candidates.push_back(std::move(c));
   }
 
+  split(&st->ms_cluster);
   // 5. Residual tilt from the trunks: trunks grow straight up, so the tilt that makes every candidate's
   //    horizontal projection the thinnest circle is the sensor's. Small angles: x += a z, y += b z.
   double tilt_a = 0.0, tilt_b = 0.0;
@@ -684,6 +718,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   st->tilt_pitch = std::atan(tilt_a);
   st->tilt_roll = -std::atan(tilt_b);
 
+  split(&st->ms_tilt);
   // 6. Fit each candidate in the levelled frame; reject non-trunks.
   std::vector<Eigen::Vector2d> p2;
   for (const auto& c : candidates)
@@ -727,6 +762,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
     }
     out.push_back(toObservation(fit, n, z_mid));
   }
+  split(&st->ms_fit);
   st->trunks = static_cast<int>(out.size());
   ++impl_->calls;
   return out;

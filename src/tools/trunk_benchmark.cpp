@@ -54,6 +54,7 @@ struct Result
   BandStats within10;  // [1, 10) m, the goal's range
   std::vector<double> times_ms;
   int spurious_within10 = 0;
+  double stage_ms[4] = { 0.0, 0.0, 0.0, 0.0 };
 };
 
 double median(std::vector<double> v)
@@ -159,6 +160,10 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
       if (g_true_level)
         level = Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * sensor.linear();
       const auto obs = detector.detect(pts, level, &stats);
+      res[m].stage_ms[0] += stats.ms_band;
+      res[m].stage_ms[1] += stats.ms_cluster;
+      res[m].stage_ms[2] += stats.ms_tilt;
+      res[m].stage_ms[3] += stats.ms_fit;
       res[m].times_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
 
       // Truth in the evaluation frame at each detection's height: greedy one-to-one by distance, 0.5 m gate.
@@ -262,6 +267,10 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
                 core::trunkMethodName(methods[m]), w.detections, res[m].spurious_within10,
                 w.detections ? 100.0 * (w.detections - res[m].spurious_within10) / w.detections : 0.0,
                 median(res[m].times_ms), *std::max_element(res[m].times_ms.begin(), res[m].times_ms.end()));
+    const double n = std::max<std::size_t>(1, res[m].times_ms.size());
+    std::printf("%-9s mean per cloud: ground+band %.2f ms, clustering %.2f ms, tilt %.2f ms, fits %.2f ms\n",
+                core::trunkMethodName(methods[m]), res[m].stage_ms[0] / n, res[m].stage_ms[1] / n, res[m].stage_ms[2] / n,
+                res[m].stage_ms[3] / n);
   }
 }
 }  // namespace

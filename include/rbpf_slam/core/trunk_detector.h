@@ -101,6 +101,11 @@ struct TrunkDetectorStats
   int trunks = 0;
   double tilt_roll = 0.0;   ///< [rad] sensor tilt estimated (3D)
   double tilt_pitch = 0.0;  ///< [rad]
+  // Wall time of the stages of detect() [ms].
+  double ms_band = 0.0;     ///< ground estimate and height band
+  double ms_cluster = 0.0;  ///< clustering and candidate selection
+  double ms_tilt = 0.0;     ///< tilt from the trunks
+  double ms_fit = 0.0;      ///< circle fits and rejection
 };
 
 /** @brief A planar scan as REP-117 gives it. */
