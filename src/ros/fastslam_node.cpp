@@ -22,6 +22,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
@@ -43,34 +44,19 @@ void readKey(const RosParamSource& params, const std::string& key, T* value)
   }
 }
 
-/** @brief Every field of the filter's configuration, from parameters named like the fields. */
+/** @brief The filter's configuration (io::readFastSlamConfig); the defaults, and an error naming the key, if invalid. */
 core::FastSlamConfig readFilterConfig(const ros::NodeHandle& pnh)
 {
   core::FastSlamConfig c;
-  const RosParamSource params(pnh);
-  readKey(params, "particles", &c.particles);
-  readKey(params, "motion/alpha1", &c.motion.alpha1);
-  readKey(params, "motion/alpha2", &c.motion.alpha2);
-  readKey(params, "motion/alpha3", &c.motion.alpha3);
-  readKey(params, "motion/alpha4", &c.motion.alpha4);
-  readKey(params, "range_sigma_floor", &c.range_sigma_floor);
-  readKey(params, "bearing_sigma_floor", &c.bearing_sigma_floor);
-  readKey(params, "min_range", &c.min_range);
-  readKey(params, "max_range", &c.max_range);
-  readKey(params, "field_of_view", &c.field_of_view);
-  readKey(params, "association_gate", &c.association_gate);
-  readKey(params, "use_radius", &c.use_radius);
-  readKey(params, "radius_sigma_floor", &c.radius_sigma_floor);
-  readKey(params, "min_trunk_gap", &c.min_trunk_gap);
-  readKey(params, "evidence_hit", &c.evidence_hit);
-  readKey(params, "evidence_miss", &c.evidence_miss);
-  readKey(params, "evidence_max", &c.evidence_max);
-  readKey(params, "delete_evidence", &c.delete_evidence);
-  readKey(params, "confirm_observations", &c.confirm_observations);
-  readKey(params, "resample_threshold", &c.resample_threshold);
-  readKey(params, "roughening", &c.roughening);
-  readKey(params, "roughening_sigma_xy", &c.roughening_sigma_xy);
-  readKey(params, "roughening_sigma_theta", &c.roughening_sigma_theta);
+  try
+  {
+    io::readFastSlamConfig(RosParamSource(pnh), &c);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s: %s; using the default filter configuration", pnh.getNamespace().c_str(), e.what());
+    c = core::FastSlamConfig();
+  }
   c.seed = readSeed(pnh);
   return c;
 }
@@ -192,15 +178,7 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
 FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
   config_ = readRosConfig(pnh_);
-  core::FastSlamConfig filter_config = readFilterConfig(pnh_);
-  const std::string error = filter_config.validate();
-  if (!error.empty())
-  {
-    ROS_ERROR("%s: invalid parameter: %s; using the default filter configuration", name_.c_str(), error.c_str());
-    const std::uint64_t seed = filter_config.seed;
-    filter_config = core::FastSlamConfig();
-    filter_config.seed = seed;
-  }
+  const core::FastSlamConfig filter_config = readFilterConfig(pnh_);
   filter_.reset(new core::FastSlam(filter_config));
 
   tf_buffer_.reset(new tf2_ros::Buffer());
