@@ -95,6 +95,8 @@ FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
   return c;
 }
 
+constexpr std::size_t kMaxPending = 100;  ///< trunk arrays waiting for odometry
+
 double yawOf(const geometry_msgs::Quaternion& q)
 {
   return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
@@ -230,6 +232,12 @@ void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
   }
   last_trunks_stamp_ = msg->header.stamp;
   pending_.push_back({ msg, ros::WallTime::now() });
+  if (pending_.size() > kMaxPending)  // no odometry at all: do not grow without bound
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: %zu trunk arrays wait for odometry on %s; dropping the oldest", name_.c_str(),
+                      pending_.size(), odom_sub_.getTopic().c_str());
+    pending_.pop_front();
+  }
   processPending();
 }
 
