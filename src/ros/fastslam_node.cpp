@@ -89,9 +89,15 @@ FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
     ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
     c.max_path_poses = d.max_path_poses;
   }
-  for (std::string* f : { &c.map_frame, &c.odom_frame, &c.base_frame })
-    if (f->empty())
-      ROS_ERROR("%s: the frame parameters must not be empty", pnh.getNamespace().c_str());
+  const char* keys[3] = { "map_frame", "odom_frame", "base_frame" };
+  std::string* values[3] = { &c.map_frame, &c.odom_frame, &c.base_frame };
+  const std::string defaults[3] = { d.map_frame, d.odom_frame, d.base_frame };
+  for (int i = 0; i < 3; ++i)
+    if (values[i]->empty())
+    {
+      ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(keys[i]).c_str(), defaults[i].c_str());
+      *values[i] = defaults[i];
+    }
   return c;
 }
 
