@@ -1,0 +1,114 @@
+#ifndef RBPF_SLAM_ROS_FASTSLAM_NODE_H
+#define RBPF_SLAM_ROS_FASTSLAM_NODE_H
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "rbpf_slam/Trunk.h"
+#include "rbpf_slam/TrunkArray.h"
+#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/odometry_buffer.h"
+#include "rbpf_slam/core/trunk_detector.h"
+
+namespace rbpf_slam
+{
+/** @brief The parameters of FastSlamRos besides the filter's own (core::FastSlamConfig). */
+struct FastSlamRosConfig
+{
+  std::string map_frame = "map";
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double odom_timeout = 0.5;          ///< [s] wall time an array waits for odometry covering it
+  double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the array
+  bool publish_tf = true;
+  std::string inventory_path = "~/.ros/tree_inventory.csv";
+  int max_path_poses = 100000;        ///< oldest poses of `path` are dropped beyond this
+};
+
+/** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */
+core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
+
+/**
+ * @brief FastSLAM over tree trunks (core::FastSlam) on ROS topics, relative to @p nh:
+ *
+ * - subscribes `odom` (nav_msgs/Odometry, buffered by stamp) and `trunks` (rbpf_slam/TrunkArray in the
+ *   sensor frame, e.g. from TrunkExtraction). An array is processed once odometry covers its stamp (or
+ *   after `~odom_timeout` with a warning): prediction by the odometry increment since the previous
+ *   array (interpolated at the stamp), then the update with the trunks as range-bearing observations of
+ *   the sensor, whose planar pose on `~base_frame` comes from TF.
+ * - publishes TF `map -> odom` (REP-105), `pose` (PoseWithCovarianceStamped: the weighted mean and its
+ *   covariance), `particles` (PoseArray), `path` (the best particle's poses), `landmark_array`
+ *   (TrunkArray in the map frame, id = landmark id, method METHOD_GIVEN) and `landmarks` (MarkerArray,
+ *   only when subscribed).
+ * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV).
+ *
+ * Not done here (the message lacks what they need): carrying each trunk from its own column time to a
+ * common instant (deskew), and the lever-arm correction from the sensor's tilt.
+ */
+class FastSlamRos
+{
+public:
+  FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~FastSlamRos();
+
+private:
+  void onOdometry(const nav_msgs::Odometry::ConstPtr& msg);
+  void onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg);
+  void onTimer(const ros::WallTimerEvent& event);
+  bool onSaveInventory(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+
+  /** @brief Processes the waiting arrays that odometry covers (or that waited too long). Lock held. */
+  void processPending();
+  void processArray(const rbpf_slam::TrunkArray& msg);
+  /** @brief sensor -> base_link (planar) from TF, cached per frame; false when unavailable. */
+  bool sensorPose(const std::string& frame, core::Pose2* pose);
+  void publish(const ros::Time& stamp, const core::Pose2& odom_pose);
+  bool writeInventory(const std::string& path, std::string* message);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string name_;
+  FastSlamRosConfig config_;
+  std::unique_ptr<core::FastSlam> filter_;
+
+  std::mutex mutex_;
+  core::OdometryBuffer odometry_;
+  struct Pending
+  {
+    rbpf_slam::TrunkArray::ConstPtr msg;
+    ros::WallTime arrival;
+  };
+  std::deque<Pending> pending_;
+  bool initialized_ = false;
+  core::Pose2 last_odom_pose_;
+  ros::Time last_trunks_stamp_;
+  ros::Time last_processed_stamp_;
+  std::string sensor_frame_;
+  core::Pose2 sensor_pose_;
+  bool have_sensor_pose_ = false;
+  std::size_t updates_ = 0;
+
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+
+  ros::Subscriber odom_sub_, trunks_sub_;
+  ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_;
+  ros::ServiceServer save_srv_;
+  ros::WallTimer timer_;
+  nav_msgs::Path path_;
+};
+
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_ROS_FASTSLAM_NODE_H

@@ -1,0 +1,45 @@
+#include "rbpf_slam/io/fastslam_config.h"
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace rbpf_slam
+{
+namespace io
+{
+void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
+{
+  p.get("particles", &c->particles);
+  p.get("motion/alpha1", &c->motion.alpha1);
+  p.get("motion/alpha2", &c->motion.alpha2);
+  p.get("motion/alpha3", &c->motion.alpha3);
+  p.get("motion/alpha4", &c->motion.alpha4);
+  p.get("range_sigma_floor", &c->range_sigma_floor);
+  p.get("bearing_sigma_floor", &c->bearing_sigma_floor);
+  p.get("min_range", &c->min_range);
+  p.get("max_range", &c->max_range);
+  p.get("field_of_view", &c->field_of_view);
+  p.get("association_gate", &c->association_gate);
+  p.get("use_radius", &c->use_radius);
+  p.get("radius_sigma_floor", &c->radius_sigma_floor);
+  p.get("min_trunk_gap", &c->min_trunk_gap);
+  p.get("evidence_hit", &c->evidence_hit);
+  p.get("evidence_miss", &c->evidence_miss);
+  p.get("evidence_max", &c->evidence_max);
+  p.get("delete_evidence", &c->delete_evidence);
+  p.get("confirm_observations", &c->confirm_observations);
+  p.get("resample_threshold", &c->resample_threshold);
+  p.get("roughening", &c->roughening);
+  p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
+  p.get("roughening_sigma_theta", &c->roughening_sigma_theta);
+  int seed = static_cast<int>(c->seed);
+  p.get("seed", &seed);
+  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  const std::string error = c->validate();
+  if (!error.empty())
+    throw std::runtime_error("invalid parameter: " + error);
+}
+
+}  // namespace io
+}  // namespace rbpf_slam

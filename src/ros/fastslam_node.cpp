@@ -1,0 +1,558 @@
+#include "rbpf_slam/ros/fastslam_node.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <sstream>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <boost/make_shared.hpp>
+#include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <tf2/exceptions.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <Eigen/Eigenvalues>
+
+#include "rbpf_slam/io/fastslam_config.h"
+#include "rbpf_slam/ros/params.h"
+#include "rbpf_slam/ros/ros_param_source.h"
+
+namespace rbpf_slam
+{
+namespace
+{
+/** @brief Reads one key; a value of the wrong type is reported (naming the key) and @p value kept. */
+template <typename T>
+void readKey(const RosParamSource& params, const std::string& key, T* value)
+{
+  try
+  {
+    params.get(key, value);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s; keeping %s at its default", e.what(), key.c_str());
+  }
+}
+
+/** @brief The filter's configuration (io::readFastSlamConfig); the defaults, and an error naming the key, if invalid. */
+core::FastSlamConfig readFilterConfig(const ros::NodeHandle& pnh)
+{
+  core::FastSlamConfig c;
+  try
+  {
+    io::readFastSlamConfig(RosParamSource(pnh), &c);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s: %s; using the default filter configuration", pnh.getNamespace().c_str(), e.what());
+    c = core::FastSlamConfig();
+  }
+  c.seed = readSeed(pnh);
+  return c;
+}
+
+FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
+{
+  FastSlamRosConfig c;
+  const RosParamSource params(pnh);
+  readKey(params, "map_frame", &c.map_frame);
+  readKey(params, "odom_frame", &c.odom_frame);
+  readKey(params, "base_frame", &c.base_frame);
+  readKey(params, "odom_timeout", &c.odom_timeout);
+  readKey(params, "transform_tolerance", &c.transform_tolerance);
+  readKey(params, "publish_tf", &c.publish_tf);
+  readKey(params, "inventory_path", &c.inventory_path);
+  readKey(params, "max_path_poses", &c.max_path_poses);
+  const FastSlamRosConfig d;
+  if (!(c.odom_timeout >= 0.0))
+  {
+    ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName("odom_timeout").c_str(), d.odom_timeout);
+    c.odom_timeout = d.odom_timeout;
+  }
+  if (!(c.transform_tolerance >= 0.0))
+  {
+    ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName("transform_tolerance").c_str(), d.transform_tolerance);
+    c.transform_tolerance = d.transform_tolerance;
+  }
+  if (c.max_path_poses < 1)
+  {
+    ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
+    c.max_path_poses = d.max_path_poses;
+  }
+  const char* keys[3] = { "map_frame", "odom_frame", "base_frame" };
+  std::string* values[3] = { &c.map_frame, &c.odom_frame, &c.base_frame };
+  const std::string defaults[3] = { d.map_frame, d.odom_frame, d.base_frame };
+  for (int i = 0; i < 3; ++i)
+    if (values[i]->empty())
+    {
+      ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(keys[i]).c_str(), defaults[i].c_str());
+      *values[i] = defaults[i];
+    }
+  return c;
+}
+
+constexpr std::size_t kMaxPending = 100;  ///< trunk arrays waiting for odometry
+
+double yawOf(const geometry_msgs::Quaternion& q)
+{
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+
+geometry_msgs::Quaternion quaternionOfYaw(double yaw)
+{
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(0.5 * yaw);
+  q.w = std::cos(0.5 * yaw);
+  return q;
+}
+
+geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
+{
+  geometry_msgs::Pose m;
+  m.position.x = p.x;
+  m.position.y = p.y;
+  m.orientation = quaternionOfYaw(p.theta);
+  return m;
+}
+
+std::string expandHome(const std::string& path)
+{
+  if (path.size() >= 2 && path[0] == '~' && path[1] == '/')
+  {
+    const char* home = std::getenv("HOME");
+    if (home != nullptr)
+      return std::string(home) + path.substr(1);
+  }
+  return path;
+}
+
+/** @brief Creates the directories of @p dir (mkdir -p); false on failure. */
+bool makeDirectories(const std::string& dir)
+{
+  if (dir.empty())
+    return true;
+  std::string partial;
+  std::size_t pos = 0;
+  while (pos != std::string::npos)
+  {
+    pos = dir.find('/', pos + 1);
+    partial = dir.substr(0, pos);
+    if (partial.empty())
+      continue;
+    if (::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
+{
+  core::TrunkObservation t;
+  t.center = Eigen::Vector2d(trunk.center.x, trunk.center.y);
+  t.height = trunk.center.z;
+  t.radius = trunk.radius;
+  t.radius_variance = trunk.radius_variance;
+  t.range = t.center.norm();
+  t.bearing = std::atan2(t.center.y(), t.center.x());
+  t.covariance << trunk.covariance[0], trunk.covariance[1], trunk.covariance[2], trunk.covariance[3];
+  t.num_points = static_cast<int>(trunk.num_points);
+  t.num_inliers = static_cast<int>(trunk.num_inliers);
+  t.score = trunk.score;
+  switch (trunk.method)
+  {
+    case rbpf_slam::Trunk::METHOD_CENTROID:
+      t.method = core::TrunkMethod::kCentroid;
+      break;
+    case rbpf_slam::Trunk::METHOD_ARC:
+      t.method = core::TrunkMethod::kArc;
+      break;
+    default:  // circle, and given observations: their radius (with a variance) is used
+      t.method = core::TrunkMethod::kCircle;
+  }
+  return t;
+}
+
+FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
+{
+  config_ = readRosConfig(pnh_);
+  const core::FastSlamConfig filter_config = readFilterConfig(pnh_);
+  filter_.reset(new core::FastSlam(filter_config));
+
+  tf_buffer_.reset(new tf2_ros::Buffer());
+  tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
+
+  path_.header.frame_id = config_.map_frame;
+  pose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+  particles_pub_ = nh_.advertise<geometry_msgs::PoseArray>("particles", 2);
+  landmarks_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 2);
+  landmark_array_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("landmark_array", 2);
+  path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
+  save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
+  odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
+  trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
+  timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &FastSlamRos::onTimer, this);
+
+  ROS_INFO("%s: FastSLAM with %d particles (seed %llu) on %s and %s; frames %s -> %s -> %s", name_.c_str(),
+           filter_config.particles, static_cast<unsigned long long>(filter_config.seed), odom_sub_.getTopic().c_str(),
+           trunks_sub_.getTopic().c_str(), config_.map_frame.c_str(), config_.odom_frame.c_str(),
+           config_.base_frame.c_str());
+}
+
+FastSlamRos::~FastSlamRos() = default;
+
+void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto& p = msg->pose.pose;
+  if (!std::isfinite(p.position.x) || !std::isfinite(p.position.y) || !std::isfinite(yawOf(p.orientation)))
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: odometry with non-finite pose dropped", name_.c_str());
+    return;
+  }
+  const auto r = odometry_.add(msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)));
+  if (r == core::OdometryBuffer::AddResult::kBackwards)
+    ROS_WARN_THROTTLE(5.0, "%s: odometry stamp %.3f is older than the newest (%.3f): dropped (time went backwards?)",
+                      name_.c_str(), msg->header.stamp.toSec(), odometry_.latest());
+  processPending();
+}
+
+void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!last_trunks_stamp_.isZero() && msg->header.stamp <= last_trunks_stamp_)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: trunks stamped %.3f, not after the previous %.3f: dropped (time went backwards?)",
+                      name_.c_str(), msg->header.stamp.toSec(), last_trunks_stamp_.toSec());
+    return;
+  }
+  last_trunks_stamp_ = msg->header.stamp;
+  pending_.push_back({ msg, ros::WallTime::now() });
+  if (pending_.size() > kMaxPending)  // no odometry at all: do not grow without bound
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: %zu trunk arrays wait for odometry on %s; dropping the oldest", name_.c_str(),
+                      pending_.size(), odom_sub_.getTopic().c_str());
+    pending_.pop_front();
+  }
+  processPending();
+}
+
+void FastSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  processPending();
+}
+
+void FastSlamRos::processPending()
+{
+  while (!pending_.empty())
+  {
+    const Pending& front = pending_.front();
+    const double t = front.msg->header.stamp.toSec();
+    if (!odometry_.covers(t))
+    {
+      if (odometry_.empty() || (ros::WallTime::now() - front.arrival).toSec() < config_.odom_timeout)
+        return;
+      ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); using the newest",
+                        name_.c_str(), t, config_.odom_timeout, odometry_.latest());
+    }
+    const rbpf_slam::TrunkArray::ConstPtr msg = front.msg;
+    pending_.pop_front();
+    try
+    {
+      processArray(*msg);
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
+    }
+  }
+}
+
+bool FastSlamRos::sensorPose(const std::string& frame, core::Pose2* pose)
+{
+  if (have_sensor_pose_ && frame == sensor_frame_)
+  {
+    *pose = sensor_pose_;
+    return true;
+  }
+  geometry_msgs::TransformStamped t;
+  try
+  {
+    t = tf_buffer_->lookupTransform(config_.base_frame, frame, ros::Time(0));
+  }
+  catch (const tf2::TransformException& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: no transform %s -> %s (%s); skipping the trunks", name_.c_str(), frame.c_str(),
+                      config_.base_frame.c_str(), e.what());
+    return false;
+  }
+  // The planar part: the trunks are levelled in the sensor frame, so only x, y and the heading matter.
+  sensor_pose_ = core::Pose2(t.transform.translation.x, t.transform.translation.y, yawOf(t.transform.rotation));
+  sensor_frame_ = frame;
+  have_sensor_pose_ = true;
+  *pose = sensor_pose_;
+  return true;
+}
+
+void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
+{
+  core::Pose2 sensor;
+  if (!sensorPose(msg.header.frame_id, &sensor))
+    return;
+  const double t = msg.header.stamp.toSec();
+  const core::Pose2 odom_pose = odometry_.at(t);
+  if (!initialized_)
+  {
+    // The map frame starts where odometry is at the first observation: map -> odom is the identity then.
+    filter_->initialize(odom_pose);
+    last_odom_pose_ = odom_pose;
+    initialized_ = true;
+  }
+  filter_->predict(core::decomposeOdometry(last_odom_pose_, odom_pose));
+  last_odom_pose_ = odom_pose;
+
+  // Each trunk as seen at the array's stamp: the per-column deskew (each trunk carried from its own
+  // column time to a common instant) and the lever-arm correction from the sensor's estimated tilt, which
+  // the in-process runner does, need the sweep period and the tilt, which TrunkArray does not carry.
+  std::vector<core::LandmarkObservation> observations;
+  observations.reserve(msg.trunks.size());
+  for (const auto& trunk : msg.trunks)
+  {
+    const core::TrunkObservation o = fromMsg(trunk);
+    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
+      continue;
+    observations.push_back(core::toLandmarkObservation(o));
+  }
+  const core::FastSlamUpdateStats stats = filter_->update(observations, sensor);
+  ++updates_;
+  ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), stats.observations, stats.matched,
+            stats.created, stats.neff, stats.resampled ? ", resampled" : "");
+  odometry_.dropBefore(t - 1.0);
+  last_processed_stamp_ = msg.header.stamp;
+  publish(msg.header.stamp, odom_pose);
+}
+
+void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
+{
+  const core::Particle& best = filter_->best();
+
+  if (config_.publish_tf)
+  {
+    const core::Pose2 map_to_odom = best.pose * odom_pose.inverse();
+    geometry_msgs::TransformStamped tf;
+    tf.header.stamp = stamp + ros::Duration(config_.transform_tolerance);
+    tf.header.frame_id = config_.map_frame;
+    tf.child_frame_id = config_.odom_frame;
+    tf.transform.translation.x = map_to_odom.x;
+    tf.transform.translation.y = map_to_odom.y;
+    tf.transform.rotation = quaternionOfYaw(map_to_odom.theta);
+    tf_broadcaster_.sendTransform(tf);
+  }
+
+  {
+    auto pose = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+    pose->header.stamp = stamp;
+    pose->header.frame_id = config_.map_frame;
+    pose->pose.pose = toPoseMsg(filter_->meanPose());
+    const Eigen::Matrix3d c = filter_->poseCovariance();
+    const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        pose->pose.covariance[idx[i] * 6 + idx[j]] = c(i, j);
+    pose_pub_.publish(geometry_msgs::PoseWithCovarianceStamped::ConstPtr(pose));
+  }
+
+  if (particles_pub_.getNumSubscribers() > 0)
+  {
+    auto cloud = boost::make_shared<geometry_msgs::PoseArray>();
+    cloud->header.stamp = stamp;
+    cloud->header.frame_id = config_.map_frame;
+    for (const auto& p : filter_->particles())
+      cloud->poses.push_back(toPoseMsg(p.pose));
+    particles_pub_.publish(geometry_msgs::PoseArray::ConstPtr(cloud));
+  }
+
+  {
+    geometry_msgs::PoseStamped ps;
+    ps.header.stamp = stamp;
+    ps.header.frame_id = config_.map_frame;
+    ps.pose = toPoseMsg(best.pose);
+    path_.header.stamp = stamp;
+    path_.poses.push_back(ps);
+    if (path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
+      path_.poses.erase(path_.poses.begin());
+    if (path_pub_.getNumSubscribers() > 0)
+      path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
+  }
+
+  {
+    auto array = boost::make_shared<rbpf_slam::TrunkArray>();
+    array->header.stamp = stamp;
+    array->header.frame_id = config_.map_frame;
+    for (std::size_t i = 0; i < best.map.size(); ++i)
+    {
+      const core::Landmark& l = best.map[i];
+      rbpf_slam::Trunk t;
+      t.center.x = l.mean.x();
+      t.center.y = l.mean.y();
+      t.radius = l.radius;
+      t.radius_variance = l.radius_variance;
+      t.range = l.mean.norm();
+      t.bearing = std::atan2(l.mean.y(), l.mean.x());
+      t.covariance[0] = l.covariance(0, 0);
+      t.covariance[1] = l.covariance(0, 1);
+      t.covariance[2] = l.covariance(1, 0);
+      t.covariance[3] = l.covariance(1, 1);
+      t.num_points = static_cast<std::uint32_t>(std::max(0, l.observations));
+      t.score = l.provisional ? 0.5f : 1.0f;
+      t.method = rbpf_slam::Trunk::METHOD_GIVEN;
+      t.id = l.id;
+      array->trunks.push_back(t);
+    }
+    landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(array));
+  }
+
+  if (landmarks_pub_.getNumSubscribers() > 0)
+  {
+    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
+    visualization_msgs::Marker clear;
+    clear.header.stamp = stamp;
+    clear.header.frame_id = config_.map_frame;
+    clear.action = visualization_msgs::Marker::DELETEALL;
+    markers->markers.push_back(clear);
+    for (std::size_t i = 0; i < best.map.size(); ++i)
+    {
+      const core::Landmark& l = best.map[i];
+      visualization_msgs::Marker m;
+      m.header = clear.header;
+      m.ns = "landmarks";
+      m.id = l.id;
+      m.type = visualization_msgs::Marker::CYLINDER;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose.position.x = l.mean.x();
+      m.pose.position.y = l.mean.y();
+      m.pose.position.z = 1.0;
+      m.pose.orientation.w = 1.0;
+      m.scale.x = m.scale.y = std::max(0.02, 2.0 * l.radius);
+      m.scale.z = 2.0;
+      m.color.a = 0.8f;
+      if (l.provisional)  // yellow
+      {
+        m.color.r = 1.0f;
+        m.color.g = 0.85f;
+      }
+      else  // brown-green
+      {
+        m.color.r = 0.2f;
+        m.color.g = 0.7f;
+        m.color.b = 0.2f;
+      }
+      markers->markers.push_back(m);
+
+      // 2-sigma ellipse of the centre's covariance.
+      visualization_msgs::Marker e;
+      e.header = clear.header;
+      e.ns = "landmark_covariance";
+      e.id = l.id;
+      e.type = visualization_msgs::Marker::LINE_STRIP;
+      e.action = visualization_msgs::Marker::ADD;
+      e.pose.orientation.w = 1.0;
+      e.scale.x = 0.02;
+      e.color = m.color;
+      e.color.a = 1.0f;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
+      const Eigen::Vector2d ev = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt() * 2.0;
+      const Eigen::Matrix2d axes = eig.eigenvectors();
+      for (int k = 0; k <= 36; ++k)
+      {
+        const double a = 2.0 * M_PI * k / 36.0;
+        const Eigen::Vector2d p = l.mean + axes * Eigen::Vector2d(ev.x() * std::cos(a), ev.y() * std::sin(a));
+        geometry_msgs::Point q;
+        q.x = p.x();
+        q.y = p.y();
+        q.z = 0.05;
+        e.points.push_back(q);
+      }
+      markers->markers.push_back(e);
+    }
+    landmarks_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(markers));
+  }
+}
+
+bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
+{
+  const std::string target = expandHome(path);
+  const std::size_t slash = target.rfind('/');
+  if (slash != std::string::npos && !makeDirectories(target.substr(0, slash)))
+  {
+    *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
+    return false;
+  }
+  const std::string temp = target + ".tmp." + std::to_string(static_cast<long>(::getpid()));
+  std::size_t trees = 0;
+  {
+    std::ofstream out(temp);
+    if (!out)
+    {
+      *message = "cannot write " + temp + ": " + std::strerror(errno);
+      return false;
+    }
+    out << "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations\n";
+    char line[256];
+    if (initialized_)
+    {
+      const core::Particle& best = filter_->best();
+      for (std::size_t i = 0; i < best.map.size(); ++i)
+      {
+        const core::Landmark& l = best.map[i];
+        std::snprintf(line, sizeof(line), "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", l.id, l.mean.x(), l.mean.y(),
+                      2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
+                      std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
+                      l.observations);
+        out << line;
+        ++trees;
+      }
+    }
+    out.close();
+    if (!out)
+    {
+      *message = "writing " + temp + " failed";
+      std::remove(temp.c_str());
+      return false;
+    }
+  }
+  if (std::rename(temp.c_str(), target.c_str()) != 0)
+  {
+    *message = "cannot rename " + temp + " to " + target + ": " + std::strerror(errno);
+    std::remove(temp.c_str());
+    return false;
+  }
+  *message = std::to_string(trees) + " trees written to " + target;
+  return true;
+}
+
+bool FastSlamRos::onSaveInventory(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string path = config_.inventory_path;
+  pnh_.getParam("inventory_path", path);  // may have changed since the start
+  res.success = writeInventory(path, &res.message);
+  if (res.success)
+    ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
+  else
+    ROS_ERROR("%s: save_inventory: %s", name_.c_str(), res.message.c_str());
+  return true;
+}
+
+}  // namespace rbpf_slam

@@ -1,0 +1,74 @@
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/io/fastslam_config.h"
+
+using namespace rbpf_slam;
+
+TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
+{
+  // config/fastslam.yaml documents the defaults; reading it must change nothing.
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
+  core::FastSlamConfig read, defaults;
+  io::readFastSlamConfig(params, &read);
+  EXPECT_EQ(read.particles, defaults.particles);
+  EXPECT_EQ(read.motion.alpha1, defaults.motion.alpha1);
+  EXPECT_EQ(read.motion.alpha2, defaults.motion.alpha2);
+  EXPECT_EQ(read.motion.alpha3, defaults.motion.alpha3);
+  EXPECT_EQ(read.motion.alpha4, defaults.motion.alpha4);
+  EXPECT_EQ(read.range_sigma_floor, defaults.range_sigma_floor);
+  EXPECT_EQ(read.bearing_sigma_floor, defaults.bearing_sigma_floor);
+  EXPECT_EQ(read.min_range, defaults.min_range);
+  EXPECT_EQ(read.max_range, defaults.max_range);
+  EXPECT_NEAR(read.field_of_view, defaults.field_of_view, 1e-12);
+  EXPECT_EQ(read.association_gate, defaults.association_gate);
+  EXPECT_EQ(read.use_radius, defaults.use_radius);
+  EXPECT_EQ(read.radius_sigma_floor, defaults.radius_sigma_floor);
+  EXPECT_EQ(read.min_trunk_gap, defaults.min_trunk_gap);
+  EXPECT_EQ(read.evidence_hit, defaults.evidence_hit);
+  EXPECT_EQ(read.evidence_miss, defaults.evidence_miss);
+  EXPECT_EQ(read.evidence_max, defaults.evidence_max);
+  EXPECT_EQ(read.delete_evidence, defaults.delete_evidence);
+  EXPECT_EQ(read.confirm_observations, defaults.confirm_observations);
+  EXPECT_EQ(read.resample_threshold, defaults.resample_threshold);
+  EXPECT_EQ(read.roughening, defaults.roughening);
+  EXPECT_EQ(read.roughening_sigma_xy, defaults.roughening_sigma_xy);
+  EXPECT_EQ(read.roughening_sigma_theta, defaults.roughening_sigma_theta);
+  EXPECT_EQ(read.seed, defaults.seed);
+  // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
+  for (const auto& k : params.unusedKeys())
+    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
+                k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses")
+        << "unexpected key " << k;
+}
+
+TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
+{
+  const std::string path = std::string(::testing::TempDir()) + "fastslam_bad.yaml";
+  std::ofstream(path) << "motion:\n  alpha3: lots\n";
+  core::FastSlamConfig c;
+  try
+  {
+    io::readFastSlamConfig(io::YamlParamSource(path), &c);
+    FAIL() << "no error for a non-number alpha3";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("motion/alpha3"), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << "particles: 0\n";
+  try
+  {
+    io::readFastSlamConfig(io::YamlParamSource(path), &c);
+    FAIL() << "no error for zero particles";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("particles"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
+}

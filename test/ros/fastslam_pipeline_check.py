@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""rostest node: FastSLAM on the simulator's trunks ends near the ground truth.
+
+Runs beside fastslam_pipeline.test (forest_sim in lockstep -> trunk extraction -> FastSLAM, one manager).
+"""
+import bisect
+import math
+import os
+import tempfile
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from nav_msgs.msg import Odometry
+from rbpf_slam.msg import TrunkArray
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+
+
+def yaw_of(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+class FastSlamPipelineCheck(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.lock = threading.Lock()
+        cls.truth = []  # (stamp seconds, x, y)
+        cls.odom = []  # the same, of the wheel odometry (its frame starts at the truth's map frame)
+        cls.landmarks = None
+        cls.done = False
+        cls.tf_buffer = tf2_ros.Buffer(rospy.Duration(60.0))
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
+
+        def on_truth(msg):
+            p = msg.pose.pose.position
+            with cls.lock:
+                cls.truth.append((msg.header.stamp.to_sec(), p.x, p.y))
+
+        def on_odom(msg):
+            p = msg.pose.pose.position
+            with cls.lock:
+                cls.odom.append((msg.header.stamp.to_sec(), p.x, p.y))
+
+        def on_landmarks(msg):
+            with cls.lock:
+                cls.landmarks = msg
+
+        def on_done(msg):
+            cls.done = cls.done or msg.data
+
+        cls.subs = [
+            rospy.Subscriber('ground_truth/odom', Odometry, on_truth, queue_size=200),
+            rospy.Subscriber('odom', Odometry, on_odom, queue_size=200),
+            rospy.Subscriber('landmark_array', TrunkArray, on_landmarks, queue_size=2),
+            rospy.Subscriber('sim_done', Bool, on_done),
+        ]
+        t0 = time.time()
+        while not rospy.is_shutdown() and not cls.done and time.time() - t0 < 80.0:
+            time.sleep(0.1)
+        cls.wall = time.time() - t0
+        time.sleep(1.0)  # the last arrays (their odometry waits up to odom_timeout)
+
+    def test_1_sim_finished(self):
+        self.assertTrue(self.done, 'no sim_done within 80 s wall time')
+
+    def test_2_map_to_odom_exists(self):
+        self.assertTrue(self.tf_buffer.can_transform('map', 'odom', rospy.Time(0), rospy.Duration(2.0)),
+                        'no TF map -> odom')
+
+    def test_3_landmarks_created(self):
+        with self.lock:
+            lm = self.landmarks
+        self.assertIsNotNone(lm, 'no landmark_array')
+        self.assertEqual(lm.header.frame_id, 'map')
+        self.assertGreaterEqual(len(lm.trunks), 3)
+        ids = [t.id for t in lm.trunks]
+        self.assertEqual(len(ids), len(set(ids)))
+
+    @staticmethod
+    def position_at(samples, stamp):
+        stamps = [s for s, _, _ in samples]
+        i = min(max(bisect.bisect_left(stamps, stamp), 1), len(samples) - 1)
+        (s0, x0, y0), (s1, x1, y1) = samples[i - 1], samples[i]
+        a = 0.0 if s1 <= s0 else min(1.0, max(0.0, (stamp - s0) / (s1 - s0)))
+        return x0 + a * (x1 - x0), y0 + a * (y1 - y0)
+
+    def test_4_final_pose_near_truth(self):
+        t = self.tf_buffer.lookup_transform('map', 'base_link', rospy.Time(0), rospy.Duration(2.0))
+        stamp = t.header.stamp.to_sec()
+        with self.lock:
+            truth = list(self.truth)
+            odom = list(self.odom)
+        self.assertGreater(len(truth), 10, 'no ground truth')
+        self.assertGreater(len(odom), 10, 'no odometry')
+        tx, ty = self.position_at(truth, stamp)
+        ox, oy = self.position_at(odom, stamp)
+        ex, ey = t.transform.translation.x, t.transform.translation.y
+        error = math.hypot(ex - tx, ey - ty)
+        rospy.loginfo('fastslam_pipeline: final position error %.3f m (odometry alone %.3f m) at t=%.2f (estimate '
+                      '%.2f %.2f, truth %.2f %.2f, travelled %.1f m, %.1f s wall)', error, math.hypot(ox - tx, oy - ty),
+                      stamp, ex, ey, tx, ty, math.hypot(tx, ty), self.wall)
+        self.assertGreater(math.hypot(tx, ty), 5.0, 'the robot did not drive')
+        self.assertLess(error, 0.5)
+        # Odometry drifts about 0.4 m over this drive: the map must have done better.
+        self.assertLess(error, math.hypot(ox - tx, oy - ty))
+
+    def test_5_save_inventory(self):
+        rospy.wait_for_service('fastslam/save_inventory', 5.0)
+        path = os.path.join(tempfile.mkdtemp(), 'sub', 'trees.csv')
+        rospy.set_param('fastslam/inventory_path', path)
+        res = rospy.ServiceProxy('fastslam/save_inventory', Trigger)()
+        self.assertTrue(res.success, res.message)
+        with open(path) as f:
+            lines = f.read().splitlines()
+        self.assertEqual(lines[0], 'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations')
+        self.assertGreaterEqual(len(lines), 4)
+        for line in lines[1:]:
+            cols = line.split(',')
+            self.assertEqual(len(cols), 8)
+            self.assertGreater(float(cols[3]), 0.0)
+
+
+if __name__ == '__main__':
+    rospy.init_node('fastslam_pipeline_check')
+    rostest.rosrun('rbpf_slam', 'fastslam_pipeline', FastSlamPipelineCheck)
