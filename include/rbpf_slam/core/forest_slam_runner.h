@@ -8,6 +8,7 @@
 #include "rbpf_slam/core/forest_world.h"
 #include "rbpf_slam/core/scenario.h"
 #include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {

@@ -1,0 +1,77 @@
+#ifndef RBPF_SLAM_CORE_TRUNK_SLAM_PIPELINE_H
+#define RBPF_SLAM_CORE_TRUNK_SLAM_PIPELINE_H
+
+#include <deque>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/odometry_buffer.h"
+#include "rbpf_slam/core/trunk_detector.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief The lidar on base_link: planar pose and height (for the lever arm on a tilted body). */
+struct SensorMount
+{
+  double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0;
+};
+
+/** @brief One sweep after extraction and the filter update. */
+struct PipelineUpdate
+{
+  double stamp = 0.0;                 ///< [s] the sweep's middle, where the filter updated
+  Pose2 odometry;                     ///< odometry at that instant
+  std::vector<TrunkObservation> trunks;  ///< as extracted (sensor frame, levelled)
+  FastSlamUpdateStats stats;
+};
+
+/**
+ * @brief Trunk extraction and FastSLAM on sweeps and wheel odometry, shared by every offline runner (the
+ * simulator runner and the bag runner), ROS-free.
+ *
+ * Odometry may arrive late: a sweep waits until odometry covers its end. Each trunk is seen at its own
+ * instant of the sweep (a spinning lidar reaches bearing b at (b + pi) / 2 pi of the sweep, starting
+ * behind); it is carried to the sweep's middle by the odometry between the two instants, and the filter
+ * updates there. On a tilted body the lidar on its mast is not above base_link: the tilt estimated by the
+ * detector moves the trunks by mount.z * (tan pitch, -tan roll).
+ */
+class TrunkSlamPipeline
+{
+public:
+  TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter, const SensorMount& mount);
+
+  /** @brief False (sample dropped) when the stamp goes backwards. */
+  bool addOdometry(double stamp, const Pose2& pose);
+  /** @brief Extracts the trunks now (points in the sensor frame) and queues the sweep for the filter. */
+  void addSweep(double stamp, double period, const std::vector<Eigen::Vector3f>& points);
+  /** @brief Runs the filter on the queued sweeps that odometry covers (all of them with @p flush). */
+  std::vector<PipelineUpdate> process(bool flush = false);
+
+  const FastSlam& filter() const { return filter_; }
+  double secondsExtraction() const { return seconds_extraction_; }
+  double secondsFilter() const { return seconds_filter_; }
+
+private:
+  struct Pending
+  {
+    double stamp, period;
+    std::vector<TrunkObservation> trunks;
+  };
+  TrunkDetector detector_;
+  FastSlam filter_;
+  SensorMount mount_;
+  OdometryBuffer odometry_;
+  std::deque<Pending> pending_;
+  bool initialized_ = false;
+  Pose2 last_odometry_;
+  double seconds_extraction_ = 0.0, seconds_filter_ = 0.0;
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_TRUNK_SLAM_PIPELINE_H
