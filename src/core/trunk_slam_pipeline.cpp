@@ -34,21 +34,47 @@ void TrunkSlamPipeline::addSweep(double stamp, double period, const std::vector<
   p.stamp = stamp;
   p.period = period;
   p.trunks = detector_.detect(points, Eigen::Matrix3d::Identity(), &stats);
-  const Eigen::Vector2d lever = mount_.z * Eigen::Vector2d(std::tan(stats.tilt_pitch), -std::tan(stats.tilt_roll));
-  for (auto& t : p.trunks)
+  p.tilt_roll = stats.tilt_roll;
+  p.tilt_pitch = stats.tilt_pitch;
+  pending_.push_back(std::move(p));
+  seconds_extraction_ += since(t0);
+}
+
+std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
+                                                   double period, double tilt_roll, double tilt_pitch,
+                                                   const SensorMount& mount, const OdometryBuffer& odometry,
+                                                   double t_ref)
+{
+  const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
+  const Eigen::Vector2d lever = mount.z * Eigen::Vector2d(std::tan(tilt_pitch), -std::tan(tilt_roll));
+  const Pose2 sensor_ref = odometry.at(t_ref) * mount_pose;
+  const Pose2 sensor_ref_inv = sensor_ref.inverse();
+  std::vector<LandmarkObservation> obs;
+  obs.reserve(trunks.size());
+  for (const auto& t0 : trunks)
   {
+    TrunkObservation t = t0;
     t.center += lever;
     t.range = t.center.norm();
     t.bearing = std::atan2(t.center.y(), t.center.x());
+    const double t_obs = stamp + period * (wrapAngle(t.bearing) + M_PI) / (2.0 * M_PI);
+    const Pose2 sensor_obs = odometry.at(t_obs) * mount_pose;
+    double wx = 0.0, wy = 0.0, mx = 0.0, my = 0.0;
+    sensor_obs.transformPoint(t.center.x(), t.center.y(), &wx, &wy);
+    sensor_ref_inv.transformPoint(wx, wy, &mx, &my);
+    TrunkObservation moved = t;
+    moved.center = Eigen::Vector2d(mx, my);
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(sensor_obs.theta - sensor_ref.theta).toRotationMatrix();
+    moved.covariance = R * t.covariance * R.transpose();
+    obs.push_back(toLandmarkObservation(moved));
   }
-  pending_.push_back(std::move(p));
-  seconds_extraction_ += since(t0);
+  return obs;
 }
 
 std::vector<PipelineUpdate> TrunkSlamPipeline::process(bool flush)
 {
   std::vector<PipelineUpdate> done;
-  const Pose2 mount(mount_.x, mount_.y, mount_.yaw);
+  const Pose2 mount(mount_.x, mount_.y, mount_.yaw);  // the filter's sensor pose on base_link
   while (!pending_.empty() && !odometry_.empty() && (flush || odometry_.covers(pending_.front().stamp + pending_.front().period)))
   {
     Pending ps = std::move(pending_.front());
@@ -64,23 +90,8 @@ std::vector<PipelineUpdate> TrunkSlamPipeline::process(bool flush)
     }
     filter_.predict(decomposeOdometry(last_odometry_, odom_mid));
     last_odometry_ = odom_mid;
-    std::vector<LandmarkObservation> obs;
-    obs.reserve(ps.trunks.size());
-    const Pose2 sensor_mid = odom_mid * mount;
-    const Pose2 sensor_mid_inv = sensor_mid.inverse();
-    for (const auto& t : ps.trunks)
-    {
-      const double t_obs = ps.stamp + ps.period * (wrapAngle(t.bearing) + M_PI) / (2.0 * M_PI);
-      const Pose2 sensor_obs = odometry_.at(t_obs) * mount;
-      double wx = 0.0, wy = 0.0, mx = 0.0, my = 0.0;
-      sensor_obs.transformPoint(t.center.x(), t.center.y(), &wx, &wy);
-      sensor_mid_inv.transformPoint(wx, wy, &mx, &my);
-      TrunkObservation moved = t;
-      moved.center = Eigen::Vector2d(mx, my);
-      const Eigen::Matrix2d R = Eigen::Rotation2Dd(sensor_obs.theta - sensor_mid.theta).toRotationMatrix();
-      moved.covariance = R * t.covariance * R.transpose();
-      obs.push_back(toLandmarkObservation(moved));
-    }
+    const std::vector<LandmarkObservation> obs =
+        sweepObservations(ps.trunks, ps.stamp, ps.period, ps.tilt_roll, ps.tilt_pitch, mount_, odometry_, t_mid);
     PipelineUpdate u;
     u.stats = filter_.update(obs, mount);
     u.stamp = t_mid;

@@ -1,5 +1,7 @@
 #include "rbpf_slam/ros/fastslam_node.h"
 
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -258,7 +260,8 @@ void FastSlamRos::processPending()
   while (!pending_.empty())
   {
     const Pending& front = pending_.front();
-    const double t = front.msg->header.stamp.toSec();
+    const double period = std::isfinite(front.msg->sweep_period) ? std::max(0.0, front.msg->sweep_period) : 0.0;
+    const double t = front.msg->header.stamp.toSec() + period;  // the end of the sweep
     if (!odometry_.covers(t))
     {
       if (odometry_.empty() || (ros::WallTime::now() - front.arrival).toSec() < config_.odom_timeout)
@@ -297,8 +300,10 @@ bool FastSlamRos::sensorPose(const std::string& frame, core::Pose2* pose)
                       config_.base_frame.c_str(), e.what());
     return false;
   }
-  // The planar part: the trunks are levelled in the sensor frame, so only x, y and the heading matter.
+  // The planar part: the trunks are levelled in the sensor frame, so x, y and the heading matter, and the
+  // height for the lever arm of a tilted body.
   sensor_pose_ = core::Pose2(t.transform.translation.x, t.transform.translation.y, yawOf(t.transform.rotation));
+  sensor_height_ = t.transform.translation.z;
   sensor_frame_ = frame;
   have_sensor_pose_ = true;
   *pose = sensor_pose_;
@@ -310,7 +315,13 @@ void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
   core::Pose2 sensor;
   if (!sensorPose(msg.header.frame_id, &sensor))
     return;
-  const double t = msg.header.stamp.toSec();
+  // The filter updates at the sweep's middle; each trunk is carried there from its own instant in the
+  // sweep and moved by the lever arm of the tilt the extractor removed (sweep_period and tilt from the
+  // TrunkArray; 0 = all trunks at the stamp, no tilt).
+  const double period = std::isfinite(msg.sweep_period) ? std::max(0.0, msg.sweep_period) : 0.0;
+  const double tilt_roll = std::isfinite(msg.tilt_roll) ? msg.tilt_roll : 0.0;
+  const double tilt_pitch = std::isfinite(msg.tilt_pitch) ? msg.tilt_pitch : 0.0;
+  const double t = msg.header.stamp.toSec() + 0.5 * period;
   const core::Pose2 odom_pose = odometry_.at(t);
   if (!initialized_)
   {
@@ -322,25 +333,29 @@ void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
   filter_->predict(core::decomposeOdometry(last_odom_pose_, odom_pose));
   last_odom_pose_ = odom_pose;
 
-  // Each trunk as seen at the array's stamp: the per-column deskew (each trunk carried from its own
-  // column time to a common instant) and the lever-arm correction from the sensor's estimated tilt, which
-  // the in-process runner does, need the sweep period and the tilt, which TrunkArray does not carry.
-  std::vector<core::LandmarkObservation> observations;
-  observations.reserve(msg.trunks.size());
+  std::vector<core::TrunkObservation> trunks;
+  trunks.reserve(msg.trunks.size());
   for (const auto& trunk : msg.trunks)
   {
     const core::TrunkObservation o = fromMsg(trunk);
     if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
       continue;
-    observations.push_back(core::toLandmarkObservation(o));
+    trunks.push_back(o);
   }
+  core::SensorMount mount;
+  mount.x = sensor.x;
+  mount.y = sensor.y;
+  mount.yaw = sensor.theta;
+  mount.z = sensor_height_;
+  const std::vector<core::LandmarkObservation> observations = core::sweepObservations(
+      trunks, msg.header.stamp.toSec(), period, tilt_roll, tilt_pitch, mount, odometry_, t);
   const core::FastSlamUpdateStats stats = filter_->update(observations, sensor);
   ++updates_;
   ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), stats.observations, stats.matched,
             stats.created, stats.neff, stats.resampled ? ", resampled" : "");
   odometry_.dropBefore(t - 1.0);
   last_processed_stamp_ = msg.header.stamp;
-  publish(msg.header.stamp, odom_pose);
+  publish(ros::Time(t), odom_pose);
 }
 
 void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)

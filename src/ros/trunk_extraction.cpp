@@ -429,7 +429,18 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
       trunks.clear();
     }
   }
-  publish(msg->header, trunks, stats, band_height, "cloud");
+  // The sweep's duration from the per-point times (VLP-16 drivers and the simulator give a float32 "time"
+  // after the stamp), so that consumers can carry each trunk to one instant.
+  double sweep_period = 0.0;
+  for (const auto& f : msg->fields)
+    if (f.name == "time" && f.datatype == sensor_msgs::PointField::FLOAT32 && !points.empty())
+    {
+      for (sensor_msgs::PointCloud2ConstIterator<float> t(*msg, "time"); t != t.end(); ++t)
+        if (std::isfinite(*t))
+          sweep_period = std::max(sweep_period, static_cast<double>(*t));
+      break;
+    }
+  publish(msg->header, trunks, stats, band_height, "cloud", sweep_period);
 }
 
 void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
@@ -474,10 +485,14 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
 }
 
 void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
-                              const core::TrunkDetectorStats& stats, double band_height, const char* input)
+                              const core::TrunkDetectorStats& stats, double band_height, const char* input,
+                              double sweep_period)
 {
   auto out = boost::make_shared<rbpf_slam::TrunkArray>();
   out->header = header;
+  out->sweep_period = sweep_period;
+  out->tilt_roll = stats.tilt_roll;
+  out->tilt_pitch = stats.tilt_pitch;
   out->trunks.reserve(trunks.size());
   for (const auto& t : trunks)
     out->trunks.push_back(toMsg(t));

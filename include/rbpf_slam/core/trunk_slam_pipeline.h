@@ -30,6 +30,17 @@ struct PipelineUpdate
 };
 
 /**
+ * @brief The observations of one sweep at the instant @p t_ref: each trunk (sensor frame, levelled, seen
+ * during the sweep that starts at @p stamp and lasts @p period) is moved by the lever arm of the tilt the
+ * detector removed (mount.z * (tan pitch, -tan roll)), then carried from its own instant (bearing b at
+ * (b + pi) / 2 pi of the sweep) to @p t_ref by the odometry between the two.
+ */
+std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
+                                                   double period, double tilt_roll, double tilt_pitch,
+                                                   const SensorMount& mount, const OdometryBuffer& odometry,
+                                                   double t_ref);
+
+/**
  * @brief Trunk extraction and FastSLAM on sweeps and wheel odometry, shared by every offline runner (the
  * simulator runner and the bag runner), ROS-free.
  *
@@ -58,7 +69,7 @@ public:
 private:
   struct Pending
   {
-    double stamp, period;
+    double stamp, period, tilt_roll, tilt_pitch;
     std::vector<TrunkObservation> trunks;
   };
   TrunkDetector detector_;

@@ -53,8 +53,9 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
  *   only when subscribed).
  * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV).
  *
- * Not done here (the message lacks what they need): carrying each trunk from its own column time to a
- * common instant (deskew), and the lever-arm correction from the sensor's tilt.
+ * Each TrunkArray updates the filter at its sweep's middle: core::sweepObservations() carries every trunk
+ * from its own instant in the sweep (sweep_period) and corrects the lever arm of the removed tilt
+ * (tilt_roll, tilt_pitch, the sensor's height on base_link from TF).
  */
 class FastSlamRos
 {
@@ -95,6 +96,7 @@ private:
   ros::Time last_processed_stamp_;
   std::string sensor_frame_;
   core::Pose2 sensor_pose_;
+  double sensor_height_ = 0.0;  ///< [m] of the sensor above base_link (lever arm of a tilted body)
   bool have_sensor_pose_ = false;
   std::size_t updates_ = 0;
 

@@ -59,7 +59,7 @@ private:
   Eigen::Matrix3d levelRotation(const std::string& frame, const ros::Time& stamp);
   bool anyOutputSubscribed() const;
   void publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
-               const core::TrunkDetectorStats& stats, double band_height, const char* input);
+               const core::TrunkDetectorStats& stats, double band_height, const char* input, double sweep_period = 0.0);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;  ///< for log messages: the private namespace
