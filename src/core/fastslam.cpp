@@ -200,7 +200,7 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       if (!(d2 < c.association_gate))
         continue;
       double value = -0.5 * d2 - kLog2Pi - 0.5 * std::log(S.determinant());
-      if (c.use_radius && obs[i].radius_variance > 0.0 && l.observations > 0)
+      if (c.use_radius && obs[i].radius_variance > 0.0 && l.radius_variance > 0.0)
       {
         const double var = obs[i].radius_variance + l.radius_variance + c.radius_sigma_floor * c.radius_sigma_floor;
         const double dr = obs[i].radius - l.radius;
@@ -288,17 +288,9 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     Eigen::Matrix2d G;  // d(landmark) / d(range, bearing)
     G << std::cos(a), -obs[i].range * std::sin(a), std::sin(a), obs[i].range * std::cos(a);
     l.covariance = G * R[i] * G.transpose();
-    if (obs[i].radius_variance > 0.0)
-    {
-      l.radius = obs[i].radius;
-      l.radius_variance = obs[i].radius_variance;
-    }
-    else
-    {
-      l.radius = obs[i].radius;
-      l.radius_variance = 0.0;
-    }
-    l.observations = obs[i].radius_variance > 0.0 ? 1 : 1;
+    l.radius = obs[i].radius;
+    l.radius_variance = std::max(0.0, obs[i].radius_variance);  // 0: the radius is not known yet
+    l.observations = 1;
     l.evidence = c.evidence_hit;
     l.provisional = c.confirm_observations > 1;
     l.id = next_id_++;

@@ -32,12 +32,9 @@ ForestSlamRunResult runForestSlam(const ForestWorld& world, const ForestSlamRunC
   const Pose2 inv_start = start.inverse();
   for (const auto& t : world.trunks)
   {
-    const double bh = 1.3;
     MapPoint mp;
-    const Eigen::Vector3d axis = Eigen::Vector3d(t.lean_x, t.lean_y, 1.0).normalized();
-    const double s = bh / axis.z();
-    inv_start.transformPoint(t.x + s * axis.x(), t.y + s * axis.y(), &mp.position.x(), &mp.position.y());
-    mp.radius = t.radius - t.taper * s;
+    const Eigen::Vector3d c = trunkAxisAt(t, ground.height(t.x, t.y), 1.3, &mp.radius);  // breast height
+    inv_start.transformPoint(c.x(), c.y(), &mp.position.x(), &mp.position.y());
     res.trees.push_back(mp);
   }
   res.tree_seen.assign(res.trees.size(), false);

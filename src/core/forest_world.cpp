@@ -323,6 +323,15 @@ Eigen::Vector2d Ground::gradient(double x, double y) const
   return amplitude_ / kWaves * g;
 }
 
+Eigen::Vector3d trunkAxisAt(const TrunkSpec& t, double ground_z, double height, double* radius)
+{
+  const Eigen::Vector3d axis = Eigen::Vector3d(t.lean_x, t.lean_y, 1.0).normalized();
+  const double s = height / axis.z();  // distance along the axis
+  if (radius)
+    *radius = std::max(0.0, t.radius - t.taper * s);
+  return Eigen::Vector3d(t.x, t.y, ground_z) + s * axis;
+}
+
 void addClutter(const ClutterSpec& spec, ForestWorld* world)
 {
   checkSpec(spec, world);

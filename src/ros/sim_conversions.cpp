@@ -186,14 +186,12 @@ rbpf_slam::TrunkArray::Ptr toTruthTrees(const core::ForestWorld& world, const co
     rbpf_slam::Trunk trunk;
     // The trunk's centre at breast height (1.3 m above the ground at its foot), where extraction
     // measures it; the axis is (lean_x, lean_y, 1) normalised, the radius shrinks by taper per metre.
-    const double bh = 1.3;
-    const Eigen::Vector3d axis = Eigen::Vector3d(t.lean_x, t.lean_y, 1.0).normalized();
-    const double s = bh / axis.z();
-    const Eigen::Vector3d c = to_map * (Eigen::Vector3d(t.x, t.y, ground.height(t.x, t.y)) + s * axis);
+    double radius = 0.0;
+    const Eigen::Vector3d c = to_map * core::trunkAxisAt(t, ground.height(t.x, t.y), 1.3, &radius);
     trunk.center.x = c.x();
     trunk.center.y = c.y();
     trunk.center.z = c.z();
-    trunk.radius = std::max(0.0, t.radius - t.taper * s);
+    trunk.radius = radius;
     trunk.range = std::hypot(trunk.center.x, trunk.center.y);
     trunk.bearing = std::atan2(trunk.center.y, trunk.center.x);
     trunk.score = 1.0f;

@@ -21,20 +21,6 @@ namespace rbpf_slam
 {
 namespace
 {
-/** @brief Reads one key; a value of the wrong type is reported (naming the key) and @p value kept. */
-template <typename T>
-void readKey(const RosParamSource& params, const std::string& key, T* value)
-{
-  try
-  {
-    params.get(key, value);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s; keeping %s at its default", e.what(), key.c_str());
-  }
-}
-
 /** @brief Every field of the detector's configuration, from parameters named like the fields. */
 core::TrunkDetectorConfig readDetectorConfig(const ros::NodeHandle& pnh)
 {

@@ -24,6 +24,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/io/run_output.h"
 
 using namespace rbpf_slam;
 
@@ -32,12 +33,6 @@ namespace
 double yawOf(const geometry_msgs::Quaternion& q)
 {
   return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
-
-void writeTum(std::ofstream& out, double t, const core::Pose2& p)
-{
-  out << t << ' ' << p.x << ' ' << p.y << " 0 0 0 " << std::sin(0.5 * p.theta) << ' ' << std::cos(0.5 * p.theta)
-      << '\n';
 }
 
 void usage(const char* argv0)
@@ -160,8 +155,8 @@ int main(int argc, char** argv)
         ++updates;
         if (est.is_open())
         {
-          writeTum(est, u.stamp, pipeline.filter().best().pose);
-          writeTum(odo, u.stamp, u.odometry);
+          io::writeTumLine(est, u.stamp, pipeline.filter().best().pose);
+          io::writeTumLine(odo, u.stamp, u.odometry);
         }
       }
     };
@@ -205,16 +200,10 @@ int main(int argc, char** argv)
     const core::Particle& best = pipeline.filter().best();
     if (!out_dir.empty())
     {
-      std::ofstream map(out_dir + "/map.csv");
-      map.precision(9);
-      map << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
+      std::vector<core::Landmark> landmarks;
       for (std::size_t i = 0; i < best.map.size(); ++i)
-      {
-        const core::Landmark& l = best.map[i];
-        map << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
-            << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
-            << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
-      }
+        landmarks.push_back(best.map[i]);
+      io::writeLandmarksCsv(out_dir + "/map.csv", landmarks);
     }
     if (!quiet)
     {

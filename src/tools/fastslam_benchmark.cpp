@@ -15,6 +15,7 @@
 
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/path_follower.h"
+#include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/io/world_file.h"
 
 using namespace rbpf_slam;
@@ -30,18 +31,6 @@ double worst(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
 }
-/** Writes a trajectory in the TUM format (t x y z qx qy qz qw) that evo reads. */
-void writeTum(const std::string& path, const std::vector<double>& t, const std::vector<core::Pose2>& poses)
-{
-  std::ofstream out(path);
-  out.precision(9);
-  for (std::size_t i = 0; i < poses.size() && i < t.size(); ++i)
-    out << t[i] << ' ' << poses[i].x << ' ' << poses[i].y << " 0 0 0 " << std::sin(0.5 * poses[i].theta) << ' '
-        << std::cos(0.5 * poses[i].theta) << '\n';
-  if (!out)
-    throw std::runtime_error(path + ": cannot write");
-}
-
 std::string jsonStats(const char* name, const std::vector<double>& v, bool larger_is_worse = true)
 {
   std::ostringstream o;
@@ -147,15 +136,10 @@ int main(int argc, char** argv)
       {
         mkdir(out_dir.c_str(), 0755);
         const std::string base = out_dir + "/seed" + std::to_string(s);
-        writeTum(base + "_estimate.tum", r.stamps, r.estimate);
-        writeTum(base + "_odometry.tum", r.stamps, r.odometry);
-        writeTum(base + "_truth.tum", r.stamps, r.truth);
-        std::ofstream map(base + "_map.csv");
-        map << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
-        for (const auto& l : r.landmarks)
-          map << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
-              << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
-              << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
+        io::writeTum(base + "_estimate.tum", r.stamps, r.estimate);
+        io::writeTum(base + "_odometry.tum", r.stamps, r.odometry);
+        io::writeTum(base + "_truth.tum", r.stamps, r.truth);
+        io::writeLandmarksCsv(base + "_map.csv", r.landmarks);
         std::ofstream trees(base + "_trees.csv");
         trees << "x,y,radius,seen\n";
         for (std::size_t k = 0; k < r.trees.size(); ++k)

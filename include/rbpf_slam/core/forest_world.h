@@ -87,6 +87,12 @@ struct ForestWorld
   double min_x = 0.0, min_y = 0.0, max_x = 30.0, max_y = 30.0;  ///< [m] stand bounds (for clutter)
 };
 
+/**
+ * @brief The point of @p trunk's axis @p height metres above its foot (the foot at @p ground_z; the axis
+ * leans as the trunk does) in world coordinates, and in @p radius the trunk's radius there (taper).
+ */
+Eigen::Vector3d trunkAxisAt(const TrunkSpec& trunk, double ground_z, double height, double* radius);
+
 /** @brief Adds crowns, bushes, rocks and branches to @p world as @p spec asks (deterministic). */
 void addClutter(const ClutterSpec& spec, ForestWorld* world);
 

@@ -4,7 +4,11 @@
 #include <cstdint>
 #include <string>
 
+#include <exception>
+
 #include <ros/ros.h>
+
+#include "rbpf_slam/ros/ros_param_source.h"
 
 namespace rbpf_slam
 {
@@ -14,6 +18,20 @@ inline std::uint64_t readSeed(const ros::NodeHandle& pnh, int default_seed = 0)
   int seed = default_seed;
   pnh.param("seed", seed, default_seed);
   return static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+}
+
+/** @brief Reads one key; a value of the wrong type is reported (naming the key) and @p value kept. */
+template <typename T>
+void readKey(const RosParamSource& params, const std::string& key, T* value)
+{
+  try
+  {
+    params.get(key, value);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s; keeping %s at its default", e.what(), key.c_str());
+  }
 }
 
 }  // namespace rbpf_slam

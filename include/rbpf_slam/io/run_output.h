@@ -1,0 +1,30 @@
+#ifndef RBPF_SLAM_IO_RUN_OUTPUT_H
+#define RBPF_SLAM_IO_RUN_OUTPUT_H
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/pose2.h"
+
+namespace rbpf_slam
+{
+namespace io
+{
+/** @brief One pose as a TUM trajectory line: t x y z qx qy qz qw (planar: z = 0, rotation about z). */
+void writeTumLine(std::ostream& out, double stamp, const core::Pose2& pose);
+
+/** @brief A whole trajectory in the TUM format (evo reads it). @throws std::runtime_error naming the file. */
+void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses);
+
+/**
+ * @brief Landmarks as CSV: id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional (metres).
+ * @throws std::runtime_error naming the file.
+ */
+void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks);
+
+}  // namespace io
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_IO_RUN_OUTPUT_H

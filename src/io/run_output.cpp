@@ -1,0 +1,42 @@
+#include "rbpf_slam/io/run_output.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+namespace rbpf_slam
+{
+namespace io
+{
+void writeTumLine(std::ostream& out, double stamp, const core::Pose2& p)
+{
+  out << stamp << ' ' << p.x << ' ' << p.y << " 0 0 0 " << std::sin(0.5 * p.theta) << ' ' << std::cos(0.5 * p.theta)
+      << '\n';
+}
+
+void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses)
+{
+  std::ofstream out(path);
+  out.precision(12);
+  for (std::size_t i = 0; i < poses.size() && i < stamps.size(); ++i)
+    writeTumLine(out, stamps[i], poses[i]);
+  if (!out)
+    throw std::runtime_error(path + ": cannot write");
+}
+
+void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)
+{
+  std::ofstream out(path);
+  out.precision(9);
+  out << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
+  for (const auto& l : landmarks)
+    out << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
+        << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
+        << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
+  if (!out)
+    throw std::runtime_error(path + ": cannot write");
+}
+
+}  // namespace io
+}  // namespace rbpf_slam
