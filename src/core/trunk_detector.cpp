@@ -233,6 +233,8 @@ std::string TrunkDetectorConfig::validate() const
     return "arc_radius_prior and arc_radius_sigma must be > 0";
   if (!positive(range_sigma))
     return "range_sigma must be > 0";
+  if (!std::isfinite(range_offset) || std::abs(range_offset) > 1.0)
+    return "range_offset must be finite and within +-1 m";
   if (!(min_range >= 0.0) || !(max_range > min_range))
     return "max_range must be > min_range >= 0";
   if (!(sensor_height >= 0.0))
@@ -793,13 +795,14 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   };
   for (std::size_t i = 0; i < scan.ranges.size(); ++i)
   {
-    const double r = scan.ranges[i];
-    const bool valid = std::isfinite(r) && r >= scan.range_min && r <= scan.range_max && r > 0.0;
+    const double raw = scan.ranges[i];
+    const bool valid = std::isfinite(raw) && raw >= scan.range_min && raw <= scan.range_max && raw > 0.0;
     if (!valid)
     {
       close(static_cast<int>(i) - 1);
       continue;
     }
+    const double r = raw + cfg.range_offset;
     ++st->finite_points;
     const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
     const Eigen::Vector2d p(r * std::cos(a), r * std::sin(a));

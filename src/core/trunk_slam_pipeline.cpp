@@ -40,6 +40,19 @@ void TrunkSlamPipeline::addSweep(double stamp, double period, const std::vector<
   seconds_extraction_ += since(t0);
 }
 
+void TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& scan)
+{
+  const auto t0 = std::chrono::steady_clock::now();
+  Pending p;
+  p.stamp = stamp;
+  p.period = period;
+  p.trunks = detector_.detectScan(scan);
+  p.tilt_roll = 0.0;
+  p.tilt_pitch = 0.0;
+  pending_.push_back(std::move(p));
+  seconds_extraction_ += since(t0);
+}
+
 std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
                                                    double period, double tilt_roll, double tilt_pitch,
                                                    const SensorMount& mount, const OdometryBuffer& odometry,

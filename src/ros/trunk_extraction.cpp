@@ -14,6 +14,7 @@
 #include <tf2/exceptions.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "rbpf_slam/io/trunk_detector_config.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
@@ -21,41 +22,20 @@ namespace rbpf_slam
 {
 namespace
 {
-/** @brief Every field of the detector's configuration, from parameters named like the fields. */
+/** @brief The detector's configuration (io::readTrunkDetectorConfig); the defaults, and an error naming the key,
+ * if invalid. */
 core::TrunkDetectorConfig readDetectorConfig(const ros::NodeHandle& pnh)
 {
   core::TrunkDetectorConfig c;
-  const RosParamSource params(pnh);
-  std::string method = core::trunkMethodName(c.method);
-  readKey(params, "method", &method);
-  if (!core::parseTrunkMethod(method, &c.method))
-    ROS_ERROR("%s must be \"centroid\" or \"circle\", not \"%s\"; keeping %s", pnh.resolveName("method").c_str(),
-              method.c_str(), core::trunkMethodName(c.method));
-  readKey(params, "ground_cell", &c.ground_cell);
-  readKey(params, "ground_max_slope", &c.ground_max_slope);
-  readKey(params, "sensor_height", &c.sensor_height);
-  readKey(params, "min_height", &c.min_height);
-  readKey(params, "max_height", &c.max_height);
-  readKey(params, "voxel_size", &c.voxel_size);
-  readKey(params, "level_by_trunks", &c.level_by_trunks);
-  readKey(params, "cluster_tolerance", &c.cluster_tolerance);
-  readKey(params, "min_points", &c.min_points);
-  readKey(params, "max_points", &c.max_points);
-  readKey(params, "min_radius", &c.min_radius);
-  readKey(params, "max_radius", &c.max_radius);
-  readKey(params, "ransac_threshold", &c.ransac_threshold);
-  readKey(params, "ransac_iterations", &c.ransac_iterations);
-  readKey(params, "min_inlier_ratio", &c.min_inlier_ratio);
-  readKey(params, "min_vertical_extent", &c.min_vertical_extent);
-  readKey(params, "max_tilt", &c.max_tilt);
-  readKey(params, "max_arc_angle", &c.max_arc_angle);
-  readKey(params, "min_fit_points", &c.min_fit_points);
-  readKey(params, "min_fit_arc", &c.min_fit_arc);
-  readKey(params, "arc_radius_prior", &c.arc_radius_prior);
-  readKey(params, "arc_radius_sigma", &c.arc_radius_sigma);
-  readKey(params, "range_sigma", &c.range_sigma);
-  readKey(params, "min_range", &c.min_range);
-  readKey(params, "max_range", &c.max_range);
+  try
+  {
+    io::readTrunkDetectorConfig(RosParamSource(pnh), &c);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s: %s; using the default detector configuration", pnh.getNamespace().c_str(), e.what());
+    c = core::TrunkDetectorConfig();
+  }
   c.seed = readSeed(pnh);
   return c;
 }
@@ -269,14 +249,6 @@ TrunkExtraction::TrunkExtraction(ros::NodeHandle nh, ros::NodeHandle pnh)
   : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
   core::TrunkDetectorConfig config = readDetectorConfig(pnh_);
-  const std::string error = config.validate();
-  if (!error.empty())
-  {
-    ROS_ERROR("%s: invalid parameter: %s; using the default configuration", name_.c_str(), error.c_str());
-    const std::uint64_t seed = config.seed;
-    config = core::TrunkDetectorConfig();
-    config.seed = seed;
-  }
   detector_.reset(new core::TrunkDetector(config));
 
   pnh_.param("level_frame", level_frame_, level_frame_);

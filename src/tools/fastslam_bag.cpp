@@ -2,10 +2,15 @@
 // same classes as the nodelets, as fast as they compute (no roscore, no real-time wait). Reads only the
 // sensor topics named here and /tf_static: never the truth.
 //
-//   rosrun rbpf_slam fastslam_bag --bag FILE [--points /points] [--odom /odom] [--base-frame base_link]
-//       [--particles N] [--seed S] [--method circle|centroid] [--out DIR] [--quiet]
+//   rosrun rbpf_slam fastslam_bag --bag FILE [--points /points | --scan /scan] [--odom /odom]
+//       [--base-frame base_link] [--extraction-config YAML] [--fastslam-config YAML] [--particles N] [--seed S]
+//       [--method circle|centroid] [--out DIR] [--quiet]
 //
-// Writes DIR/estimate.tum and DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them) and DIR/map.csv.
+// The configurations are the nodelets' YAML files (config/trunk_extraction.yaml, config/fastslam.yaml, or one
+// per sensor type such as config/lego/); --particles, --seed and --method override them.
+//
+// Writes DIR/estimate.tum and DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them), DIR/map.csv (the
+// best particle's landmarks) and DIR/timing.json (processing seconds); scripts/evaluate_bag_run scores them.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,12 +24,16 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/io/fastslam_config.h"
+#include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/io/trunk_detector_config.h"
 
 using namespace rbpf_slam;
 
@@ -38,7 +47,8 @@ double yawOf(const geometry_msgs::Quaternion& q)
 void usage(const char* argv0)
 {
   std::fprintf(stderr,
-               "usage: %s --bag FILE [--points TOPIC] [--odom TOPIC] [--base-frame FRAME] [--particles N] [--seed S]\n"
+               "usage: %s --bag FILE [--points TOPIC | --scan TOPIC] [--odom TOPIC] [--base-frame FRAME]\n"
+               "          [--extraction-config YAML] [--fastslam-config YAML] [--particles N] [--seed S]\n"
                "          [--method circle|centroid] [--out DIR] [--quiet]\n"
                "Runs trunk extraction and FastSLAM on a bag offline; writes DIR/estimate.tum, DIR/odometry.tum, "
                "DIR/map.csv.\nexample: %s --bag paper1.bag --out results/paper1\n",
@@ -48,9 +58,10 @@ void usage(const char* argv0)
 
 int main(int argc, char** argv)
 {
-  std::string bag_path, points_topic = "/points", odom_topic = "/odom", base_frame = "base_link", out_dir, method = "circle";
-  int particles = 100;
-  long seed = 0;
+  std::string bag_path, points_topic = "/points", scan_topic, odom_topic = "/odom", base_frame = "base_link", out_dir,
+      method, extraction_yaml, fastslam_yaml;
+  int particles = -1;
+  long seed = -1;
   bool quiet = false;
   for (int i = 1; i < argc; ++i)
   {
@@ -60,6 +71,12 @@ int main(int argc, char** argv)
       bag_path = argv[++i];
     else if (a == "--points" && has)
       points_topic = argv[++i];
+    else if (a == "--scan" && has)
+      scan_topic = argv[++i];
+    else if (a == "--extraction-config" && has)
+      extraction_yaml = argv[++i];
+    else if (a == "--fastslam-config" && has)
+      fastslam_yaml = argv[++i];
     else if (a == "--odom" && has)
       odom_topic = argv[++i];
     else if (a == "--base-frame" && has)
@@ -88,22 +105,25 @@ int main(int argc, char** argv)
   try
   {
     rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
-    // The lidar's mount on base_link from /tf_static (the first cloud names the lidar frame).
+    // The lidar's mount on base_link from /tf_static (the first message names the lidar frame).
+    const bool use_scan = !scan_topic.empty();
+    const std::string sensor_topic = use_scan ? scan_topic : points_topic;
     std::string lidar_frame;
     {
-      rosbag::View first(bag, rosbag::TopicQuery(points_topic));
+      rosbag::View first(bag, rosbag::TopicQuery(sensor_topic));
       for (const auto& m : first)
       {
-        const auto cloud = m.instantiate<sensor_msgs::PointCloud2>();
-        if (cloud)
-        {
+        if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
           lidar_frame = cloud->header.frame_id;
+        else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
+          lidar_frame = scan->header.frame_id;
+        if (!lidar_frame.empty())
           break;
-        }
       }
     }
     if (lidar_frame.empty())
-      throw std::runtime_error(bag_path + ": no sensor_msgs/PointCloud2 on " + points_topic);
+      throw std::runtime_error(bag_path + ": no " + (use_scan ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2") +
+                               " on " + sensor_topic);
     core::SensorMount mount;
     bool have_mount = lidar_frame == base_frame;
     rosbag::View statics(bag, rosbag::TopicQuery("/tf_static"));
@@ -126,13 +146,34 @@ int main(int argc, char** argv)
       throw std::runtime_error(bag_path + ": no " + base_frame + " -> " + lidar_frame + " transform on /tf_static");
 
     core::TrunkDetectorConfig dc;
-    if (!core::parseTrunkMethod(method, &dc.method))
-      throw std::runtime_error("--method must be circle or centroid");
     dc.sensor_height = mount.z;
     core::FastSlamConfig fc;
-    fc.particles = particles;
-    fc.seed = static_cast<std::uint64_t>(seed);
-    dc.seed = static_cast<std::uint64_t>(seed);
+    const auto load = [](const std::string& path, const auto& reader) {
+      if (path.empty())
+        return;
+      const io::YamlParamSource yaml(path);
+      try
+      {
+        reader(yaml);
+      }
+      catch (const std::exception& e)
+      {
+        throw std::runtime_error(path + ": " + e.what());
+      }
+      for (const auto& key : yaml.unusedKeys())
+        std::fprintf(stderr, "fastslam_bag: warning: %s: key '%s' is not used here\n", path.c_str(), key.c_str());
+    };
+    load(extraction_yaml, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, &dc); });
+    load(fastslam_yaml, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });
+    if (!method.empty() && !core::parseTrunkMethod(method, &dc.method))
+      throw std::runtime_error("--method must be circle or centroid");
+    if (particles > 0)
+      fc.particles = particles;
+    if (seed >= 0)
+    {
+      fc.seed = static_cast<std::uint64_t>(seed);
+      dc.seed = static_cast<std::uint64_t>(seed);
+    }
     core::TrunkSlamPipeline pipeline(dc, fc, mount);
 
     std::ofstream est, odo;
@@ -160,7 +201,8 @@ int main(int argc, char** argv)
         }
       }
     };
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{ points_topic, odom_topic }));
+    core::PlanarScan planar;
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{ sensor_topic, odom_topic }));
     for (const auto& m : view)
     {
       if (const auto od = m.instantiate<nav_msgs::Odometry>())
@@ -169,6 +211,23 @@ int main(int argc, char** argv)
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta) ||
             !pipeline.addOdometry(od->header.stamp.toSec(), p))
           ++dropped;
+      }
+      else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
+      {
+        const double stamp = scan->header.stamp.toSec();
+        if (stamp <= last_cloud || !(scan->angle_increment != 0.0f) || !std::isfinite(scan->angle_min))
+        {
+          ++dropped;
+          continue;
+        }
+        last_cloud = stamp;
+        planar.ranges = scan->ranges;  // NaN / Inf / out-of-range beams are skipped by the detector (REP-117)
+        planar.angle_min = scan->angle_min;
+        planar.angle_increment = scan->angle_increment;
+        planar.range_min = scan->range_min;
+        planar.range_max = scan->range_max;
+        pipeline.addScan(stamp, std::max(static_cast<double>(scan->scan_time), 1e-3), planar);
+        ++clouds;
       }
       else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
       {
@@ -204,6 +263,13 @@ int main(int argc, char** argv)
       for (std::size_t i = 0; i < best.map.size(); ++i)
         landmarks.push_back(best.map[i]);
       io::writeLandmarksCsv(out_dir + "/map.csv", landmarks);
+      std::ofstream timing(out_dir + "/timing.json");
+      timing << "{\"sweeps\": " << clouds << ", \"updates\": " << updates << ", \"dropped\": " << dropped
+             << ", \"seconds_extraction\": " << pipeline.secondsExtraction()
+             << ", \"seconds_filter\": " << pipeline.secondsFilter() << ", \"particles\": " << fc.particles
+             << ", \"seed\": " << fc.seed << "}\n";
+      if (!timing)
+        throw std::runtime_error(out_dir + "/timing.json: cannot write");
     }
     if (!quiet)
     {

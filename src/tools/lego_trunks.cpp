@@ -22,6 +22,8 @@
 #include <vector>
 
 #include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/io/param_source.h"
+#include "rbpf_slam/io/trunk_detector_config.h"
 
 using namespace rbpf_slam;
 
@@ -74,7 +76,8 @@ std::vector<std::vector<double>> readRecords(const std::string& path, char tag, 
 int main(int argc, char** argv)
 {
   std::string dir = "../shared/data/brenner_lego";
-  std::string method = "circle";
+  std::string method;
+  std::string config_path;
   bool verbose = false;
   for (int i = 1; i < argc; ++i)
   {
@@ -83,11 +86,13 @@ int main(int argc, char** argv)
       dir = argv[++i];
     else if (a == "--method" && i + 1 < argc)
       method = argv[++i];
+    else if (a == "--config" && i + 1 < argc)
+      config_path = argv[++i];
     else if (a == "--verbose")
       verbose = true;
     else
     {
-      std::fprintf(stderr, "usage: %s [--data DIR] [--method circle|centroid] [--verbose]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--data DIR] [--config YAML] [--method circle|centroid] [--verbose]\n", argv[0]);
       return 2;
     }
   }
@@ -103,7 +108,7 @@ int main(int argc, char** argv)
 
     // One configuration for small 2D scanners in a lab arena (stated once, not searched on the reference).
     core::TrunkDetectorConfig cfg;
-    if (!core::parseTrunkMethod(method, &cfg.method))
+    if (!core::parseTrunkMethod(method.empty() ? "circle" : method, &cfg.method))
       throw std::runtime_error("--method must be circle or centroid");
     cfg.cluster_tolerance = 0.08;
     cfg.min_points = 3;
@@ -115,6 +120,13 @@ int main(int argc, char** argv)
     cfg.min_range = 0.1;
     cfg.max_range = 10.0;
     cfg.ransac_threshold = 0.02;
+    if (!config_path.empty())
+    {
+      cfg = core::TrunkDetectorConfig();
+      io::readTrunkDetectorConfig(io::YamlParamSource(config_path), &cfg);
+      if (!method.empty() && !core::parseTrunkMethod(method, &cfg.method))
+        throw std::runtime_error("--method must be circle or centroid");
+    }
     core::TrunkDetector detector(cfg);
 
     double heading = 213.0 * M_PI / 180.0;
@@ -215,7 +227,8 @@ int main(int argc, char** argv)
     sd = std::sqrt(sd / std::max<std::size_t>(1, radii.size()));
     std::vector<double> sorted = radii;
     std::sort(sorted.begin(), sorted.end());
-    std::printf("LEGO robot logs (%s), %d scans, method %s:\n", dir.c_str(), scans_used, method.c_str());
+    std::printf("LEGO robot logs (%s), %d scans, method %s:\n", dir.c_str(), scans_used,
+                core::trunkMethodName(cfg.method));
     std::printf("  cylinders in view (< %.1f m, inside the scanner's field of view): %d; of those found: %d (%.1f%%)\n",
                 kInViewRange, expected, found_expected, expected ? 100.0 * found_expected / expected : 0.0);
     std::printf("  detections matched to a true cylinder (%.2f m gate): %d; unmatched detections: %d (%.1f%% of all)\n",

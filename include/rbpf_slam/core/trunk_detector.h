@@ -63,6 +63,7 @@ struct TrunkDetectorConfig
   double arc_radius_prior = 0.15;   ///< [m] radius assumed by the arc fallback when the arc cannot say
   double arc_radius_sigma = 0.08;   ///< [m] its standard deviation
   double range_sigma = 0.02;        ///< [m] sensor range noise, for the covariances
+  double range_offset = 0.0;        ///< [m] 2D: added to every valid range (the scanner's range calibration)
   double min_range = 0.5;           ///< [m] trunks whose centre is nearer or further are dropped
   double max_range = 30.0;          ///< [m]
   std::uint64_t seed = 0;           ///< of the RANSAC sampler

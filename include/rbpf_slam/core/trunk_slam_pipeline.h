@@ -59,6 +59,8 @@ public:
   bool addOdometry(double stamp, const Pose2& pose);
   /** @brief Extracts the trunks now (points in the sensor frame) and queues the sweep for the filter. */
   void addSweep(double stamp, double period, const std::vector<Eigen::Vector3f>& points);
+  /** @brief The same for a 2D scan (sensor frame; no levelling: the scanner is taken as level). */
+  void addScan(double stamp, double period, const PlanarScan& scan);
   /** @brief Runs the filter on the queued sweeps that odometry covers (all of them with @p flush). */
   std::vector<PipelineUpdate> process(bool flush = false);
 

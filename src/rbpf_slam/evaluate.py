@@ -1,0 +1,183 @@
+"""Evaluation of an offline run against a bag's reference (the truth never enters the filter: the runner
+reads only sensor topics; this module reads the truth topics afterwards).
+
+Metrics (REP-103 units: m, rad; printed in mm or deg where said):
+
+* path RMS of the compared point (e.g. the scanner, ``point_offset`` on base_link) after a least-squares
+  rigid 2D fit of the estimated path onto the reference (Horn / Umeyama without scale), or without a fit;
+  the same for the run's raw odometry, anchored at the start like the estimate;
+* final position error (with the same fit);
+* RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
+  only where the reference carries orientation);
+* the map against the true landmarks, moved by the same fit: one-to-one matching (Hungarian) inside a gate;
+  mean and RMS error of the matched, recall, duplicates (unmatched features within the gate of a true
+  landmark) and spurious (the others), radius RMS.
+"""
+import csv
+import math
+
+import numpy as np
+
+
+def read_tum(path):
+    """(t, xy, yaw) of a TUM file (t x y z qx qy qz qw)."""
+    data = np.loadtxt(path, ndmin=2)
+    if data.size == 0:
+        raise ValueError('%s: empty trajectory' % path)
+    if data.shape[1] != 8:
+        raise ValueError('%s: expected 8 columns (TUM: t x y z qx qy qz qw), got %d' % (path, data.shape[1]))
+    qx, qy, qz, qw = data[:, 4], data[:, 5], data[:, 6], data[:, 7]
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return data[:, 0], data[:, 1:3], yaw
+
+
+def read_map_csv(path, include_provisional=False):
+    """Landmarks of a runner's map.csv as an (n, 3) array x, y, radius."""
+    rows = []
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            if not include_provisional and row.get('provisional', '0') not in ('0', ''):
+                continue
+            rows.append((float(row['x']), float(row['y']), float(row['radius'])))
+    return np.array(rows, dtype=float).reshape(-1, 3)
+
+
+def interpolate(t, xy, yaw, tq):
+    """Poses at the times tq (linear in position, shortest way in heading); times outside are clamped."""
+    x = np.interp(tq, t, xy[:, 0])
+    y = np.interp(tq, t, xy[:, 1])
+    uw = np.unwrap(yaw)
+    return np.column_stack([x, y]), np.interp(tq, t, uw)
+
+
+def point_of(xy, yaw, offset):
+    """The point ``offset`` (x, y on the body) of each pose."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.column_stack([xy[:, 0] + c * offset[0] - s * offset[1], xy[:, 1] + s * offset[0] + c * offset[1]])
+
+
+def fit_rigid_2d(src, dst):
+    """Rotation R (2x2) and translation t minimising sum |R src + t - dst|^2."""
+    src, dst = np.asarray(src, float), np.asarray(dst, float)
+    if len(src) < 2:
+        return np.eye(2), (dst.mean(axis=0) - src.mean(axis=0)) if len(src) else np.zeros(2)
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    h = (src - ms).T @ (dst - md)
+    angle = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    r = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    return r, md - r @ ms
+
+
+def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
+    """Relative pose error over pairs (i, j) with the reference's travel from i to j first >= distance.
+    Returns (translation RMS [m], rotation RMS [deg] or None, pairs)."""
+    seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(ref_xy, axis=0), axis=1))]
+    trans, rot = [], []
+    for i in range(len(seg)):
+        j = int(np.searchsorted(seg, seg[i] + distance))
+        if j >= len(seg):
+            break
+
+        def rel(xy, yaw):
+            d = xy[j] - xy[i]
+            a = yaw[i] if yaw is not None else 0.0
+            c, s = math.cos(a), math.sin(a)
+            return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+        if ref_yaw is not None and est_yaw is not None:
+            trans.append(np.linalg.norm(rel(ref_xy, ref_yaw) - rel(est_xy, est_yaw)))
+            dr = (ref_yaw[j] - ref_yaw[i]) - (est_yaw[j] - est_yaw[i])
+            rot.append(math.degrees(math.atan2(math.sin(dr), math.cos(dr))))
+        else:  # positions only: compare the lengths of the displacements
+            trans.append(abs(np.linalg.norm(ref_xy[j] - ref_xy[i]) - np.linalg.norm(est_xy[j] - est_xy[i])))
+    if not trans:
+        return None, None, 0
+    t_rms = float(np.sqrt(np.mean(np.square(trans))))
+    r_rms = float(np.sqrt(np.mean(np.square(rot)))) if rot else None
+    return t_rms, r_rms, len(trans)
+
+
+def score_map(features, trees, gate):
+    """Matches features (n, 3: x, y, r) to true trees (m, 3) one-to-one inside ``gate`` [m]."""
+    from scipy.optimize import linear_sum_assignment
+    out = {'features': int(len(features)), 'trees': int(len(trees)), 'matched': 0, 'duplicates': 0, 'spurious': 0,
+           'mean_error': None, 'rms_error': None, 'max_error': None, 'radius_rms': None, 'recall': 0.0}
+    if len(trees) == 0:
+        out['spurious'] = int(len(features))
+        return out
+    if len(features) == 0:
+        return out
+    d = np.linalg.norm(features[:, None, :2] - trees[None, :, :2], axis=2)
+    cost = np.where(d <= gate, d, 1e6)
+    rows, cols = linear_sum_assignment(cost)
+    ok = cost[rows, cols] < 1e6
+    rows, cols = rows[ok], cols[ok]
+    errors = d[rows, cols]
+    out['matched'] = int(len(rows))
+    out['recall'] = float(len(rows)) / len(trees)
+    if len(rows):
+        out['mean_error'] = float(errors.mean())
+        out['rms_error'] = float(np.sqrt(np.mean(errors ** 2)))
+        out['max_error'] = float(errors.max())
+        if np.all(trees[cols, 2] > 0):
+            out['radius_rms'] = float(np.sqrt(np.mean((features[rows, 2] - trees[cols, 2]) ** 2)))
+    unmatched = np.setdiff1d(np.arange(len(features)), rows)
+    near = (d[unmatched] <= gate).any(axis=1) if len(unmatched) else np.zeros(0, bool)
+    out['duplicates'] = int(near.sum())
+    out['spurious'] = int((~near).sum())
+    return out
+
+
+def read_bag_truth(bag_path, odom_topic, landmarks_topic):
+    """(t, xy, yaw or None) of the reference and the true landmarks (m, 3) or None, from a bag."""
+    import rosbag
+    ts, xy, yaw, has_orientation, marks = [], [], [], False, None
+    with rosbag.Bag(bag_path) as bag:
+        for topic, msg, _ in bag.read_messages(topics=[odom_topic, landmarks_topic]):
+            if topic == odom_topic:
+                p, q = msg.pose.pose.position, msg.pose.pose.orientation
+                ts.append(msg.header.stamp.to_sec())
+                xy.append((p.x, p.y))
+                yaw.append(math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z)))
+                has_orientation = has_orientation or abs(q.z) > 1e-9 or abs(q.x) > 1e-9 or abs(q.y) > 1e-9
+            elif topic == landmarks_topic and marks is None:
+                marks = np.array([(tr.center.x, tr.center.y, tr.radius) for tr in msg.trunks], dtype=float).reshape(-1, 3)
+    if not ts:
+        raise ValueError('%s: no nav_msgs/Odometry on %s (the reference)' % (bag_path, odom_topic))
+    return np.array(ts), np.array(xy), (np.array(yaw) if has_orientation else None), marks
+
+
+def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=None, point_offset=(0.0, 0.0),
+             fit=True, gate=0.3, rpe_distance=1.0):
+    """Every metric of one run. est / odom: (t, xy, yaw) as read_tum returns them."""
+    sel = (ref_t >= est[0][0]) & (ref_t <= est[0][-1])
+    if sel.sum() < 2:
+        raise ValueError('the estimate (%.3f .. %.3f s) does not overlap the reference (%.3f .. %.3f s)'
+                         % (est[0][0], est[0][-1], ref_t[0], ref_t[-1]))
+    rt, rxy = ref_t[sel], ref_xy[sel]
+    ryaw = ref_yaw[sel] if ref_yaw is not None else None
+    summary = {'reference_poses': int(sel.sum()), 'fit': 'rigid_2d' if fit else 'none',
+               'point_offset': list(point_offset)}
+    transforms = {}
+    for name, run in (('estimate', est), ('odometry', odom)):
+        if run is None:
+            continue
+        xy, yaw = interpolate(run[0], run[1], run[2], rt)
+        pts = point_of(xy, yaw, point_offset)
+        r, t = fit_rigid_2d(pts, rxy) if fit else (np.eye(2), np.zeros(2))
+        moved = pts @ r.T + t
+        err = np.linalg.norm(moved - rxy, axis=1)
+        fitted_yaw = yaw + math.atan2(r[1, 0], r[0, 0])
+        t_rpe, r_rpe, pairs = rpe(rxy, moved, rpe_distance, ryaw, fitted_yaw if ryaw is not None else None)
+        summary[name] = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'final_error': float(err[-1]),
+                         'max_error': float(err.max()), 'rpe_translation': t_rpe, 'rpe_rotation_deg': r_rpe,
+                         'rpe_pairs': pairs}
+        transforms[name] = (r, t, moved, err)
+    if truth_map is not None and features is not None:
+        r, t = transforms['estimate'][:2]
+        moved = features.copy()
+        if len(moved):
+            moved[:, :2] = features[:, :2] @ r.T + t
+        summary['map'] = score_map(moved, truth_map, gate)
+        transforms['map'] = moved
+    return summary, transforms, (rt, rxy)
