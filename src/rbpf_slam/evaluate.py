@@ -6,7 +6,8 @@ Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 * path RMS of the compared point (e.g. the scanner, ``point_offset`` on base_link) after a least-squares
   rigid 2D fit of the estimated path onto the reference (Horn / Umeyama without scale), or without a fit;
   the same for the run's raw odometry, anchored at the start like the estimate;
-* final position error (with the same fit);
+* final position error (with the same fit); as a diagnostic, the path RMS after a similarity fit (with
+  scale) and that scale, which separate a scale error (of the sensors or of the reference) from the shape;
 * RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
   only where the reference carries orientation);
 * the map against the true landmarks, moved by the same fit: one-to-one matching (Hungarian) inside a gate;
@@ -66,6 +67,16 @@ def fit_rigid_2d(src, dst):
     angle = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
     r = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
     return r, md - r @ ms
+
+
+def fit_similarity_2d(src, dst):
+    """Scale s, rotation R and translation t minimising sum |s R src + t - dst|^2 (Umeyama)."""
+    src, dst = np.asarray(src, float), np.asarray(dst, float)
+    r, _ = fit_rigid_2d(src, dst)
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    var = np.sum((src - ms) ** 2)
+    scale = float(np.sum((dst - md) * ((src - ms) @ r.T)) / var) if var > 0 else 1.0
+    return scale, r, md - scale * (r @ ms)
 
 
 def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
@@ -169,7 +180,11 @@ def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=No
         err = np.linalg.norm(moved - rxy, axis=1)
         fitted_yaw = yaw + math.atan2(r[1, 0], r[0, 0])
         t_rpe, r_rpe, pairs = rpe(rxy, moved, rpe_distance, ryaw, fitted_yaw if ryaw is not None else None)
+        # Diagnostic: the shape alone (a similarity fit also removes a scale error of the run or the reference).
+        sc, sr, st = fit_similarity_2d(pts, rxy)
+        err_scaled = np.linalg.norm(sc * pts @ sr.T + st - rxy, axis=1)
         summary[name] = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'final_error': float(err[-1]),
+                         'path_rms_similarity': float(np.sqrt(np.mean(err_scaled ** 2))), 'similarity_scale': sc,
                          'max_error': float(err.max()), 'rpe_translation': t_rpe, 'rpe_rotation_deg': r_rpe,
                          'rpe_pairs': pairs}
         transforms[name] = (r, t, moved, err)

@@ -4,6 +4,8 @@
 //
 //   rosrun rbpf_slam lego_trunks [--data DIR] [--method circle|centroid] [--verbose]
 //
+//   --dump CSV writes every detection (scan index, centre in the scanner frame, radius, points, method).
+//
 // Layout (see ../shared/data/README.md): robot4_scan.txt "S ts n r0 ... r(n-1)" [mm], beam i at
 // (i - 330) * 0.006135923151543 - 0.0698132 rad, ranges below 20 mm invalid; robot4_reference.txt
 // "P ts x y" [mm] (overhead camera); robot4_motors.txt "M ts left . . . right ..." cumulative ticks
@@ -77,7 +79,7 @@ int main(int argc, char** argv)
 {
   std::string dir = "../shared/data/brenner_lego";
   std::string method;
-  std::string config_path;
+  std::string config_path, dump_path;
   bool verbose = false;
   for (int i = 1; i < argc; ++i)
   {
@@ -88,11 +90,13 @@ int main(int argc, char** argv)
       method = argv[++i];
     else if (a == "--config" && i + 1 < argc)
       config_path = argv[++i];
+    else if (a == "--dump" && i + 1 < argc)
+      dump_path = argv[++i];
     else if (a == "--verbose")
       verbose = true;
     else
     {
-      std::fprintf(stderr, "usage: %s [--data DIR] [--config YAML] [--method circle|centroid] [--verbose]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--data DIR] [--config YAML] [--method circle|centroid] [--dump CSV] [--verbose]\n", argv[0]);
       return 2;
     }
   }
@@ -129,6 +133,12 @@ int main(int argc, char** argv)
     }
     core::TrunkDetector detector(cfg);
 
+    std::ofstream dump;
+    if (!dump_path.empty())
+    {
+      dump.open(dump_path);
+      dump << "scan,x,y,radius,points,method\n";  // each detection in the scanner frame [m]
+    }
     double heading = 213.0 * M_PI / 180.0;
     double prev_l = motors[0].at(1), prev_r = motors[0].at(5);
     int expected = 0, found = 0, found_expected = 0, false_pos = 0, scans_used = 0;
@@ -184,6 +194,9 @@ int main(int argc, char** argv)
       int found_here = 0, false_here = 0;
       for (const auto& o : obs)
       {
+        if (dump.is_open())
+          dump << k << ',' << o.center.x() << ',' << o.center.y() << ',' << o.radius << ',' << o.num_points << ','
+               << core::trunkMethodName(o.method) << '\n';
         const double wx = sx + std::cos(heading) * o.center.x() - std::sin(heading) * o.center.y();
         const double wy = sy + std::sin(heading) * o.center.x() + std::cos(heading) * o.center.y();
         int best = -1;

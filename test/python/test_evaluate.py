@@ -69,3 +69,11 @@ def test_no_overlap_is_a_clear_error():
     xy = np.zeros((5, 2))
     with pytest.raises(ValueError, match='does not overlap'):
         ev.evaluate((t + 10, xy, np.zeros(5)), None, t, xy)
+
+
+def test_similarity_fit_recovers_scale():
+    rng = np.random.default_rng(2)
+    src = rng.uniform(-3, 3, size=(40, 2))
+    dst = 0.93 * src @ _rot(-1.1).T + np.array([0.5, 4.0])
+    scale, r, t = ev.fit_similarity_2d(src, dst)
+    assert scale == pytest.approx(0.93) and np.allclose(r, _rot(-1.1)) and np.allclose(t, [0.5, 4.0])
