@@ -383,6 +383,30 @@ Fit fitCluster(const std::vector<Eigen::Vector2d>& p, const TrunkDetectorConfig&
   Eigen::Matrix3d cov;
   if (!refineCircle(in, cfg, &c, &r, &cov))
     return fit;
+  // The inliers were chosen around the initial circle; an algebraic or sampled circle is biased (short
+  // noisy arcs fit small circles), so a window around it cuts the residuals asymmetrically and the
+  // refinement inherits the bias. Choose them again around the refined circle and refine once more.
+  if (have_ransac)
+  {
+    std::vector<Eigen::Vector2d> again;
+    again.reserve(p.size());
+    for (const auto& q : p)
+      if (std::abs((q - c).norm() - r) <= cfg.ransac_threshold)
+        again.push_back(q);
+    if (again.size() >= 3 && again.size() != in.size())
+    {
+      Eigen::Vector2d c2 = c;
+      double r2 = r;
+      Eigen::Matrix3d cov2;
+      if (refineCircle(again, cfg, &c2, &r2, &cov2))
+      {
+        c = c2;
+        r = r2;
+        cov = cov2;
+        in.swap(again);
+      }
+    }
+  }
   fit.inliers = 0;
   for (const auto& q : p)
     if (std::abs((q - c).norm() - r) <= cfg.ransac_threshold)
