@@ -10,9 +10,8 @@ Metrics (REP-103 units: m, rad; printed in mm or deg where said):
   scale) and that scale, which separate a scale error (of the sensors or of the reference) from the shape;
 * RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
   only where the reference carries orientation);
-* the map against the true landmarks, moved by the same fit: one-to-one matching (Hungarian) inside a gate;
-  mean and RMS error of the matched, recall, duplicates (unmatched features within the gate of a true
-  landmark) and spurious (the others), radius RMS.
+* the map against the true landmarks, moved by the same fit, counted as ../shared/scenarios/README.md pins
+  it (score_map): recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS.
 """
 import csv
 import math
@@ -108,8 +107,11 @@ def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
     return t_rms, r_rms, len(trans)
 
 
-def score_map(features, trees, gate):
-    """Matches features (n, 3: x, y, r) to true trees (m, 3) one-to-one inside ``gate`` [m]."""
+def score_map(features, trees, gate=0.5, duplicate_radius=1.0):
+    """Counts as ../shared/scenarios/README.md pins them: features (n, 3: x, y, r) matched to true trees
+    (m, 3) one-to-one (optimal assignment) inside ``gate`` [m]; a duplicate is an unmatched feature within
+    ``duplicate_radius`` of a matched tree that is not closer to another tree; every other unmatched
+    feature is spurious (provisional features are passed in by the caller and count too)."""
     from scipy.optimize import linear_sum_assignment
     out = {'features': int(len(features)), 'trees': int(len(trees)), 'matched': 0, 'duplicates': 0, 'spurious': 0,
            'mean_error': None, 'rms_error': None, 'max_error': None, 'radius_rms': None, 'recall': 0.0}
@@ -132,10 +134,13 @@ def score_map(features, trees, gate):
         out['max_error'] = float(errors.max())
         if np.all(trees[cols, 2] > 0):
             out['radius_rms'] = float(np.sqrt(np.mean((features[rows, 2] - trees[cols, 2]) ** 2)))
-    unmatched = np.setdiff1d(np.arange(len(features)), rows)
-    near = (d[unmatched] <= gate).any(axis=1) if len(unmatched) else np.zeros(0, bool)
-    out['duplicates'] = int(near.sum())
-    out['spurious'] = int((~near).sum())
+    matched_trees = set(int(c) for c in cols)
+    for i in np.setdiff1d(np.arange(len(features)), rows):
+        nearest = int(np.argmin(d[i]))
+        if nearest in matched_trees and d[i, nearest] <= duplicate_radius:
+            out['duplicates'] += 1
+        else:
+            out['spurious'] += 1
     return out
 
 
@@ -159,7 +164,7 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic):
 
 
 def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=None, point_offset=(0.0, 0.0),
-             fit=True, gate=0.3, rpe_distance=1.0):
+             fit=True, gate=0.5, rpe_distance=1.0):
     """Every metric of one run. est / odom: (t, xy, yaw) as read_tum returns them."""
     sel = (ref_t >= est[0][0]) & (ref_t <= est[0][-1])
     if sel.sum() < 2:

@@ -25,9 +25,14 @@ def test_rigid_fit_recovers_a_known_transform():
 
 def test_map_score_counts_matches_duplicates_and_spurious():
     trees = np.array([[0, 0, 0.2], [5, 0, 0.3], [0, 5, 0.1]], float)
-    feats = np.array([[0.05, 0, 0.21], [0.1, 0.1, 0.2], [5, 0.02, 0.28], [9, 9, 0.2]], float)
-    s = ev.score_map(feats, trees, gate=0.3)
-    assert s['matched'] == 2 and s['duplicates'] == 1 and s['spurious'] == 1
+    feats = np.array([[0.05, 0, 0.21],   # tree 0
+                      [0.7, 0.1, 0.2],    # a second feature 0.7 m from matched tree 0: duplicate
+                      [5, 0.02, 0.28],    # tree 1
+                      [9, 9, 0.2],        # nothing near: spurious
+                      [0, 5.8, 0.1]],     # 0.8 m from tree 2, which nothing matched: spurious, not duplicate
+                     float)
+    s = ev.score_map(feats, trees, gate=0.5)
+    assert s['matched'] == 2 and s['duplicates'] == 1 and s['spurious'] == 2
     assert s['recall'] == pytest.approx(2 / 3)
     assert s['mean_error'] == pytest.approx((0.05 + 0.02) / 2)
 
