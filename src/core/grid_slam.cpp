@@ -100,13 +100,16 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
   GridSlamStep step;
   if (!initialised_)
   {
-    // The map frame is the first scan's odometry pose: every particle starts at its origin.
+    // The map frame coincides with the odometry frame at the first scan (map -> odom starts as the identity,
+    // as REP-105 tools expect): every particle starts at the first odometry pose.
     initialised_ = true;
     last_odometry_ = odometry;
-    mapping_pose_ = Pose2();
+    mapping_pose_ = odometry;
+    for (auto& p : particles_)
+      p.pose = odometry;
     step.initialised = true;
     step.neff = static_cast<double>(particles_.size());
-    step.beams_mapped = map_.insertScan(sensor, scan, config_.limits);
+    step.beams_mapped = map_.insertScan(odometry * sensor, scan, config_.limits);
     return step;
   }
   // Prediction: every particle takes the odometry increment with its own noise.

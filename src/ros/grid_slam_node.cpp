@@ -238,7 +238,18 @@ void GridSlamRos::processPending()
                     lookup(config_.base_frame, msg->header.frame_id, msg->header.stamp, &sensor, &error);
     if (!ok)
     {
-      if ((ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
+      // Odometry newer than the scan is there, yet no transform at its stamp: it is older than the TF
+      // buffer (the first scans of a bag) or in a gap, and waiting will not help.
+      bool newer = false;
+      try
+      {
+        newer = tf_buffer_->lookupTransform(config_.odom_frame, config_.base_frame, ros::Time(0)).header.stamp >
+                msg->header.stamp;
+      }
+      catch (const tf2::TransformException&)
+      {
+      }
+      if (!newer && (ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
         return;  // wait: odometry may come a little after the scan
       ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f within %.2f s (%s): scan dropped", name_.c_str(),
                         msg->header.stamp.toSec(), config_.tf_timeout, error.c_str());

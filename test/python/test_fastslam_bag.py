@@ -1,7 +1,7 @@
 """The offline bag runner: FastSLAM on a recorded paper-world drive, and the truth firewall.
 
-Records a bag with record_scenario, strips every ground-truth topic from a copy, runs fastslam_bag on
-both: the outputs must be identical (extraction and filter never read the truth), and the final pose
+Records a bag with record_scenario, strips every ground-truth topic from a copy, runs the shared bag runner
+(slam_bag --filter fastslam) on both: the outputs must be identical (extraction and filter never read the truth), and the final pose
 must be near the truth and far better than dead reckoning.
 """
 import filecmp
@@ -52,7 +52,8 @@ def bags(tmp_path_factory):
 
 
 def _run(bag, out):
-    subprocess.run([_tool('fastslam_bag'), '--bag', bag, '--out', out, '--seed', '3', '--quiet'], check=True)
+    subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', bag, '--out', out, '--seed', '3', '--quiet'],
+                   check=True)
     return out
 
 
@@ -80,7 +81,15 @@ def test_final_pose_is_near_the_truth_and_beats_dead_reckoning(bags):
 
 
 def test_missing_bag_is_a_clear_error(tmp_path):
-    r = subprocess.run([_tool('fastslam_bag'), '--bag', str(tmp_path / 'nope.bag')], stderr=subprocess.PIPE,
-                       universal_newlines=True)
-    assert r.returncode == 1
-    assert 'nope.bag' in r.stderr
+    for filt in ('fastslam', 'grid'):
+        r = subprocess.run([_tool('slam_bag'), '--filter', filt, '--bag', str(tmp_path / 'nope.bag')],
+                           stderr=subprocess.PIPE, universal_newlines=True)
+        assert r.returncode == 1
+        assert 'nope.bag' in r.stderr
+
+
+def test_unknown_filter_is_a_usage_error(tmp_path):
+    r = subprocess.run([_tool('slam_bag'), '--filter', 'gmapping', '--bag', str(tmp_path / 'x.bag')],
+                       stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 2
+    assert 'usage' in r.stderr

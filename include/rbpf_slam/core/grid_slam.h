@@ -65,7 +65,8 @@ struct GridSlamStep
  * @brief Grid SLAM, course mode ("Odometry Based Mapping"): one log-odds map; each particle's pose moves by
  * the odometry increment with rot1-trans-rot2 noise; the weights grow by the correlation of the particle's
  * scan end points with the map (softmax normalisation); Neff < ratio * N resamples; the best particle's pose
- * updates the map. The map frame is the odometry pose of the first scan.
+ * updates the map. The map frame is the odometry frame as it was at the first scan (the particles start at the
+ * first odometry pose).
  */
 class GridSlam
 {
