@@ -178,13 +178,14 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
   if (!last_scan_stamp_.isZero() && msg->header.stamp < last_scan_stamp_)
   {
     // A looped bag or a restarted simulation: start a new map rather than mixing two timelines.
+    // The TF listener clears its own buffer when the clock jumps back; clearing it here as well could drop
+    // the bag's /tf_static, which is published only once.
     if (!warned_backwards_)
-      ROS_WARN("%s: scan stamp %.3f is before the previous %.3f: time went backwards; resetting the filter and TF "
-               "buffer (said once)",
+      ROS_WARN("%s: scan stamp %.3f is before the previous %.3f: time went backwards; resetting the filter (said "
+               "once)",
                name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec());
     warned_backwards_ = true;
     filter_->reset();
-    tf_buffer_->clear();
     pending_.clear();
     path_.poses.clear();
     last_map_stamp_ = ros::Time();

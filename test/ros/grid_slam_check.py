@@ -173,6 +173,24 @@ class GridSlamCheck(unittest.TestCase):
         with open(os.path.join(os.path.dirname(SAVED), 'map.pgm'), 'rb') as f:
             self.assertEqual(f.read(2), b'P5')
 
+    def test_zz_looped_bag_resets_the_filter(self):
+        """Time going backwards (the bag played again): the filter starts a new map at the start pose."""
+        with self.lock:
+            n0 = len(self.poses)
+            type(self).map = None  # the callbacks set the class attribute
+        play = subprocess.run(['rosbag', 'play', '--clock', '-q', '-r', '3', '-u', '4', self.bag, '--topics', '/scan',
+                               '/tf', '/tf_static'], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                              universal_newlines=True)
+        self.assertEqual(play.returncode, 0, play.stderr)
+        time.sleep(2.0)
+        with self.lock:
+            again = self.poses[n0:]
+            m = self.map
+        self.assertGreater(len(again), 50)
+        first = again[0].pose.pose.position
+        self.assertLess(math.hypot(first.x, first.y), 0.3, 'the new run starts at the start pose')
+        self.assertIsNotNone(m, 'the new map is published')
+
 
 if __name__ == '__main__':
     rospy.init_node('grid_slam_check')

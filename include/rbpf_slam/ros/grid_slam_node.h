@@ -47,7 +47,7 @@ void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg);
  *   weighted mean and covariance), `particles` (PoseArray, when subscribed), `path` (the mapping poses).
  * - service `~save_map` (std_srvs/Trigger): the map to `~map_path` in the map_server layout (YAML + PGM).
  *
- * Time going backwards (a looped bag) resets the filter and the TF buffer, with one warning.
+ * Time going backwards (a looped bag) resets the filter, with one warning (the TF listener clears its buffer).
  */
 class GridSlamRos
 {
