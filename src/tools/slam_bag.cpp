@@ -12,6 +12,7 @@
 // fastslam writes DIR/estimate.tum, DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them) and
 // DIR/map.csv; grid writes DIR/estimate.tum and DIR/odometry.tum (one pose per scan), DIR/odometry_all.tum
 // (every odometry pose), DIR/map.yaml + DIR/map.pgm (map_server layout) and DIR/timing.txt.
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -105,6 +106,19 @@ bool staticMount(rosbag::Bag& bag, const std::string& base_frame, const std::str
   return found;
 }
 
+/** @brief mkdir -p; throws naming the folder when it cannot be made. */
+void makeDirectories(const std::string& dir)
+{
+  std::size_t pos = 0;
+  while (pos != std::string::npos)
+  {
+    pos = dir.find('/', pos + 1);
+    const std::string partial = dir.substr(0, pos);
+    if (!partial.empty() && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
+      throw std::runtime_error(partial + ": cannot create the folder");
+  }
+}
+
 std::string openOut(const std::string& dir, const std::string& name, std::ofstream* f)
 {
   f->open(dir + "/" + name);
@@ -150,7 +164,7 @@ int runFastSlam(const Options& o)
   std::ofstream est, odo;
   if (!o.out_dir.empty())
   {
-    mkdir(o.out_dir.c_str(), 0755);
+    makeDirectories(o.out_dir);
     openOut(o.out_dir, "estimate.tum", &est);
     openOut(o.out_dir, "odometry.tum", &odo);
   }
@@ -262,7 +276,7 @@ int runGrid(const Options& o)
   std::ofstream est, odo, odo_all;
   if (!o.out_dir.empty())
   {
-    mkdir(o.out_dir.c_str(), 0755);
+    makeDirectories(o.out_dir);
     openOut(o.out_dir, "estimate.tum", &est);
     openOut(o.out_dir, "odometry.tum", &odo);
     openOut(o.out_dir, "odometry_all.tum", &odo_all);
