@@ -252,8 +252,9 @@ void GridSlamRos::processPending()
       }
       if (!newer && (ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
         return;  // wait: odometry may come a little after the scan
-      ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f within %.2f s (%s): scan dropped", name_.c_str(),
-                        msg->header.stamp.toSec(), config_.tf_timeout, error.c_str());
+      ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f (%s; %s): scan dropped", name_.c_str(),
+                        msg->header.stamp.toSec(), error.c_str(),
+                        newer ? "the scan is older than the odometry TF kept" : "waited ~tf_timeout");
       pending_.pop_front();
       continue;
     }
