@@ -152,5 +152,88 @@ double absoluteTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vec
   return std::sqrt(sum / static_cast<double>(n));
 }
 
+Pose2 fitRigid2d(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference)
+{
+  const std::size_t n = std::min(estimate.size(), reference.size());
+  if (n < 2)
+    return Pose2();
+  double ex = 0.0, ey = 0.0, rx = 0.0, ry = 0.0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    ex += estimate[i].x;
+    ey += estimate[i].y;
+    rx += reference[i].x;
+    ry += reference[i].y;
+  }
+  ex /= static_cast<double>(n);
+  ey /= static_cast<double>(n);
+  rx /= static_cast<double>(n);
+  ry /= static_cast<double>(n);
+  // The rotation maximising sum r_i . R e_i (centred): atan2 of the cross and dot sums.
+  double dot = 0.0, cross = 0.0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const double ax = estimate[i].x - ex, ay = estimate[i].y - ey;
+    const double bx = reference[i].x - rx, by = reference[i].y - ry;
+    dot += ax * bx + ay * by;
+    cross += ax * by - ay * bx;
+  }
+  const double theta = std::atan2(cross, dot);
+  const double c = std::cos(theta), s = std::sin(theta);
+  return Pose2(rx - (c * ex - s * ey), ry - (s * ex + c * ey), theta);
+}
+
+double alignedTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference)
+{
+  const Pose2 t = fitRigid2d(estimate, reference);
+  std::vector<Pose2> aligned;
+  aligned.reserve(estimate.size());
+  for (const auto& p : estimate)
+    aligned.push_back(t * p);
+  return absoluteTrajectoryRmse(aligned, reference);
+}
+
+RelativePoseError relativePoseError(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference,
+                                    double travel)
+{
+  RelativePoseError r;
+  const std::size_t n = std::min(estimate.size(), reference.size());
+  if (n < 2)
+    return r;
+  // Cumulative travel along the reference.
+  std::vector<double> dist(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i)
+    dist[i] = dist[i - 1] + std::hypot(reference[i].x - reference[i - 1].x, reference[i].y - reference[i - 1].y);
+  double st = 0.0, st2 = 0.0, sr = 0.0, sr2 = 0.0;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (j < i)
+      j = i;
+    while (j < n && dist[j] - dist[i] < travel)
+      ++j;
+    if (j >= n)
+      break;
+    const Pose2 de = between(estimate[i], estimate[j]);
+    const Pose2 dr = between(reference[i], reference[j]);
+    const Pose2 err = between(dr, de);
+    const double et = std::hypot(err.x, err.y), er = std::abs(wrapAngle(err.theta));
+    st += et;
+    st2 += et * et;
+    sr += er;
+    sr2 += er * er;
+    ++r.pairs;
+  }
+  if (r.pairs > 0)
+  {
+    const double k = static_cast<double>(r.pairs);
+    r.translation_mean = st / k;
+    r.translation_rms = std::sqrt(st2 / k);
+    r.rotation_mean = sr / k;
+    r.rotation_rms = std::sqrt(sr2 / k);
+  }
+  return r;
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

@@ -101,5 +101,45 @@ std::vector<int> lowVarianceResample(const std::vector<double>& weights, Random&
   return out;
 }
 
+std::vector<int> multinomialResample(const std::vector<double>& weights, Random& random)
+{
+  const std::size_t n = weights.size();
+  std::vector<double> cdf(n);
+  double c = 0.0;
+  for (std::size_t i = 0; i < n; ++i)
+    cdf[i] = (c += weights[i]);
+  std::vector<int> out;
+  out.reserve(n);
+  for (std::size_t m = 0; m < n; ++m)
+  {
+    const double u = random.uniform() * c;
+    const auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
+    out.push_back(static_cast<int>(std::min<std::ptrdiff_t>(it - cdf.begin(), static_cast<std::ptrdiff_t>(n) - 1)));
+  }
+  return out;
+}
+
+bool parseResamplingMethod(const std::string& name, ResamplingMethod* method)
+{
+  if (name == "low_variance")
+    *method = ResamplingMethod::kLowVariance;
+  else if (name == "multinomial")
+    *method = ResamplingMethod::kMultinomial;
+  else
+    return false;
+  return true;
+}
+
+const char* resamplingMethodName(ResamplingMethod method)
+{
+  return method == ResamplingMethod::kMultinomial ? "multinomial" : "low_variance";
+}
+
+std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod method, Random& random)
+{
+  return method == ResamplingMethod::kMultinomial ? multinomialResample(weights, random)
+                                                  : lowVarianceResample(weights, random);
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

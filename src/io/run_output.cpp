@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace rbpf_slam
@@ -23,6 +24,29 @@ void writeTum(const std::string& path, const std::vector<double>& stamps, const 
     writeTumLine(out, stamps[i], poses[i]);
   if (!out)
     throw std::runtime_error(path + ": cannot write");
+}
+
+void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw std::runtime_error(path + ": cannot read");
+  stamps->clear();
+  poses->clear();
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line))
+  {
+    ++n;
+    if (line.empty() || line[0] == '#')
+      continue;
+    std::istringstream ss(line);
+    double t, x, y, z, qx, qy, qz, qw;
+    if (!(ss >> t >> x >> y >> z >> qx >> qy >> qz >> qw))
+      throw std::runtime_error(path + ":" + std::to_string(n) + ": expected t x y z qx qy qz qw");
+    stamps->push_back(t);
+    poses->emplace_back(x, y, std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)));
+  }
 }
 
 void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)

@@ -60,6 +60,24 @@ double effectiveSampleSize(const std::vector<double>& weights);
  */
 std::vector<int> lowVarianceResample(const std::vector<double>& weights, Random& random);
 
+/**
+ * @brief Multinomial resampling (N independent draws from the weights, as the course's grid SLAM did): more
+ * variance than low-variance resampling, kept as an option for comparison.
+ */
+std::vector<int> multinomialResample(const std::vector<double>& weights, Random& random);
+
+/** @brief The resampling strategies of the skeleton. */
+enum class ResamplingMethod
+{
+  kLowVariance,
+  kMultinomial
+};
+/** @brief "low_variance" or "multinomial"; false (and @p method untouched) for anything else. */
+bool parseResamplingMethod(const std::string& name, ResamplingMethod* method);
+const char* resamplingMethodName(ResamplingMethod method);
+/** @brief Indices of the particles to keep by @p method. */
+std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod method, Random& random);
+
 }  // namespace core
 }  // namespace rbpf_slam
 

@@ -19,6 +19,12 @@ void writeTumLine(std::ostream& out, double stamp, const core::Pose2& pose);
 void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses);
 
 /**
+ * @brief Reads a TUM trajectory (t x y z qx qy qz qw; '#' comments) as planar poses (yaw from the quaternion).
+ * @throws std::runtime_error naming the file and line when it cannot be read or a line is malformed.
+ */
+void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses);
+
+/**
  * @brief Landmarks as CSV: id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional (metres).
  * @throws std::runtime_error naming the file.
  */

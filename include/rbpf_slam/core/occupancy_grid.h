@@ -1,0 +1,168 @@
+#ifndef RBPF_SLAM_CORE_OCCUPANCY_GRID_H
+#define RBPF_SLAM_CORE_OCCUPANCY_GRID_H
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rbpf_slam/core/occupancy_image.h"
+#include "rbpf_slam/core/pose2.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief How rays change the log-odds of the cells they cross and end in. */
+struct OccupancyGridConfig
+{
+  double resolution = 0.05;  ///< [m/cell]
+  // The course's values ("Odometry Based Mapping"): a hit is strong evidence, one free pass weak, and the
+  // clamp keeps a cell able to change its mind after a few dozen scans.
+  float log_odds_hit = 0.9f;    ///< added to the cell a beam ends in
+  float log_odds_free = -0.1f;  ///< added to each cell a beam crosses
+  float log_odds_clamp = 20.0f; ///< |log-odds| never exceeds this
+  // Export: occupied above, free below (log-odds 0 = p 0.5 = never observed, or evidence that cancelled).
+  float occupied_log_odds = 0.0f;  ///< cells with log-odds > this are occupied in trinary exports
+  float free_log_odds = 0.0f;      ///< cells with log-odds < this are free in trinary exports
+
+  /** @brief Empty when valid, else a message naming the bad parameter. */
+  std::string validate() const;
+};
+
+/**
+ * @brief A planar scan as REP-117 states it: ranges along bearings angle_min + i * angle_increment in the
+ * sensor frame; NaN = invalid, +Inf = no return within range_max, -Inf = too close.
+ */
+struct ScanData
+{
+  std::vector<float> ranges;
+  double angle_min = 0.0;        ///< [rad]
+  double angle_increment = 0.0;  ///< [rad]
+  double range_min = 0.0;        ///< [m] the sensor's
+  double range_max = 1e9;        ///< [m] the sensor's
+};
+
+/**
+ * @brief Which part of a scan a map uses: the usable range window (the course keeps 0.15 - 20 m) and how
+ * far a no-return clears free space.
+ */
+struct ScanLimits
+{
+  double range_min = 0.15;  ///< [m] shorter readings are ignored (the robot's own body, dust)
+  double range_max = 20.0;  ///< [m] longer readings mark no hit; free space is cleared up to here
+  double no_return_free_range = 20.0;  ///< [m] +Inf (no return) clears free space up to here, no hit
+
+  std::string validate() const;
+};
+
+/** @brief What a beam is, once the sensor's and the map's limits are applied. */
+enum class BeamKind
+{
+  kSkip,  ///< NaN, -Inf, below range_min: no information
+  kHit,   ///< free space up to the end point, which is occupied
+  kFree   ///< free space up to @p length, no hit (no return, or beyond range_max)
+};
+/** @brief Classifies range @p r; @p length is the length to trace (the range, or the clearing limit). */
+BeamKind classifyBeam(float r, const ScanData& scan, const ScanLimits& limits, double* length);
+
+/**
+ * @brief A log-odds occupancy grid that grows as the robot explores, stored in square tiles of
+ * kTileSize x kTileSize cells held by shared pointers.
+ *
+ * Cell (ix, iy) covers [ix, ix + 1) x [iy, iy + 1) resolution-sized squares of the map frame: a point on a
+ * border belongs to the cell above / to the right of it. Tiles that no ray has touched do not exist (their
+ * cells read 0 = unknown). Copying a grid copies only tile pointers; a write to a tile that another copy
+ * still holds clones that tile first (copy-on-write), so per-particle maps cost only the tiles they change.
+ */
+class OccupancyGrid
+{
+public:
+  static constexpr int kTileBits = 6;
+  static constexpr int kTileSize = 1 << kTileBits;  ///< 64 cells
+  using Tile = std::array<float, kTileSize * kTileSize>;
+
+  explicit OccupancyGrid(const OccupancyGridConfig& config = OccupancyGridConfig());
+
+  const OccupancyGridConfig& config() const { return config_; }
+  double resolution() const { return config_.resolution; }
+
+  /** @brief The cell containing the map point (x, y). */
+  void cellOf(double x, double y, int* ix, int* iy) const;
+
+  /** @brief Log-odds of a cell (0 where nothing was observed). */
+  float logOdds(int ix, int iy) const
+  {
+    const Tile* t = tile(ix >> kTileBits, iy >> kTileBits);
+    return t ? (*t)[index(ix, iy)] : 0.0f;
+  }
+  /** @brief Adds @p delta to a cell (clamped), creating its tile if needed. */
+  void addLogOdds(int ix, int iy, float delta);
+
+  /** @brief Occupied in the sense of the export threshold (log-odds > occupied_log_odds). */
+  bool occupied(int ix, int iy) const { return logOdds(ix, iy) > config_.occupied_log_odds; }
+
+  /**
+   * @brief The cells of the Bresenham line from cell (x0, y0) to cell (x1, y1), both ends included, in
+   * order from the start; every octant; each step moves to an 8-neighbour.
+   */
+  static void bresenham(int x0, int y0, int x1, int y1, std::vector<std::pair<int, int>>* cells);
+
+  /**
+   * @brief Traces one ray from the map point (sx, sy) to (ex, ey): every cell but the last gets
+   * log_odds_free; the last gets log_odds_hit when @p hit, else log_odds_free too.
+   */
+  void updateRay(double sx, double sy, double ex, double ey, bool hit);
+
+  /**
+   * @brief Integrates a scan taken by a sensor at @p sensor_pose (map frame): each beam per classifyBeam().
+   * @return the number of beams used.
+   */
+  int insertScan(const Pose2& sensor_pose, const ScanData& scan, const ScanLimits& limits);
+
+  /** @brief Number of tiles that exist. */
+  std::size_t tileCount() const;
+  /** @brief Tile bounds: tiles [tile_x0, tile_x0 + tiles_x) x [tile_y0, tile_y0 + tiles_y) may exist. */
+  int tileX0() const { return tx0_; }
+  int tileY0() const { return ty0_; }
+  int tilesX() const { return ntx_; }
+  int tilesY() const { return nty_; }
+  /** @brief Whether two grids share the storage of tile (tx, ty) (copy-on-write not yet triggered). */
+  bool sharesTileWith(const OccupancyGrid& other, int tx, int ty) const;
+
+  /**
+   * @brief The bounding box of the existing tiles as a nav_msgs/OccupancyGrid-like array: row-major, row 0 at
+   * the bottom, -1 unknown (log-odds exactly 0), else 0..100 = round(100 * p) with p = 1 - 1 / (1 + e^l).
+   * An empty grid gives a 0 x 0 array.
+   */
+  void exportProbabilities(std::vector<std::int8_t>* data, int* width, int* height, MapOrigin* origin) const;
+
+  /** @brief The same box as a trinary OccupancyImage (occupied / free / unknown by the config's thresholds). */
+  OccupancyImage toImage() const;
+
+private:
+  static int index(int ix, int iy) { return ((iy & (kTileSize - 1)) << kTileBits) | (ix & (kTileSize - 1)); }
+  const Tile* tile(int tx, int ty) const
+  {
+    const int i = tx - tx0_, j = ty - ty0_;
+    if (i < 0 || j < 0 || i >= ntx_ || j >= nty_)
+      return nullptr;
+    return tiles_[static_cast<std::size_t>(j) * ntx_ + i].get();
+  }
+  Tile& mutableTile(int tx, int ty);
+  void exportCells(const std::function<std::int8_t(float)>& convert, std::vector<std::int8_t>* data, int* width,
+                   int* height, MapOrigin* origin) const;
+  void grow(int tx, int ty);
+
+  OccupancyGridConfig config_;
+  int tx0_ = 0, ty0_ = 0, ntx_ = 0, nty_ = 0;
+  std::vector<std::shared_ptr<Tile>> tiles_;  // row-major over the tile bounds; null = never touched
+  std::vector<std::pair<int, int>> line_;     // scratch for rays
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_OCCUPANCY_GRID_H

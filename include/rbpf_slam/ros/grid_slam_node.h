@@ -1,0 +1,101 @@
+#ifndef RBPF_SLAM_ROS_GRID_SLAM_NODE_H
+#define RBPF_SLAM_ROS_GRID_SLAM_NODE_H
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "rbpf_slam/core/grid_slam.h"
+
+namespace rbpf_slam
+{
+/** @brief The parameters of GridSlamRos besides the filter's own (core::GridSlamConfig). */
+struct GridSlamRosConfig
+{
+  std::string map_frame = "map";
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double tf_timeout = 0.5;            ///< [s] wall time a scan waits for odom -> base_link at its stamp
+  double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the scan
+  double map_update_interval = 2.0;   ///< [s] of scan time between publications of `map`
+  bool publish_tf = true;
+  std::string map_path = "~/.ros/grid_map.yaml";  ///< ~save_map writes here (and the .pgm beside it)
+  int max_path_poses = 100000;
+};
+
+/** @brief The core's grid as a nav_msgs/OccupancyGrid (-1 unknown, 0..100), header left to the caller. */
+void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg);
+
+/**
+ * @brief Grid SLAM (core::GridSlam, course mode) on ROS topics, relative to @p nh:
+ *
+ * - subscribes `scan` (sensor_msgs/LaserScan, REP-117); odometry comes from TF `odom -> base_link` at
+ *   the scan's stamp (a scan waits up to `~tf_timeout` for it), the scanner's mount from TF
+ *   `base_link -> scan frame`.
+ * - publishes `map` (nav_msgs/OccupancyGrid, latched, every `~map_update_interval` of scan time) and
+ *   `map_metadata` (latched), TF `map -> odom` (REP-105), `pose` (PoseWithCovarianceStamped: the particles'
+ *   weighted mean and covariance), `particles` (PoseArray, when subscribed), `path` (the mapping poses).
+ * - service `~save_map` (std_srvs/Trigger): the map to `~map_path` in the map_server layout (YAML + PGM).
+ *
+ * Time going backwards (a looped bag) resets the filter, with one warning (the TF listener clears its buffer).
+ */
+class GridSlamRos
+{
+public:
+  GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~GridSlamRos();
+
+private:
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void onTimer(const ros::WallTimerEvent& event);
+  bool onSaveMap(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  /** @brief Processes the waiting scans whose odometry TF is there (or drops those that waited too long). */
+  void processPending();
+  void processScan(const sensor_msgs::LaserScan& msg, const core::Pose2& odom_pose, const core::Pose2& sensor);
+  void publishMap(const ros::Time& stamp);
+  void publishPoses(const ros::Time& stamp, const core::Pose2& odom_pose);
+  /** @brief Planar transform parent <- child at @p stamp; false (no warning) when not available. */
+  bool lookup(const std::string& parent, const std::string& child, const ros::Time& stamp, core::Pose2* pose,
+              std::string* error);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string name_;
+  GridSlamRosConfig config_;
+  core::GridSlamConfig filter_config_;
+  std::unique_ptr<core::GridSlam> filter_;
+  std::mutex mutex_;
+
+  struct Pending
+  {
+    sensor_msgs::LaserScan::ConstPtr msg;
+    ros::WallTime arrival;
+  };
+  std::deque<Pending> pending_;
+  ros::Time last_scan_stamp_;
+  ros::Time last_map_stamp_;
+  bool warned_backwards_ = false;
+  std::size_t updates_ = 0;
+
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ros::Subscriber scan_sub_;
+  ros::Publisher map_pub_, metadata_pub_, pose_pub_, particles_pub_, path_pub_;
+  ros::ServiceServer save_srv_;
+  ros::WallTimer timer_;
+  nav_msgs::Path path_;
+};
+
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_ROS_GRID_SLAM_NODE_H

@@ -1,0 +1,54 @@
+#include "rbpf_slam/io/grid_slam_config.h"
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace rbpf_slam
+{
+namespace io
+{
+namespace
+{
+void getFloat(const ParamSource& p, const std::string& key, float* v)
+{
+  double d = *v;
+  if (p.get(key, &d))
+    *v = static_cast<float>(d);
+}
+}  // namespace
+
+void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
+{
+  std::string name;
+  if (p.get("mode", &name) && !core::parseGridSlamMode(name, &c->mode))
+    throw std::runtime_error("invalid parameter: mode must be 'course' (got '" + name + "')");
+  p.get("particles", &c->particles);
+  int seed = static_cast<int>(c->seed);
+  p.get("seed", &seed);
+  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &c->resampling))
+    throw std::runtime_error("invalid parameter: resampling must be low_variance or multinomial (got '" + name + "')");
+  p.get("resample_neff_ratio", &c->resample_neff_ratio);
+  p.get("correlation_gain", &c->correlation_gain);
+  p.get("score_beam_step", &c->score_beam_step);
+  p.get("motion/alpha1", &c->motion.alpha1);
+  p.get("motion/alpha2", &c->motion.alpha2);
+  p.get("motion/alpha3", &c->motion.alpha3);
+  p.get("motion/alpha4", &c->motion.alpha4);
+  p.get("grid/resolution", &c->grid.resolution);
+  getFloat(p, "grid/log_odds_hit", &c->grid.log_odds_hit);
+  getFloat(p, "grid/log_odds_free", &c->grid.log_odds_free);
+  getFloat(p, "grid/log_odds_clamp", &c->grid.log_odds_clamp);
+  getFloat(p, "grid/occupied_log_odds", &c->grid.occupied_log_odds);
+  getFloat(p, "grid/free_log_odds", &c->grid.free_log_odds);
+  p.get("range_min", &c->limits.range_min);
+  p.get("range_max", &c->limits.range_max);
+  p.get("no_return_free_range", &c->limits.no_return_free_range);
+  const std::string error = c->validate();
+  if (!error.empty())
+    throw std::runtime_error("invalid parameter: " + error);
+}
+
+}  // namespace io
+}  // namespace rbpf_slam

@@ -1,0 +1,408 @@
+#include "rbpf_slam/ros/grid_slam_node.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+
+#include <sys/stat.h>
+
+#include <boost/make_shared.hpp>
+#include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/MapMetaData.h>
+#include <tf2/exceptions.h>
+
+#include "rbpf_slam/io/grid_slam_config.h"
+#include "rbpf_slam/io/map_image_file.h"
+#include "rbpf_slam/ros/params.h"
+#include "rbpf_slam/ros/ros_param_source.h"
+#include "rbpf_slam/ros/scan_conversions.h"
+
+namespace rbpf_slam
+{
+namespace
+{
+constexpr std::size_t kMaxPending = 50;  ///< scans waiting for their odometry TF
+
+core::GridSlamConfig readFilterConfig(const ros::NodeHandle& pnh)
+{
+  core::GridSlamConfig c;
+  try
+  {
+    io::readGridSlamConfig(RosParamSource(pnh), &c);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s: %s; using the default filter configuration", pnh.getNamespace().c_str(), e.what());
+    c = core::GridSlamConfig();
+  }
+  c.seed = readSeed(pnh);
+  return c;
+}
+
+GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
+{
+  GridSlamRosConfig c;
+  const RosParamSource params(pnh);
+  readKey(params, "map_frame", &c.map_frame);
+  readKey(params, "odom_frame", &c.odom_frame);
+  readKey(params, "base_frame", &c.base_frame);
+  readKey(params, "tf_timeout", &c.tf_timeout);
+  readKey(params, "transform_tolerance", &c.transform_tolerance);
+  readKey(params, "map_update_interval", &c.map_update_interval);
+  readKey(params, "publish_tf", &c.publish_tf);
+  readKey(params, "map_path", &c.map_path);
+  readKey(params, "max_path_poses", &c.max_path_poses);
+  const GridSlamRosConfig d;
+  const char* dkeys[3] = { "tf_timeout", "transform_tolerance", "map_update_interval" };
+  double* dvalues[3] = { &c.tf_timeout, &c.transform_tolerance, &c.map_update_interval };
+  const double ddefaults[3] = { d.tf_timeout, d.transform_tolerance, d.map_update_interval };
+  for (int i = 0; i < 3; ++i)
+    if (!(std::isfinite(*dvalues[i]) && *dvalues[i] >= 0.0))
+    {
+      ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName(dkeys[i]).c_str(), ddefaults[i]);
+      *dvalues[i] = ddefaults[i];
+    }
+  if (c.max_path_poses < 1)
+  {
+    ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
+    c.max_path_poses = d.max_path_poses;
+  }
+  const char* keys[3] = { "map_frame", "odom_frame", "base_frame" };
+  std::string* values[3] = { &c.map_frame, &c.odom_frame, &c.base_frame };
+  const std::string defaults[3] = { d.map_frame, d.odom_frame, d.base_frame };
+  for (int i = 0; i < 3; ++i)
+    if (values[i]->empty())
+    {
+      ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(keys[i]).c_str(), defaults[i].c_str());
+      *values[i] = defaults[i];
+    }
+  return c;
+}
+
+double yawOf(const geometry_msgs::Quaternion& q)
+{
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+
+geometry_msgs::Quaternion quaternionOfYaw(double yaw)
+{
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(0.5 * yaw);
+  q.w = std::cos(0.5 * yaw);
+  return q;
+}
+
+geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
+{
+  geometry_msgs::Pose m;
+  m.position.x = p.x;
+  m.position.y = p.y;
+  m.orientation = quaternionOfYaw(p.theta);
+  return m;
+}
+
+std::string expandHome(const std::string& path)
+{
+  if (path.size() >= 2 && path[0] == '~' && path[1] == '/')
+  {
+    const char* home = std::getenv("HOME");
+    if (home != nullptr)
+      return std::string(home) + path.substr(1);
+  }
+  return path;
+}
+
+bool makeDirectories(const std::string& dir)
+{
+  std::size_t pos = 0;
+  while (pos != std::string::npos)
+  {
+    pos = dir.find('/', pos + 1);
+    const std::string partial = dir.substr(0, pos);
+    if (!partial.empty() && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg)
+{
+  int w = 0, h = 0;
+  core::MapOrigin origin;
+  grid.exportProbabilities(&msg->data, &w, &h, &origin);
+  msg->info.resolution = static_cast<float>(grid.resolution());
+  msg->info.width = static_cast<std::uint32_t>(w);
+  msg->info.height = static_cast<std::uint32_t>(h);
+  msg->info.origin.position.x = origin.x;
+  msg->info.origin.position.y = origin.y;
+  msg->info.origin.orientation.w = 1.0;
+}
+
+GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
+{
+  config_ = readRosConfig(pnh_);
+  filter_config_ = readFilterConfig(pnh_);
+  filter_.reset(new core::GridSlam(filter_config_));
+
+  tf_buffer_.reset(new tf2_ros::Buffer());
+  tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
+
+  path_.header.frame_id = config_.map_frame;
+  map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+  pose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+  particles_pub_ = nh_.advertise<geometry_msgs::PoseArray>("particles", 2);
+  path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
+  save_srv_ = pnh_.advertiseService("save_map", &GridSlamRos::onSaveMap, this);
+  scan_sub_ = nh_.subscribe("scan", 50, &GridSlamRos::onScan, this);
+  timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &GridSlamRos::onTimer, this);
+
+  ROS_INFO("%s: grid SLAM (%s mode, %d particles, %s resampling, seed %llu, %.3f m cells) on %s; frames %s -> %s -> %s",
+           name_.c_str(), "course", filter_config_.particles, core::resamplingMethodName(filter_config_.resampling),
+           static_cast<unsigned long long>(filter_config_.seed), filter_config_.grid.resolution,
+           scan_sub_.getTopic().c_str(), config_.map_frame.c_str(), config_.odom_frame.c_str(),
+           config_.base_frame.c_str());
+}
+
+GridSlamRos::~GridSlamRos() = default;
+
+void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!last_scan_stamp_.isZero() && msg->header.stamp < last_scan_stamp_)
+  {
+    // A looped bag or a restarted simulation: start a new map rather than mixing two timelines.
+    // The TF listener clears its own buffer when the clock jumps back; clearing it here as well could drop
+    // the bag's /tf_static, which is published only once.
+    if (!warned_backwards_)
+      ROS_WARN("%s: scan stamp %.3f is before the previous %.3f: time went backwards; resetting the filter (said "
+               "once)",
+               name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec());
+    warned_backwards_ = true;
+    filter_->reset();
+    pending_.clear();
+    path_.poses.clear();
+    last_map_stamp_ = ros::Time();
+  }
+  else if (msg->header.stamp == last_scan_stamp_)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: two scans stamped %.3f: the second dropped", name_.c_str(), msg->header.stamp.toSec());
+    return;
+  }
+  last_scan_stamp_ = msg->header.stamp;
+  pending_.push_back({ msg, ros::WallTime::now() });
+  if (pending_.size() > kMaxPending)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: %zu scans wait for TF %s -> %s; dropping the oldest", name_.c_str(), pending_.size(),
+                      config_.odom_frame.c_str(), config_.base_frame.c_str());
+    pending_.pop_front();
+  }
+  processPending();
+}
+
+void GridSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  processPending();
+}
+
+bool GridSlamRos::lookup(const std::string& parent, const std::string& child, const ros::Time& stamp,
+                         core::Pose2* pose, std::string* error)
+{
+  try
+  {
+    const geometry_msgs::TransformStamped t = tf_buffer_->lookupTransform(parent, child, stamp);
+    *pose = core::Pose2(t.transform.translation.x, t.transform.translation.y, yawOf(t.transform.rotation));
+    return std::isfinite(pose->x) && std::isfinite(pose->y) && std::isfinite(pose->theta);
+  }
+  catch (const tf2::TransformException& e)
+  {
+    *error = e.what();
+    return false;
+  }
+}
+
+void GridSlamRos::processPending()
+{
+  while (!pending_.empty())
+  {
+    const sensor_msgs::LaserScan::ConstPtr msg = pending_.front().msg;
+    core::Pose2 odom_pose, sensor;
+    std::string error;
+    const bool ok = lookup(config_.odom_frame, config_.base_frame, msg->header.stamp, &odom_pose, &error) &&
+                    lookup(config_.base_frame, msg->header.frame_id, msg->header.stamp, &sensor, &error);
+    if (!ok)
+    {
+      // Odometry newer than the scan is there, yet no transform at its stamp: it is older than the TF
+      // buffer (the first scans of a bag) or in a gap, and waiting will not help.
+      bool newer = false;
+      try
+      {
+        newer = tf_buffer_->lookupTransform(config_.odom_frame, config_.base_frame, ros::Time(0)).header.stamp >
+                msg->header.stamp;
+      }
+      catch (const tf2::TransformException&)
+      {
+      }
+      if (!newer && (ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
+        return;  // wait: odometry may come a little after the scan
+      ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f (%s; %s): scan dropped", name_.c_str(),
+                        msg->header.stamp.toSec(), error.c_str(),
+                        newer ? "the scan is older than the odometry TF kept" : "waited ~tf_timeout");
+      pending_.pop_front();
+      continue;
+    }
+    pending_.pop_front();
+    try
+    {
+      processScan(*msg, odom_pose, sensor);
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
+    }
+  }
+}
+
+void GridSlamRos::processScan(const sensor_msgs::LaserScan& msg, const core::Pose2& odom_pose,
+                              const core::Pose2& sensor)
+{
+  core::ScanData scan;
+  const std::string why = toScanData(msg, &scan);
+  if (!why.empty())
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: %s: dropped", name_.c_str(), why.c_str());
+    return;
+  }
+  const core::GridSlamStep step = filter_->update(odom_pose, scan, sensor);
+  ++updates_;
+  ROS_DEBUG("%s: scan %zu: Neff %.1f%s, best correlation %d", name_.c_str(), updates_, step.neff,
+            step.resampled ? ", resampled" : "", step.best_correlation);
+  publishPoses(msg.header.stamp, odom_pose);
+  if (last_map_stamp_.isZero() || (msg.header.stamp - last_map_stamp_).toSec() >= config_.map_update_interval)
+  {
+    publishMap(msg.header.stamp);
+    last_map_stamp_ = msg.header.stamp;
+  }
+}
+
+void GridSlamRos::publishMap(const ros::Time& stamp)
+{
+  auto map = boost::make_shared<nav_msgs::OccupancyGrid>();
+  toMsg(filter_->map(), map.get());
+  map->header.stamp = stamp;
+  map->header.frame_id = config_.map_frame;
+  map->info.map_load_time = stamp;
+  map_pub_.publish(nav_msgs::OccupancyGrid::ConstPtr(map));
+  metadata_pub_.publish(boost::make_shared<nav_msgs::MapMetaData>(map->info));
+}
+
+void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_pose)
+{
+  const core::Pose2 best = filter_->mappingPose();
+  if (config_.publish_tf)
+  {
+    const core::Pose2 map_to_odom = best * odom_pose.inverse();
+    geometry_msgs::TransformStamped tf;
+    tf.header.stamp = stamp + ros::Duration(config_.transform_tolerance);
+    tf.header.frame_id = config_.map_frame;
+    tf.child_frame_id = config_.odom_frame;
+    tf.transform.translation.x = map_to_odom.x;
+    tf.transform.translation.y = map_to_odom.y;
+    tf.transform.rotation = quaternionOfYaw(map_to_odom.theta);
+    tf_broadcaster_.sendTransform(tf);
+  }
+
+  {
+    // Weighted mean (heading on the circle) and covariance of the particles.
+    double wx = 0.0, wy = 0.0, wc = 0.0, ws = 0.0, wsum = 0.0;
+    for (const auto& p : filter_->particles())
+    {
+      wx += p.weight * p.pose.x;
+      wy += p.weight * p.pose.y;
+      wc += p.weight * std::cos(p.pose.theta);
+      ws += p.weight * std::sin(p.pose.theta);
+      wsum += p.weight;
+    }
+    wsum = wsum > 0.0 ? wsum : 1.0;
+    const core::Pose2 mean(wx / wsum, wy / wsum, std::atan2(ws, wc));
+    double c[3][3] = { { 0.0 } };
+    for (const auto& p : filter_->particles())
+    {
+      const double d[3] = { p.pose.x - mean.x, p.pose.y - mean.y, core::wrapAngle(p.pose.theta - mean.theta) };
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          c[i][j] += p.weight / wsum * d[i] * d[j];
+    }
+    auto pose = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+    pose->header.stamp = stamp;
+    pose->header.frame_id = config_.map_frame;
+    pose->pose.pose = toPoseMsg(mean);
+    const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        pose->pose.covariance[idx[i] * 6 + idx[j]] = c[i][j];
+    pose_pub_.publish(geometry_msgs::PoseWithCovarianceStamped::ConstPtr(pose));
+  }
+
+  if (particles_pub_.getNumSubscribers() > 0)
+  {
+    auto cloud = boost::make_shared<geometry_msgs::PoseArray>();
+    cloud->header.stamp = stamp;
+    cloud->header.frame_id = config_.map_frame;
+    for (const auto& p : filter_->particles())
+      cloud->poses.push_back(toPoseMsg(p.pose));
+    particles_pub_.publish(geometry_msgs::PoseArray::ConstPtr(cloud));
+  }
+
+  geometry_msgs::PoseStamped ps;
+  ps.header.stamp = stamp;
+  ps.header.frame_id = config_.map_frame;
+  ps.pose = toPoseMsg(best);
+  path_.header.stamp = stamp;
+  path_.poses.push_back(ps);
+  if (path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
+    path_.poses.erase(path_.poses.begin());
+  if (path_pub_.getNumSubscribers() > 0)
+    path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
+}
+
+bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string target = expandHome(config_.map_path);
+  if (!filter_->initialised() || filter_->map().tileCount() == 0)
+  {
+    res.success = false;
+    res.message = "no map yet (no scan processed)";
+    return true;
+  }
+  const std::size_t slash = target.rfind('/');
+  if (slash != std::string::npos && slash > 0 && !makeDirectories(target.substr(0, slash)))
+  {
+    res.success = false;
+    res.message = "cannot create the directory of " + target + ": " + std::strerror(errno);
+    return true;
+  }
+  try
+  {
+    io::saveMapImage(filter_->map().toImage(), target);
+    res.success = true;
+    res.message = "map saved to " + target;
+    ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
+  }
+  catch (const std::exception& e)
+  {
+    res.success = false;
+    res.message = e.what();
+  }
+  return true;
+}
+
+}  // namespace rbpf_slam

@@ -1,0 +1,309 @@
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/core/evaluation.h"
+#include "rbpf_slam/core/grid_slam.h"
+#include "rbpf_slam/core/particle_filter.h"
+#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/skid_steer_odometry.h"
+
+using namespace rbpf_slam::core;
+
+namespace
+{
+struct Segment
+{
+  double x0, y0, x1, y1;
+};
+
+// An asymmetric room (10 x 8 m) with a box and a pillar, so that no two poses see the same scan.
+const std::vector<Segment>& room()
+{
+  static const std::vector<Segment> walls = {
+    { -4, -3, 6, -3 }, { 6, -3, 6, 5 },   { 6, 5, -4, 5 },     { -4, 5, -4, -3 },   // outer walls
+    { 1, 1, 2.5, 1 },  { 2.5, 1, 2.5, 2 }, { 2.5, 2, 1, 2 },   { 1, 2, 1, 1 },      // box
+    { -2.5, -1.5, -2.2, -1.5 }, { -2.2, -1.5, -2.2, -1.2 }, { -2.2, -1.2, -2.5, -1.2 }, { -2.5, -1.2, -2.5, -1.5 },
+    { 4, 3.5, 6, 2.5 },  // a slanted corner
+  };
+  return walls;
+}
+
+double castRay(double x, double y, double a)
+{
+  const double dx = std::cos(a), dy = std::sin(a);
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& s : room())
+  {
+    const double ex = s.x1 - s.x0, ey = s.y1 - s.y0;
+    const double den = dx * ey - dy * ex;
+    if (std::abs(den) < 1e-12)
+      continue;
+    const double t = ((s.x0 - x) * ey - (s.y0 - y) * ex) / den;
+    const double u = ((s.x0 - x) * dy - (s.y0 - y) * dx) / den;
+    if (t > 0 && u >= 0 && u <= 1)
+      best = std::min(best, t);
+  }
+  return best;
+}
+
+ScanData simulateScan(const Pose2& sensor, Random* noise = nullptr)
+{
+  ScanData scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 180;
+  scan.range_min = 0.02;
+  scan.range_max = 30.0;
+  for (int i = 0; i <= 180; ++i)
+  {
+    double r = castRay(sensor.x, sensor.y, sensor.theta + scan.angle_min + i * scan.angle_increment);
+    if (noise && std::isfinite(r))
+      r += noise->gaussian(0.01);
+    scan.ranges.push_back(static_cast<float>(r));
+  }
+  return scan;
+}
+
+// A drive through the room: 0.05 m steps along a loop around the box.
+std::vector<Pose2> truePath()
+{
+  std::vector<Pose2> path;
+  const std::vector<Pose2> corners = { Pose2(-1, -1.5, 0), Pose2(4, -1.5, 0), Pose2(4, 3.5, 0), Pose2(-1.5, 3.5, 0),
+                                       Pose2(-1.5, -1.0, 0) };
+  for (std::size_t k = 0; k + 1 < corners.size(); ++k)
+  {
+    const Pose2 a = corners[k], b = corners[k + 1];
+    const double heading = std::atan2(b.y - a.y, b.x - a.x);
+    const int steps = static_cast<int>(std::hypot(b.x - a.x, b.y - a.y) / 0.05);
+    for (int i = 0; i < steps; ++i)
+      path.emplace_back(a.x + (b.x - a.x) * i / steps, a.y + (b.y - a.y) * i / steps, heading);
+  }
+  return path;
+}
+}  // namespace
+
+TEST(GridSlam, ScanScorePeaksAtTheTruePose)
+{
+  // The map made from exact poses; then the correlation of a scan from a known pose is largest there.
+  OccupancyGrid map;
+  const ScanLimits limits;
+  const std::vector<Pose2> path = truePath();
+  for (std::size_t i = 0; i < path.size(); i += 5)
+    map.insertScan(path[i], simulateScan(path[i]), limits);
+  const Pose2 truth(0.3, -0.4, 0.35);
+  std::vector<std::pair<double, double>> ends;
+  Random noise(3);
+  GridSlam::scanEndPoints(simulateScan(truth, &noise), limits, 1, &ends);
+  ASSERT_GT(ends.size(), 150u);
+  const int at_truth = GridSlam::correlation(map, truth, Pose2(), ends);
+  EXPECT_GT(at_truth, static_cast<int>(0.7 * ends.size()));
+  int best = -1;
+  Pose2 arg;
+  for (int i = -6; i <= 6; ++i)
+    for (int j = -6; j <= 6; ++j)
+      for (int k = -6; k <= 6; ++k)
+      {
+        const Pose2 p(truth.x + 0.05 * i, truth.y + 0.05 * j, truth.theta + 0.02 * k);
+        const int c = GridSlam::correlation(map, p, Pose2(), ends);
+        if (c > best)
+        {
+          best = c;
+          arg = p;
+        }
+      }
+  EXPECT_NEAR(arg.x, truth.x, 0.051);
+  EXPECT_NEAR(arg.y, truth.y, 0.051);
+  EXPECT_NEAR(arg.theta, truth.theta, 0.021);
+  // Far off the truth the score is much lower.
+  EXPECT_LT(GridSlam::correlation(map, Pose2(truth.x + 0.3, truth.y + 0.3, truth.theta), Pose2(), ends), at_truth / 2);
+  EXPECT_LT(GridSlam::correlation(map, Pose2(truth.x, truth.y, truth.theta + 0.12), Pose2(), ends), at_truth / 2);
+}
+
+namespace
+{
+struct RunResult
+{
+  std::vector<Pose2> poses;
+  std::vector<std::int8_t> map;
+  double final_error = 0.0;
+  double odometry_error = 0.0;
+};
+
+RunResult runRoom(std::uint64_t seed, ResamplingMethod method)
+{
+  GridSlamConfig c;
+  c.seed = seed;
+  c.particles = 30;
+  c.resampling = method;
+  GridSlam slam(c);
+  const std::vector<Pose2> path = truePath();
+  // Odometry drifts: 2 % too long and 0.02 rad/m of heading.
+  Random odo_noise(99);
+  Pose2 odom = path.front();
+  const Pose2 sensor(0.1, 0.0, 0.0);
+  RunResult r;
+  for (std::size_t i = 0; i < path.size(); ++i)
+  {
+    if (i > 0)
+    {
+      const Pose2 d = between(path[i - 1], path[i]);
+      odom = odom * Pose2(d.x * 1.02, d.y, d.theta + 0.02 * std::hypot(d.x, d.y) + odo_noise.gaussian(0.002));
+    }
+    slam.update(odom, simulateScan(path[i] * sensor), sensor);
+    r.poses.push_back(slam.mappingPose());
+  }
+  // Odometry starts at the true start pose and the map frame is the odometry frame: compare directly.
+  const Pose2& truth_final = path.back();
+  r.final_error = std::hypot(slam.mappingPose().x - truth_final.x, slam.mappingPose().y - truth_final.y);
+  r.odometry_error = std::hypot(odom.x - truth_final.x, odom.y - truth_final.y);
+  EXPECT_EQ(slam.particles().size(), 30u);
+  int w, h;
+  MapOrigin o;
+  slam.map().exportProbabilities(&r.map, &w, &h, &o);
+  return r;
+}
+}  // namespace
+
+TEST(GridSlam, SameSeedSameResultAndBeatsDriftingOdometry)
+{
+  const RunResult a = runRoom(7, ResamplingMethod::kMultinomial);
+  const RunResult b = runRoom(7, ResamplingMethod::kMultinomial);
+  ASSERT_EQ(a.poses.size(), b.poses.size());
+  for (std::size_t i = 0; i < a.poses.size(); ++i)
+  {
+    ASSERT_EQ(a.poses[i].x, b.poses[i].x) << i;
+    ASSERT_EQ(a.poses[i].theta, b.poses[i].theta) << i;
+  }
+  EXPECT_EQ(a.map, b.map);
+  const RunResult c = runRoom(8, ResamplingMethod::kMultinomial);
+  EXPECT_NE(a.poses.back().x, c.poses.back().x);
+  // In a room it has mapped from the start, the correlation holds the pose where odometry drifts away.
+  EXPECT_GT(a.odometry_error, 0.5);
+  EXPECT_LT(a.final_error, 0.5 * a.odometry_error);
+  const RunResult d = runRoom(7, ResamplingMethod::kLowVariance);
+  EXPECT_LT(d.final_error, 0.5 * d.odometry_error);
+}
+
+TEST(GridSlam, ValidatesItsConfiguration)
+{
+  GridSlamConfig c;
+  EXPECT_TRUE(c.validate().empty());
+  c.particles = 0;
+  EXPECT_NE(c.validate().find("particles"), std::string::npos);
+  c = GridSlamConfig();
+  c.limits.range_max = 0.1;
+  EXPECT_NE(c.validate().find("range_max"), std::string::npos);
+  EXPECT_THROW(GridSlam{ c }, std::invalid_argument);
+  GridSlamMode m;
+  EXPECT_TRUE(parseGridSlamMode("course", &m));
+  EXPECT_FALSE(parseGridSlamMode("gmapping", &m));
+}
+
+TEST(Resampling, MultinomialDrawsInProportionToTheWeights)
+{
+  Random r(5);
+  const std::vector<double> w = { 0.1, 0.6, 0.0, 0.3 };
+  std::vector<int> count(4, 0);
+  for (int k = 0; k < 2000; ++k)
+    for (int i : multinomialResample(w, r))
+      ++count[static_cast<std::size_t>(i)];
+  const double total = 2000.0 * 4;
+  EXPECT_NEAR(count[0] / total, 0.1, 0.01);
+  EXPECT_NEAR(count[1] / total, 0.6, 0.01);
+  EXPECT_EQ(count[2], 0);
+  EXPECT_NEAR(count[3] / total, 0.3, 0.01);
+  ResamplingMethod m = ResamplingMethod::kLowVariance;
+  EXPECT_TRUE(parseResamplingMethod("multinomial", &m));
+  EXPECT_EQ(m, ResamplingMethod::kMultinomial);
+  EXPECT_FALSE(parseResamplingMethod("systematic?", &m));
+  EXPECT_STREQ(resamplingMethodName(ResamplingMethod::kLowVariance), "low_variance");
+  // Low variance: each particle exactly floor or ceil of N w_i times.
+  const std::vector<int> lv = resample({ 0.25, 0.5, 0.25, 0.0 }, ResamplingMethod::kLowVariance, r);
+  EXPECT_EQ(std::count(lv.begin(), lv.end(), 1), 2);
+}
+
+TEST(Evaluation, RigidFitRecoversATransformAndAtesIsZero)
+{
+  std::vector<Pose2> ref, est;
+  const Pose2 t(2.0, -1.0, 0.7);
+  for (int i = 0; i < 50; ++i)
+  {
+    ref.emplace_back(0.1 * i, std::sin(0.2 * i), 0.1 * i);
+    est.push_back(t.inverse() * ref.back());
+  }
+  const Pose2 fit = fitRigid2d(est, ref);
+  EXPECT_NEAR(fit.x, t.x, 1e-9);
+  EXPECT_NEAR(fit.y, t.y, 1e-9);
+  EXPECT_NEAR(fit.theta, t.theta, 1e-9);
+  EXPECT_NEAR(alignedTrajectoryRmse(est, ref), 0.0, 1e-9);
+  EXPECT_GT(absoluteTrajectoryRmse(est, ref), 1.0);
+  // One point 1 m off: the fit cannot remove it, and does no worse than the true transform.
+  est[10].x += 1.0;
+  EXPECT_GT(alignedTrajectoryRmse(est, ref), 0.1);
+  EXPECT_LT(alignedTrajectoryRmse(est, ref), 1.0 / std::sqrt(50.0) + 1e-9);
+}
+
+TEST(Evaluation, RelativePoseErrorOverOneMetreOfTravel)
+{
+  // Straight line at 0.125 m per pose; the estimate turns 1 degree per metre more than the reference and
+  // is 2 % long: over each 1 m pair the rotation error is 1 degree, the translation error about 0.02 m.
+  std::vector<Pose2> ref, est;
+  Pose2 e;
+  for (int i = 0; i <= 100; ++i)
+  {
+    ref.emplace_back(0.125 * i, 0.0, 0.0);
+    if (i > 0)
+      e = e * Pose2(0.1275, 0.0, 0.125 * M_PI / 180.0);
+    est.push_back(e);
+  }
+  const RelativePoseError r = relativePoseError(est, ref, 1.0);
+  EXPECT_EQ(r.pairs, 93);  // pose i pairs with i + 8 (the first at >= 1 m of travel)
+  EXPECT_NEAR(r.rotation_mean, M_PI / 180.0, 1e-9);
+  EXPECT_NEAR(r.translation_mean, 0.02, 0.005);
+  EXPECT_GE(r.translation_rms, r.translation_mean);
+  // A rigidly moved copy has no relative error at all.
+  std::vector<Pose2> moved;
+  for (const auto& p : ref)
+    moved.push_back(Pose2(5, 5, 1.0) * p);
+  EXPECT_NEAR(relativePoseError(moved, ref).translation_mean, 0.0, 1e-12);
+  EXPECT_NEAR(relativePoseError(moved, ref).rotation_mean, 0.0, 1e-12);
+}
+
+TEST(SkidSteerOdometry, EncodersAndGyroFusion)
+{
+  SkidSteerConfig c;
+  c.effective_track = 0.5;
+  SkidSteerOdometry enc(c);
+  // Straight 1 m, then a turn on the spot of (e_R - e_L) / w = 0.2 / 0.5 = 0.4 rad.
+  for (int i = 1; i <= 10; ++i)
+    ASSERT_TRUE(enc.addEncoders(0.1 * i, 0.1, 0.1));
+  EXPECT_NEAR(enc.pose().x, 1.0, 1e-12);
+  EXPECT_TRUE(enc.addEncoders(1.1, -0.1, 0.1));
+  EXPECT_NEAR(enc.pose().theta, 0.4, 1e-12);
+  EXPECT_NEAR(enc.pose().x, 1.0, 1e-12);
+  EXPECT_FALSE(enc.addEncoders(1.0, 0.1, 0.1));  // backwards in time
+  EXPECT_FALSE(enc.addEncoders(1.2, std::nan(""), 0.1));
+
+  // Gyro only (weight 1) with a 0.01 rad/s bias, learned while standing still for 2 s; then the wheels
+  // slip (encoders say 0.8 rad) while the gyro says 0.3 rad: the fused heading follows the gyro.
+  c.imu_weight = 1.0;
+  SkidSteerOdometry fused(c);
+  double t = 0.0;
+  for (int i = 0; i < 200; ++i, t += 0.01)
+  {
+    fused.addGyro(t, 0.01);
+    if (i % 4 == 3)
+      fused.addEncoders(t, 0.0, 0.0);
+  }
+  EXPECT_NEAR(fused.gyroBias(), 0.01, 1e-9);
+  EXPECT_NEAR(fused.pose().theta, 0.0, 1e-12);  // standing still: no heading change at all
+  const double t0 = t - 0.01;
+  for (int i = 0; i <= 100; ++i, t += 0.01)
+    fused.addGyro(t, 0.3 + 0.01);
+  fused.addEncoders(t0 + 1.0, -0.2, 0.2);  // encoders: 0.4 / 0.5 = 0.8 rad
+  EXPECT_NEAR(fused.pose().theta, 0.3, 0.011);
+  c.imu_weight = 1.5;
+  EXPECT_NE(c.validate().find("imu_weight"), std::string::npos);
+}

@@ -1,0 +1,67 @@
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/io/grid_slam_config.h"
+
+using namespace rbpf_slam;
+
+TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
+{
+  // config/grid_slam.yaml documents the defaults; reading it must change nothing.
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_slam.yaml");
+  core::GridSlamConfig read, defaults;
+  read.particles = 1;  // so that the file's value is seen to arrive
+  io::readGridSlamConfig(params, &read);
+  EXPECT_EQ(read.mode, defaults.mode);
+  EXPECT_EQ(read.particles, defaults.particles);
+  EXPECT_EQ(read.seed, defaults.seed);
+  EXPECT_EQ(read.resampling, defaults.resampling);
+  EXPECT_EQ(read.resample_neff_ratio, defaults.resample_neff_ratio);
+  EXPECT_EQ(read.correlation_gain, defaults.correlation_gain);
+  EXPECT_EQ(read.score_beam_step, defaults.score_beam_step);
+  EXPECT_EQ(read.motion.alpha1, defaults.motion.alpha1);
+  EXPECT_EQ(read.motion.alpha2, defaults.motion.alpha2);
+  EXPECT_EQ(read.motion.alpha3, defaults.motion.alpha3);
+  EXPECT_EQ(read.motion.alpha4, defaults.motion.alpha4);
+  EXPECT_EQ(read.grid.resolution, defaults.grid.resolution);
+  EXPECT_EQ(read.grid.log_odds_hit, defaults.grid.log_odds_hit);
+  EXPECT_EQ(read.grid.log_odds_free, defaults.grid.log_odds_free);
+  EXPECT_EQ(read.grid.log_odds_clamp, defaults.grid.log_odds_clamp);
+  EXPECT_EQ(read.grid.occupied_log_odds, defaults.grid.occupied_log_odds);
+  EXPECT_EQ(read.grid.free_log_odds, defaults.grid.free_log_odds);
+  EXPECT_EQ(read.limits.range_min, defaults.limits.range_min);
+  EXPECT_EQ(read.limits.range_max, defaults.limits.range_max);
+  EXPECT_EQ(read.limits.no_return_free_range, defaults.limits.no_return_free_range);
+  // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
+  for (const auto& k : params.unusedKeys())
+    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||
+                k == "transform_tolerance" || k == "map_update_interval" || k == "publish_tf" || k == "map_path" ||
+                k == "max_path_poses")
+        << "unexpected key " << k;
+}
+
+TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
+{
+  const std::string path = std::string(::testing::TempDir()) + "grid_slam_bad.yaml";
+  const auto expectError = [&](const std::string& content, const std::string& key) {
+    std::ofstream(path) << content;
+    core::GridSlamConfig c;
+    try
+    {
+      io::readGridSlamConfig(io::YamlParamSource(path), &c);
+      ADD_FAILURE() << "no error for: " << content;
+    }
+    catch (const std::runtime_error& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
+  expectError("grid:\n  resolution: fine\n", "grid/resolution");
+  expectError("resampling: stratified\n", "resampling");
+  expectError("mode: gmapping\n", "mode");
+  expectError("grid:\n  log_odds_free: 0.1\n", "log_odds_free");
+  expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
+}

@@ -1,0 +1,115 @@
+"""The shared bag runner with the grid filter (slam_bag --filter grid).
+
+- The ESE 650 lidar path: a run written here in the course's exact .mat layout (Encoders, Hokuyo: a straight
+  corridor), converted by ese650_to_bag, mapped from wheel odometry: every scan is used and the walls land
+  where they are.
+- The truth firewall: a simulated indoor drive and the same bag with every ground-truth topic stripped give
+  byte-identical output.
+"""
+import filecmp
+import importlib.machinery
+import importlib.util
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+from bagcheck import run_main
+from test_ese650 import T0, write_run
+
+rosbag = pytest.importorskip('rosbag')
+from rbpf_slam import ese650  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def _tool(name):
+    ws = os.environ.get('RBPF_WS', os.path.join(ROOT, 'build'))
+    path = os.path.join(ws, 'devel', 'lib', 'rbpf_slam', name)
+    if not os.path.exists(path):
+        raise RuntimeError('%s is not built (%s); run scripts/bootstrap' % (name, path))
+    return path
+
+
+def _plot_module():
+    path = os.path.join(ROOT, 'scripts', 'plot_grid_run')
+    loader = importlib.machinery.SourceFileLoader('plot_grid_run', path)
+    spec = importlib.util.spec_from_loader('plot_grid_run', loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def corridor_hokuyo(scan_ts, laser_x):
+    """Hokuyo0 (ranges 1081 x S, angles 1081 x 1, ts 1 x S) in a corridor: walls at y = +-1 m, an end wall
+    at x = 6 m; @p laser_x: the laser's x at each scan (the robot drives along the corridor's axis)."""
+    angles = np.radians(np.linspace(-135.0, 135.0, 1081))
+    ranges = np.empty((1081, len(scan_ts)))
+    for k, lx in enumerate(laser_x):
+        s, c = np.sin(angles), np.cos(angles)
+        with np.errstate(divide='ignore'):
+            side = np.where(np.abs(s) > 1e-9, 1.0 / np.abs(s), np.inf)
+            end = np.where(c > 1e-9, (6.0 - lx) / c, np.inf)
+        ranges[:, k] = np.minimum(side, end)
+    ranges[ranges > 30.0] = 65.0  # what the UTM-30LX reports beyond its range (converted to +Inf)
+    return {'ranges': ranges, 'angles': angles.reshape(-1, 1), 'ts': np.asarray(scan_ts).reshape(1, -1)}
+
+
+def test_ese650_lidar_path_on_a_hokuyo_file(tmp_path, capsys):
+    k = 160  # 4 s of encoder reads at 40 Hz, 3 counts per wheel per read: 1.06 m straight ahead
+    ts = T0 + 0.025 * np.arange(k)
+    counts = np.full((4, k), 3)
+    counts[:, 0] = 0
+    travel = np.cumsum(counts[0]) * ese650.METRES_PER_COUNT
+    scan_ts = ts[1::4] + 0.001
+    laser_x = np.interp(scan_ts, ts, travel) + 0.1332  # the converter's laser mount: 0.1332 m ahead
+    d = write_run(tmp_path / 'run', counts, ts, imu=False, hokuyo=corridor_hokuyo(scan_ts, laser_x))
+    bag = str(tmp_path / 'ese.bag')
+    code, stdout, _ = run_main(ese650.main, [d, '7', '-o', bag, '-q'], capsys)
+    assert code == 0, stdout
+    out = str(tmp_path / 'out')
+    r = subprocess.run([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--wheels', '/wheel_ticks', '--out', out,
+                        '--seed', '1'], stdout=subprocess.PIPE, universal_newlines=True, check=True)
+    assert '%d scans, 0 scans dropped' % len(scan_ts) in r.stdout, r.stdout
+    est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
+    odo = np.loadtxt(os.path.join(out, 'odometry.tum'), ndmin=2)
+    assert len(est) == len(scan_ts)
+    assert est[-1, 1] == pytest.approx(odo[-1, 1], abs=0.1)
+    assert abs(est[-1, 2]) < 0.05
+    plot = _plot_module()
+    res, origin, image = plot.read_map_yaml(os.path.join(out, 'map.yaml'))
+    img = plot.read_pgm(image)[::-1]  # row 0 at the bottom
+    occ = np.argwhere(img == 0)
+    y = origin[1] + (occ[:, 0] + 0.5) * res
+    x = origin[0] + (occ[:, 1] + 0.5) * res
+    on_walls = (np.abs(np.abs(y) - 1.0) < 0.1) | (np.abs(x - 6.0) < 0.1)
+    assert len(occ) > 100 and on_walls.mean() > 0.95, '%d occupied, %.2f on the walls' % (len(occ), on_walls.mean())
+    # The plot of the run renders.
+    png = str(tmp_path / 'map.png')
+    assert plot.main([out, '--out', png]) == 0 and os.path.getsize(png) > 1000
+
+
+def test_grid_truth_stripped_gives_identical_output(tmp_path):
+    wp = tmp_path / 'wp.txt'
+    wp.write_text('4 0\n8 0\n')
+    start = tmp_path / 'start.yaml'
+    start.write_text('start: {x: 0.0, y: 0.0, yaw_deg: 0.0}\n')
+    full = str(tmp_path / 'full.bag')
+    subprocess.run([_tool('record_scenario'), '--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml'),
+                    '--config', str(start), '--drive', str(wp), '--seed', '2', '--no-points', '--out', full,
+                    '--quiet'], check=True, stdout=subprocess.DEVNULL)
+    stripped = str(tmp_path / 'stripped.bag')
+    with rosbag.Bag(full) as src, rosbag.Bag(stripped, 'w') as dst:
+        for topic, msg, t in src.read_messages(raw=True):
+            if not topic.startswith('/ground_truth'):
+                dst.write(topic, msg, t, raw=True)
+    outs = []
+    for bag in (full, stripped):
+        out = bag + '.out'
+        subprocess.run([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--out', out, '--seed', '5', '--quiet'],
+                       check=True)
+        outs.append(out)
+    for name in ('estimate.tum', 'odometry.tum', 'map.pgm', 'map.yaml'):
+        assert filecmp.cmp(os.path.join(outs[0], name), os.path.join(outs[1], name), shallow=False), name
+    assert len(np.loadtxt(os.path.join(outs[0], 'estimate.tum'), ndmin=2)) > 100
