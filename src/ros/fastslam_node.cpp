@@ -411,7 +411,12 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
     pose->header.stamp = stamp;
     pose->header.frame_id = config_.map_frame;
     pose->pose.pose = toPoseMsg(filter_->meanPose());
-    const Eigen::Matrix3d c = filter_->poseCovariance();
+    // Identical particles (at the start, after resampling) give a covariance whose smallest eigenvalues are
+    // rounding noise, sometimes negative: clamped, so that consumers (rviz's ellipse) can take square roots.
+    const Eigen::Matrix3d raw = filter_->poseCovariance();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (raw + raw.transpose()));
+    const Eigen::Matrix3d c =
+        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
     const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
