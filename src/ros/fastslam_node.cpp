@@ -186,6 +186,9 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   landmarks_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 2);
   landmark_array_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("landmark_array", 2);
   path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
+  odom_path_.header.frame_id = config_.map_frame;
+  odom_path_pub_ = nh_.advertise<nav_msgs::Path>("odom_path", 2);
+  scope_pub_ = nh_.advertise<visualization_msgs::Marker>("scope", 2);
   save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
   trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
@@ -296,6 +299,47 @@ bool FastSlamRos::sensorPose(const std::string& frame, core::Pose2* pose)
   return true;
 }
 
+void FastSlamRos::publishScope(const ros::Time& stamp)
+{
+  if (scope_pub_.getNumSubscribers() == 0)
+    return;
+  const core::FastSlamConfig& c = filter_->config();
+  auto m = boost::make_shared<visualization_msgs::Marker>();
+  m->header.frame_id = config_.base_frame;  // at the update's stamp: it moves with the robot
+  m->header.stamp = stamp;
+  m->ns = "visibility_scope";
+  m->type = visualization_msgs::Marker::LINE_LIST;
+  m->action = visualization_msgs::Marker::ADD;
+  m->pose.orientation.w = 1.0;
+  m->scale.x = 0.06;
+  m->color.r = 0.3f;
+  m->color.g = 0.8f;
+  m->color.b = 1.0f;
+  m->color.a = 1.0f;  // opaque: a flat colour rviz draws exactly
+  const double fov = std::min(std::max(c.field_of_view, 0.0), 2.0 * M_PI);
+  const int n = 120;
+  auto point = [&](double range, double bearing) {
+    geometry_msgs::Point p;
+    p.x = sensor_pose_.x + range * std::cos(sensor_pose_.theta + bearing);
+    p.y = sensor_pose_.y + range * std::sin(sensor_pose_.theta + bearing);
+    p.z = 0.05;
+    return p;
+  };
+  for (const double range : { c.min_range, c.max_range })
+    for (int k = 0; k < n; ++k)
+    {
+      m->points.push_back(point(range, -0.5 * fov + fov * k / n));
+      m->points.push_back(point(range, -0.5 * fov + fov * (k + 1) / n));
+    }
+  if (fov < 2.0 * M_PI - 1e-6)
+    for (const double side : { -0.5 * fov, 0.5 * fov })
+    {
+      m->points.push_back(point(c.min_range, side));
+      m->points.push_back(point(c.max_range, side));
+    }
+  scope_pub_.publish(visualization_msgs::Marker::ConstPtr(m));
+}
+
 void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
 {
   core::Pose2 sensor;
@@ -347,6 +391,7 @@ void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
 void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
 {
   const core::Particle& best = filter_->best();
+  publishScope(stamp);
 
   if (config_.publish_tf)
   {
@@ -366,7 +411,12 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
     pose->header.stamp = stamp;
     pose->header.frame_id = config_.map_frame;
     pose->pose.pose = toPoseMsg(filter_->meanPose());
-    const Eigen::Matrix3d c = filter_->poseCovariance();
+    // Identical particles (at the start, after resampling) give a covariance whose smallest eigenvalues are
+    // rounding noise, sometimes negative: clamped, so that consumers (rviz's ellipse) can take square roots.
+    const Eigen::Matrix3d raw = filter_->poseCovariance();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (raw + raw.transpose()));
+    const Eigen::Matrix3d c =
+        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
     const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
@@ -395,6 +445,14 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
       path_.poses.erase(path_.poses.begin());
     if (path_pub_.getNumSubscribers() > 0)
       path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
+
+    ps.pose = toPoseMsg(odom_pose);
+    odom_path_.header.stamp = stamp;
+    odom_path_.poses.push_back(ps);
+    if (odom_path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
+      odom_path_.poses.erase(odom_path_.poses.begin());
+    if (odom_path_pub_.getNumSubscribers() > 0)
+      odom_path_pub_.publish(boost::make_shared<nav_msgs::Path>(odom_path_));
   }
 
   {

@@ -20,6 +20,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
 {
   core::SimulatorConfig config;
   std::string world_path, indoor_map;
+  std::shared_ptr<const core::OccupancyImage> indoor_image;
   std::vector<std::string> lockstep_topics;
   try
   {
@@ -50,11 +51,11 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
     }
     else
     {
-      auto image = std::make_shared<const core::OccupancyImage>(io::loadMapImage(indoor_map));
+      indoor_image = std::make_shared<const core::OccupancyImage>(io::loadMapImage(indoor_map));
       core::ForestWorld flat;
       flat.ground.amplitude = 0.0;
       config.lidar3d.enabled = false;
-      sim_.reset(new core::ForestSimulator(flat, config, image));
+      sim_.reset(new core::ForestSimulator(flat, config, indoor_image));
     }
   }
   catch (const std::exception& e)
@@ -73,6 +74,12 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   trees_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("ground_truth/trees", 1, true);
   tree_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("ground_truth/tree_markers", 1, true);
   done_pub_ = nh_.advertise<std_msgs::Bool>("sim_done", 1, true);
+  if (indoor_image)
+  {
+    truth_map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("ground_truth/map", 1, true);
+    truth_map_pub_.publish(
+        nav_msgs::OccupancyGrid::ConstPtr(toTruthMap(*indoor_image, sim_->config().start, frames_, 0.0, time_base_)));
+  }
   cmd_sub_ = nh_.subscribe("cmd_vel", 10, &ForestSim::onCommand, this);
   ack_stamps_.assign(lockstep_topics.size(), ros::Time(0));
   for (std::size_t i = 0; i < lockstep_topics.size(); ++i)
@@ -87,7 +94,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   static_tf_.sendTransform(statics);
   const auto trees = toTruthTrees(sim_->world(), c.start, frames_, 0.0, time_base_);
   trees_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(trees));
-  tree_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(toTreeMarkers(*trees, "true_trees", 0.1f, 0.8f, 0.1f)));
+  tree_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(toTreeMarkers(*trees, "true_trees", 0.55f, 0.35f, 0.15f)));
   truth_path_.header.frame_id = frames_.map;
   start_ground_z_ = core::Ground(sim_->world().ground).height(c.start.x, c.start.y);
 

@@ -202,6 +202,25 @@ rbpf_slam::TrunkArray::Ptr toTruthTrees(const core::ForestWorld& world, const co
   return msg;
 }
 
+nav_msgs::OccupancyGrid::Ptr toTruthMap(const core::OccupancyImage& image, const core::Pose2& start,
+                                        const SimFrames& frames, double stamp, double base)
+{
+  auto msg = boost::make_shared<nav_msgs::OccupancyGrid>();
+  msg->header.stamp = toRosTime(stamp, base);
+  msg->header.frame_id = frames.map;
+  msg->info.map_load_time = msg->header.stamp;
+  msg->info.resolution = static_cast<float>(image.resolution());
+  msg->info.width = static_cast<std::uint32_t>(image.width());
+  msg->info.height = static_cast<std::uint32_t>(image.height());
+  const core::MapOrigin& o = image.origin();
+  const core::Pose2 origin = start.inverse() * core::Pose2(o.x, o.y, o.yaw);
+  msg->info.origin.position.x = origin.x;
+  msg->info.origin.position.y = origin.y;
+  msg->info.origin.orientation = yawToQuaternion(origin.theta);
+  msg->data = image.cells();  // the same convention: row-major, row 0 at the bottom, 100 / 0 / -1
+  return msg;
+}
+
 visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& trees, const std::string& ns,
                                                    float r, float g, float b)
 {
@@ -216,14 +235,16 @@ visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& 
     m.action = visualization_msgs::Marker::ADD;
     m.pose.position.x = t.center.x;
     m.pose.position.y = t.center.y;
-    m.pose.position.z = 1.0;
+    // Taller than the estimate's (2 m) and translucent: in rviz the true trunk stands out above the landmark
+    // drawn at the same place.
+    m.pose.position.z = 1.5;
     m.pose.orientation.w = 1.0;
     m.scale.x = m.scale.y = std::max(0.05, 2.0 * t.radius);
-    m.scale.z = 2.0;
+    m.scale.z = 3.0;
     m.color.r = r;
     m.color.g = g;
     m.color.b = b;
-    m.color.a = 0.8f;
+    m.color.a = 0.5f;
     msg->markers.push_back(m);
   }
   return msg;

@@ -169,7 +169,9 @@ int main(int argc, char** argv)
     bag.write("/tf_static", t0, statics);
     const auto trees = toTruthTrees(scenario.simulator().world(), config.sim.start, frames, 0.0, base);
     bag.write("/ground_truth/trees", t0, *trees);
-    bag.write("/ground_truth/tree_markers", t0, *toTreeMarkers(*trees, "true_trees", 0.1f, 0.8f, 0.1f));
+    bag.write("/ground_truth/tree_markers", t0, *toTreeMarkers(*trees, "true_trees", 0.55f, 0.35f, 0.15f));
+    if (image)
+      bag.write("/ground_truth/map", t0, *toTruthMap(*image, config.sim.start, frames, 0.0, base));
 
     nav_msgs::Path truth_path;
     truth_path.header.frame_id = frames.map;

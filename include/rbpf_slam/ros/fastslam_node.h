@@ -50,7 +50,8 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
  * - publishes TF `map -> odom` (REP-105), `pose` (PoseWithCovarianceStamped: the weighted mean and its
  *   covariance), `particles` (PoseArray), `path` (the best particle's poses), `landmark_array`
  *   (TrunkArray in the map frame, id = landmark id, method METHOD_GIVEN) and `landmarks` (MarkerArray,
- *   only when subscribed).
+ *   only when subscribed); for rviz also `odom_path` (the raw odometry in the map frame, anchored where the
+ *   map starts) and `scope` (Marker: the visibility scope's rings on the ground around the sensor, only when subscribed).
  * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV).
  *
  * Each TrunkArray updates the filter at its sweep's middle: core::sweepObservations() carries every trunk
@@ -75,6 +76,8 @@ private:
   /** @brief sensor -> base_link (planar) from TF, cached per frame; false when unavailable. */
   bool sensorPose(const std::string& frame, core::Pose2* pose);
   void publish(const ros::Time& stamp, const core::Pose2& odom_pose);
+  /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
+  void publishScope(const ros::Time& stamp);
   bool writeInventory(const std::string& path, std::string* message);
 
   ros::NodeHandle nh_, pnh_;
@@ -105,10 +108,11 @@ private:
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 
   ros::Subscriber odom_sub_, trunks_sub_;
-  ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_;
+  ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_, odom_path_pub_, scope_pub_;
   ros::ServiceServer save_srv_;
   ros::WallTimer timer_;
   nav_msgs::Path path_;
+  nav_msgs::Path odom_path_;  ///< raw odometry; the map frame starts at the odometry pose, so no transform
 };
 
 }  // namespace rbpf_slam

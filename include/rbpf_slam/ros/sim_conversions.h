@@ -4,6 +4,7 @@
 #include <string>
 
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/Imu.h>
@@ -13,6 +14,7 @@
 
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/forest_simulator.h"
+#include "rbpf_slam/core/occupancy_image.h"
 
 namespace rbpf_slam
 {
@@ -51,6 +53,9 @@ nav_msgs::Odometry::Ptr toTruthOdometry(const core::TruthSample& truth, const co
                                         const SimFrames& frames, double base);
 /** @brief The true trunks at breast height (1.3 m above their foot) in that map frame; id = index in the world. */
 rbpf_slam::TrunkArray::Ptr toTruthTrees(const core::ForestWorld& world, const core::Pose2& start,
+                                        const SimFrames& frames, double stamp, double base);
+/** @brief An indoor world's occupancy image in that map frame (relative to the start pose), for rviz. */
+nav_msgs::OccupancyGrid::Ptr toTruthMap(const core::OccupancyImage& image, const core::Pose2& start,
                                         const SimFrames& frames, double stamp, double base);
 visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& trees, const std::string& ns,
                                                    float r, float g, float b);
