@@ -2,7 +2,7 @@
 
 For each configuration a short drive is recorded with record_scenario (forest: 12 m through the paper world;
 grid: the indoor world's corridor), replayed with launch/replay.launch (forest: trunk extraction + FastSLAM;
-grid: the bag alone until grid SLAM is in the package) with rviz on a virtual screen; once the bag has played,
+grid: grid SLAM) with rviz on a virtual screen; once the bag has played,
 a screenshot of the screen is checked: the 3D view is not blank (many distinct colours), the displays that
 must have data are there (exact colours of flat displays: paths, the visibility scope, the scan; hue ranges of
 lit ones: true trees, landmarks, map), and rviz logged no error. The screenshots are kept in
@@ -175,12 +175,13 @@ def test_grid_rviz_shows_map_scan_and_path(tmp_path):
     subprocess.run([_tool('record_scenario'), '--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml'),
                     '--config', str(config), '--drive', str(waypoints), '--seed', '1', '--out', bag, '--quiet'],
                    check=True, stdout=subprocess.DEVNULL)
-    # Grid SLAM (issue 8) is not in the package yet: the bag alone, its true map, scan and path.
+    # Grid SLAM on the replayed bag: its map and estimated path beside the true map and path, and the scan.
     shot, log_text = _replay_screenshot(
-        tmp_path, bag, ['slam:=none', 'rviz_config:=' + os.path.join(ROOT, 'config', 'rviz', 'grid.rviz')], 'grid')
+        tmp_path, bag, ['slam:=grid', 'rviz_config:=' + os.path.join(ROOT, 'config', 'rviz', 'grid.rviz')], 'grid')
     view = _view(shot)
     assert _distinct_colours(view) > 20, 'the 3D view looks blank (%s)' % shot
-    for what, rgb, least in (('true path', TRUE_PATH, 150), ('scan', SCAN, 100)):
+    for what, rgb, least in (('true path', TRUE_PATH, 100), ('estimated path', ESTIMATED_PATH, 100),
+                             ('scan', SCAN, 100)):
         n = _count_colour(view, rgb)
         assert n >= least, '%s: %d pixels of %s, expected >= %d (%s)' % (what, n, rgb, least, shot)
     assert not _rviz_errors(log_text), 'rviz reported errors: %s' % _rviz_errors(log_text)[:3]
