@@ -78,33 +78,57 @@ def fit_similarity_2d(src, dst):
     return scale, r, md - scale * (r @ ms)
 
 
-def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
-    """Relative pose error over pairs (i, j) with the reference's travel from i to j first >= distance.
-    Returns (translation RMS [m], rotation RMS [deg] or None, pairs)."""
-    seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(ref_xy, axis=0), axis=1))]
+def se2_between(a, b):
+    """SE(2) a^-1 * b for rows (x, y, yaw)."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return np.array([c * dx + s * dy, -s * dx + c * dy, math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))])
+
+
+def relative_pose_error(estimate, truth, delta=1.0):
+    """RPE over pose pairs (i, j) where j is the first pose >= delta metres of true travel after i: the SE(2)
+    error of the estimate's relative motion against the truth's. Rows (x, y, yaw), paired by index.
+
+    Returns (translation RMS [m], rotation RMS [deg], number of pairs); (nan, nan, 0) without a pair.
+    """
+    estimate, truth = np.asarray(estimate, float), np.asarray(truth, float)
+    if len(estimate) != len(truth):
+        raise ValueError('estimate and truth differ in length (%d, %d)' % (len(estimate), len(truth)))
+    travel = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(truth[:, :2], axis=0).T))])
     trans, rot = [], []
-    for i in range(len(seg)):
-        j = int(np.searchsorted(seg, seg[i] + distance))
-        if j >= len(seg):
+    j = 0
+    for i in range(len(truth)):
+        j = max(j, i + 1)
+        while j < len(truth) and travel[j] - travel[i] < delta - 1e-9:  # 1e-9: sums of decimal steps
+            j += 1
+        if j >= len(truth):
             break
-
-        def rel(xy, yaw):
-            d = xy[j] - xy[i]
-            a = yaw[i] if yaw is not None else 0.0
-            c, s = math.cos(a), math.sin(a)
-            return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
-
-        if ref_yaw is not None and est_yaw is not None:
-            trans.append(np.linalg.norm(rel(ref_xy, ref_yaw) - rel(est_xy, est_yaw)))
-            dr = (ref_yaw[j] - ref_yaw[i]) - (est_yaw[j] - est_yaw[i])
-            rot.append(math.degrees(math.atan2(math.sin(dr), math.cos(dr))))
-        else:  # positions only: compare the lengths of the displacements
-            trans.append(abs(np.linalg.norm(ref_xy[j] - ref_xy[i]) - np.linalg.norm(est_xy[j] - est_xy[i])))
+        e = se2_between(se2_between(truth[i], truth[j]), se2_between(estimate[i], estimate[j]))
+        trans.append(math.hypot(e[0], e[1]))
+        rot.append(math.degrees(abs(e[2])))
     if not trans:
+        return float('nan'), float('nan'), 0
+    return float(np.sqrt(np.mean(np.square(trans)))), float(np.sqrt(np.mean(np.square(rot)))), len(trans)
+
+
+def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
+    """RPE with full poses where the reference has headings (relative_pose_error); with positions only, the
+    error of the displacement's length over the same pairs. Returns (translation RMS [m], rotation RMS [deg]
+    or None, pairs); (None, None, 0) without a pair."""
+    if ref_yaw is not None and est_yaw is not None:
+        t, r, n = relative_pose_error(np.column_stack([est_xy, est_yaw]), np.column_stack([ref_xy, ref_yaw]),
+                                      distance)
+        return (t, r, n) if n else (None, None, 0)
+    travel = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(ref_xy, axis=0), axis=1))]
+    errors = []
+    for i in range(len(travel)):
+        j = int(np.searchsorted(travel, travel[i] + distance - 1e-9))
+        if j >= len(travel):
+            break
+        errors.append(abs(np.linalg.norm(ref_xy[j] - ref_xy[i]) - np.linalg.norm(est_xy[j] - est_xy[i])))
+    if not errors:
         return None, None, 0
-    t_rms = float(np.sqrt(np.mean(np.square(trans))))
-    r_rms = float(np.sqrt(np.mean(np.square(rot)))) if rot else None
-    return t_rms, r_rms, len(trans)
+    return float(np.sqrt(np.mean(np.square(errors)))), None, len(errors)
 
 
 def score_map(features, trees, gate=0.5, duplicate_radius=1.0):
