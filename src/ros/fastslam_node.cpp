@@ -1,3 +1,5 @@
+#include "rbpf_slam/io/files.h"
+#include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/fastslam_node.h"
 
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
@@ -91,57 +93,6 @@ FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
 
 constexpr std::size_t kMaxPending = 100;  ///< trunk arrays waiting for odometry
 
-double yawOf(const geometry_msgs::Quaternion& q)
-{
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
-
-geometry_msgs::Quaternion quaternionOfYaw(double yaw)
-{
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(0.5 * yaw);
-  q.w = std::cos(0.5 * yaw);
-  return q;
-}
-
-geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
-{
-  geometry_msgs::Pose m;
-  m.position.x = p.x;
-  m.position.y = p.y;
-  m.orientation = quaternionOfYaw(p.theta);
-  return m;
-}
-
-std::string expandHome(const std::string& path)
-{
-  if (path.size() >= 2 && path[0] == '~' && path[1] == '/')
-  {
-    const char* home = std::getenv("HOME");
-    if (home != nullptr)
-      return std::string(home) + path.substr(1);
-  }
-  return path;
-}
-
-/** @brief Creates the directories of @p dir (mkdir -p); false on failure. */
-bool makeDirectories(const std::string& dir)
-{
-  if (dir.empty())
-    return true;
-  std::string partial;
-  std::size_t pos = 0;
-  while (pos != std::string::npos)
-  {
-    pos = dir.find('/', pos + 1);
-    partial = dir.substr(0, pos);
-    if (partial.empty())
-      continue;
-    if (::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
-      return false;
-  }
-  return true;
-}
 }  // namespace
 
 core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
@@ -551,9 +502,9 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
 
 bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
 {
-  const std::string target = expandHome(path);
+  const std::string target = io::expandHome(path);
   const std::size_t slash = target.rfind('/');
-  if (slash != std::string::npos && !makeDirectories(target.substr(0, slash)))
+  if (slash != std::string::npos && !io::makeDirectories(target.substr(0, slash)))
   {
     *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
     return false;

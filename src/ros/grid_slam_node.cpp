@@ -1,3 +1,5 @@
+#include "rbpf_slam/io/files.h"
+#include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/grid_slam_node.h"
 
 #include <algorithm>
@@ -84,51 +86,6 @@ GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
   return c;
 }
 
-double yawOf(const geometry_msgs::Quaternion& q)
-{
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
-
-geometry_msgs::Quaternion quaternionOfYaw(double yaw)
-{
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(0.5 * yaw);
-  q.w = std::cos(0.5 * yaw);
-  return q;
-}
-
-geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
-{
-  geometry_msgs::Pose m;
-  m.position.x = p.x;
-  m.position.y = p.y;
-  m.orientation = quaternionOfYaw(p.theta);
-  return m;
-}
-
-std::string expandHome(const std::string& path)
-{
-  if (path.size() >= 2 && path[0] == '~' && path[1] == '/')
-  {
-    const char* home = std::getenv("HOME");
-    if (home != nullptr)
-      return std::string(home) + path.substr(1);
-  }
-  return path;
-}
-
-bool makeDirectories(const std::string& dir)
-{
-  std::size_t pos = 0;
-  while (pos != std::string::npos)
-  {
-    pos = dir.find('/', pos + 1);
-    const std::string partial = dir.substr(0, pos);
-    if (!partial.empty() && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
-      return false;
-  }
-  return true;
-}
 }  // namespace
 
 void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg)
@@ -376,7 +333,7 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_p
 bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const std::string target = expandHome(config_.map_path);
+  const std::string target = io::expandHome(config_.map_path);
   if (!filter_->initialised() || filter_->map().tileCount() == 0)
   {
     res.success = false;
@@ -384,7 +341,7 @@ bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigg
     return true;
   }
   const std::size_t slash = target.rfind('/');
-  if (slash != std::string::npos && slash > 0 && !makeDirectories(target.substr(0, slash)))
+  if (slash != std::string::npos && slash > 0 && !io::makeDirectories(target.substr(0, slash)))
   {
     res.success = false;
     res.message = "cannot create the directory of " + target + ": " + std::strerror(errno);

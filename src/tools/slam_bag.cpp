@@ -48,18 +48,16 @@
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/fastslam_config.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
+#include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/scan_conversions.h"
 
 using namespace rbpf_slam;
 
 namespace
 {
-double yawOf(const geometry_msgs::Quaternion& q)
-{
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
 
 struct Options
 {
@@ -118,14 +116,8 @@ bool staticMount(rosbag::Bag& bag, const std::string& base_frame, const std::str
 /** @brief mkdir -p; throws naming the folder when it cannot be made. */
 void makeDirectories(const std::string& dir)
 {
-  std::size_t pos = 0;
-  while (pos != std::string::npos)
-  {
-    pos = dir.find('/', pos + 1);
-    const std::string partial = dir.substr(0, pos);
-    if (!partial.empty() && ::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
-      throw std::runtime_error(partial + ": cannot create the folder");
-  }
+  if (!io::makeDirectories(dir))
+    throw std::runtime_error(dir + ": cannot create the folder");
 }
 
 std::string openOut(const std::string& dir, const std::string& name, std::ofstream* f)
