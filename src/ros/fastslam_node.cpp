@@ -34,23 +34,6 @@ namespace rbpf_slam
 {
 namespace
 {
-/** @brief The filter's configuration (io::readFastSlamConfig); the defaults, and an error naming the key, if invalid. */
-core::FastSlamConfig readFilterConfig(const ros::NodeHandle& pnh)
-{
-  core::FastSlamConfig c;
-  try
-  {
-    io::readFastSlamConfig(RosParamSource(pnh), &c);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s: %s; using the default filter configuration", pnh.getNamespace().c_str(), e.what());
-    c = core::FastSlamConfig();
-  }
-  c.seed = readSeed(pnh);
-  return c;
-}
-
 FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
 {
   FastSlamRosConfig c;
@@ -125,7 +108,8 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
 FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
   config_ = readRosConfig(pnh_);
-  const core::FastSlamConfig filter_config = readFilterConfig(pnh_);
+  const core::FastSlamConfig filter_config =
+      readCoreConfig<core::FastSlamConfig>(pnh_, &io::readFastSlamConfig, "filter");
   filter_.reset(new core::FastSlam(filter_config));
 
   tf_buffer_.reset(new tf2_ros::Buffer());

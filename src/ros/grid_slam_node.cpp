@@ -30,22 +30,6 @@ namespace
 {
 constexpr std::size_t kMaxPending = 50;  ///< scans waiting for their odometry TF
 
-core::GridSlamConfig readFilterConfig(const ros::NodeHandle& pnh)
-{
-  core::GridSlamConfig c;
-  try
-  {
-    io::readGridSlamConfig(RosParamSource(pnh), &c);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s: %s; using the default filter configuration", pnh.getNamespace().c_str(), e.what());
-    c = core::GridSlamConfig();
-  }
-  c.seed = readSeed(pnh);
-  return c;
-}
-
 GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
 {
   GridSlamRosConfig c;
@@ -104,7 +88,7 @@ void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg)
 GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
   config_ = readRosConfig(pnh_);
-  filter_config_ = readFilterConfig(pnh_);
+  filter_config_ = readCoreConfig<core::GridSlamConfig>(pnh_, &io::readGridSlamConfig, "filter");
   filter_.reset(new core::GridSlam(filter_config_));
 
   tf_buffer_.reset(new tf2_ros::Buffer());

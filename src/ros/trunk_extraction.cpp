@@ -24,22 +24,6 @@ namespace
 {
 /** @brief The detector's configuration (io::readTrunkDetectorConfig); the defaults, and an error naming the key,
  * if invalid. */
-core::TrunkDetectorConfig readDetectorConfig(const ros::NodeHandle& pnh)
-{
-  core::TrunkDetectorConfig c;
-  try
-  {
-    io::readTrunkDetectorConfig(RosParamSource(pnh), &c);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s: %s; using the default detector configuration", pnh.getNamespace().c_str(), e.what());
-    c = core::TrunkDetectorConfig();
-  }
-  c.seed = readSeed(pnh);
-  return c;
-}
-
 /** @brief The run-time tunable subset (cfg/TrunkExtraction.cfg) of @p c. */
 rbpf_slam::TrunkExtractionConfig toDynamic(const core::TrunkDetectorConfig& c)
 {
@@ -248,7 +232,8 @@ visualization_msgs::MarkerArray::Ptr toMarkers(const rbpf_slam::TrunkArray& trun
 TrunkExtraction::TrunkExtraction(ros::NodeHandle nh, ros::NodeHandle pnh)
   : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
-  core::TrunkDetectorConfig config = readDetectorConfig(pnh_);
+  core::TrunkDetectorConfig config =
+      readCoreConfig<core::TrunkDetectorConfig>(pnh_, &io::readTrunkDetectorConfig, "detector");
   detector_.reset(new core::TrunkDetector(config));
 
   pnh_.param("level_frame", level_frame_, level_frame_);

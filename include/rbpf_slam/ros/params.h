@@ -34,6 +34,28 @@ void readKey(const RosParamSource& params, const std::string& key, T* value)
   }
 }
 
+/**
+ * @brief A core configuration read from the private parameters with its io reader (e.g.
+ * io::readFastSlamConfig), and `~seed`. A wrong type or an invalid value is reported (naming the key) and
+ * the whole configuration falls back to its defaults, so a nodelet never starts half-configured.
+ */
+template <typename Config>
+Config readCoreConfig(const ros::NodeHandle& pnh, void (*reader)(const io::ParamSource&, Config*), const char* what)
+{
+  Config c;
+  try
+  {
+    reader(RosParamSource(pnh), &c);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR("%s: %s; using the default %s configuration", pnh.getNamespace().c_str(), e.what(), what);
+    c = Config();
+  }
+  c.seed = readSeed(pnh);
+  return c;
+}
+
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_ROS_PARAMS_H
