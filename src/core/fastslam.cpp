@@ -386,34 +386,26 @@ std::size_t FastSlam::bestIndex() const
 
 Pose2 FastSlam::meanPose() const
 {
-  double sw = 0.0, x = 0.0, y = 0.0, cs = 0.0, sn = 0.0;
-  for (const auto& p : particles_)
-  {
-    const double w = std::exp(p.log_weight);
-    sw += w;
-    x += w * p.pose.x;
-    y += w * p.pose.y;
-    cs += w * std::cos(p.pose.theta);
-    sn += w * std::sin(p.pose.theta);
-  }
-  if (!(sw > 0.0))
-    return best().pose;
-  return Pose2(x / sw, y / sw, std::atan2(sn, cs));
+  return moments().mean;
 }
 
 Eigen::Matrix3d FastSlam::poseCovariance() const
 {
-  const Pose2 m = meanPose();
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  double sw = 0.0;
+  return moments().covariance;
+}
+
+PoseMoments FastSlam::moments() const
+{
+  std::vector<Pose2> poses;
+  std::vector<double> weights;
+  poses.reserve(particles_.size());
+  weights.reserve(particles_.size());
   for (const auto& p : particles_)
   {
-    const double w = std::exp(p.log_weight);
-    const Eigen::Vector3d d(p.pose.x - m.x, p.pose.y - m.y, wrapAngle(p.pose.theta - m.theta));
-    cov += w * d * d.transpose();
-    sw += w;
+    poses.push_back(p.pose);
+    weights.push_back(std::exp(p.log_weight));
   }
-  return sw > 0.0 ? (cov / sw).eval() : cov;
+  return poseMoments(poses, weights);
 }
 
 }  // namespace core

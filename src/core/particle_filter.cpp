@@ -141,5 +141,32 @@ std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod m
                                                   : lowVarianceResample(weights, random);
 }
 
+PoseMoments poseMoments(const std::vector<Pose2>& poses, const std::vector<double>& weights)
+{
+  PoseMoments m;
+  if (poses.empty())
+    return m;
+  double sw = 0.0;
+  for (std::size_t i = 0; i < poses.size() && i < weights.size(); ++i)
+    sw += weights[i] > 0.0 ? weights[i] : 0.0;
+  const bool uniform = !(sw > 0.0) || weights.size() != poses.size();
+  const auto w = [&](std::size_t i) { return uniform ? 1.0 / poses.size() : std::max(0.0, weights[i]) / sw; };
+  double x = 0.0, y = 0.0, c = 0.0, s = 0.0;
+  for (std::size_t i = 0; i < poses.size(); ++i)
+  {
+    x += w(i) * poses[i].x;
+    y += w(i) * poses[i].y;
+    c += w(i) * std::cos(poses[i].theta);
+    s += w(i) * std::sin(poses[i].theta);
+  }
+  m.mean = Pose2(x, y, std::atan2(s, c));
+  for (std::size_t i = 0; i < poses.size(); ++i)
+  {
+    const Eigen::Vector3d d(poses[i].x - m.mean.x, poses[i].y - m.mean.y, wrapAngle(poses[i].theta - m.mean.theta));
+    m.covariance += w(i) * d * d.transpose();
+  }
+  return m;
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

@@ -341,54 +341,17 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
     tf_broadcaster_.sendTransform(tf);
   }
 
-  {
-    auto pose = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
-    pose->header.stamp = stamp;
-    pose->header.frame_id = config_.map_frame;
-    pose->pose.pose = toPoseMsg(filter_->meanPose());
-    // Identical particles (at the start, after resampling) give a covariance whose smallest eigenvalues are
-    // rounding noise, sometimes negative: clamped, so that consumers (rviz's ellipse) can take square roots.
-    const Eigen::Matrix3d raw = filter_->poseCovariance();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (raw + raw.transpose()));
-    const Eigen::Matrix3d c =
-        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-    const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        pose->pose.covariance[idx[i] * 6 + idx[j]] = c(i, j);
-    pose_pub_.publish(geometry_msgs::PoseWithCovarianceStamped::ConstPtr(pose));
-  }
-
+  pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
+      poseWithCovariance(stamp, config_.map_frame, filter_->meanPose(), filter_->poseCovariance())));
   if (particles_pub_.getNumSubscribers() > 0)
-  {
-    auto cloud = boost::make_shared<geometry_msgs::PoseArray>();
-    cloud->header.stamp = stamp;
-    cloud->header.frame_id = config_.map_frame;
-    for (const auto& p : filter_->particles())
-      cloud->poses.push_back(toPoseMsg(p.pose));
-    particles_pub_.publish(geometry_msgs::PoseArray::ConstPtr(cloud));
-  }
-
-  {
-    geometry_msgs::PoseStamped ps;
-    ps.header.stamp = stamp;
-    ps.header.frame_id = config_.map_frame;
-    ps.pose = toPoseMsg(best.pose);
-    path_.header.stamp = stamp;
-    path_.poses.push_back(ps);
-    if (path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
-      path_.poses.erase(path_.poses.begin());
-    if (path_pub_.getNumSubscribers() > 0)
-      path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
-
-    ps.pose = toPoseMsg(odom_pose);
-    odom_path_.header.stamp = stamp;
-    odom_path_.poses.push_back(ps);
-    if (odom_path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
-      odom_path_.poses.erase(odom_path_.poses.begin());
-    if (odom_path_pub_.getNumSubscribers() > 0)
-      odom_path_pub_.publish(boost::make_shared<nav_msgs::Path>(odom_path_));
-  }
+    particles_pub_.publish(
+        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter_->particles())));
+  appendToPath(&path_, stamp, config_.map_frame, best.pose, config_.max_path_poses);
+  if (path_pub_.getNumSubscribers() > 0)
+    path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
+  appendToPath(&odom_path_, stamp, config_.map_frame, odom_pose, config_.max_path_poses);
+  if (odom_path_pub_.getNumSubscribers() > 0)
+    odom_path_pub_.publish(boost::make_shared<nav_msgs::Path>(odom_path_));
 
   {
     auto array = boost::make_shared<rbpf_slam::TrunkArray>();

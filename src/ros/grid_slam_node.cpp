@@ -260,56 +260,20 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_p
     tf_broadcaster_.sendTransform(tf);
   }
 
+  std::vector<core::Pose2> poses;
+  std::vector<double> weights;
+  for (const auto& p : filter_->particles())
   {
-    // Weighted mean (heading on the circle) and covariance of the particles.
-    double wx = 0.0, wy = 0.0, wc = 0.0, ws = 0.0, wsum = 0.0;
-    for (const auto& p : filter_->particles())
-    {
-      wx += p.weight * p.pose.x;
-      wy += p.weight * p.pose.y;
-      wc += p.weight * std::cos(p.pose.theta);
-      ws += p.weight * std::sin(p.pose.theta);
-      wsum += p.weight;
-    }
-    wsum = wsum > 0.0 ? wsum : 1.0;
-    const core::Pose2 mean(wx / wsum, wy / wsum, std::atan2(ws, wc));
-    double c[3][3] = { { 0.0 } };
-    for (const auto& p : filter_->particles())
-    {
-      const double d[3] = { p.pose.x - mean.x, p.pose.y - mean.y, core::wrapAngle(p.pose.theta - mean.theta) };
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          c[i][j] += p.weight / wsum * d[i] * d[j];
-    }
-    auto pose = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
-    pose->header.stamp = stamp;
-    pose->header.frame_id = config_.map_frame;
-    pose->pose.pose = toPoseMsg(mean);
-    const int idx[3] = { 0, 1, 5 };  // x, y, yaw in the 6x6 row-major covariance
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        pose->pose.covariance[idx[i] * 6 + idx[j]] = c[i][j];
-    pose_pub_.publish(geometry_msgs::PoseWithCovarianceStamped::ConstPtr(pose));
+    poses.push_back(p.pose);
+    weights.push_back(p.weight);
   }
-
+  const core::PoseMoments moments = core::poseMoments(poses, weights);
+  pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
+      poseWithCovariance(stamp, config_.map_frame, moments.mean, moments.covariance)));
   if (particles_pub_.getNumSubscribers() > 0)
-  {
-    auto cloud = boost::make_shared<geometry_msgs::PoseArray>();
-    cloud->header.stamp = stamp;
-    cloud->header.frame_id = config_.map_frame;
-    for (const auto& p : filter_->particles())
-      cloud->poses.push_back(toPoseMsg(p.pose));
-    particles_pub_.publish(geometry_msgs::PoseArray::ConstPtr(cloud));
-  }
-
-  geometry_msgs::PoseStamped ps;
-  ps.header.stamp = stamp;
-  ps.header.frame_id = config_.map_frame;
-  ps.pose = toPoseMsg(best);
-  path_.header.stamp = stamp;
-  path_.poses.push_back(ps);
-  if (path_.poses.size() > static_cast<std::size_t>(config_.max_path_poses))
-    path_.poses.erase(path_.poses.begin());
+    particles_pub_.publish(
+        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter_->particles())));
+  appendToPath(&path_, stamp, config_.map_frame, best, config_.max_path_poses);
   if (path_pub_.getNumSubscribers() > 0)
     path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
 }

@@ -122,6 +122,8 @@ public:
   Pose2 meanPose() const;
   /** @brief Weighted covariance of (x, y, theta). */
   Eigen::Matrix3d poseCovariance() const;
+  /** @brief Both at once (core::poseMoments of the particles). */
+  PoseMoments moments() const;
 
   /** @brief Gale-Shapley on a likelihood table (rows observations, columns landmarks; -inf = not allowed). */
   static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood);

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "rbpf_slam/core/pose2.h"
 #include "rbpf_slam/core/random.h"
 
@@ -77,6 +79,18 @@ bool parseResamplingMethod(const std::string& name, ResamplingMethod* method);
 const char* resamplingMethodName(ResamplingMethod method);
 /** @brief Indices of the particles to keep by @p method. */
 std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod method, Random& random);
+
+/** @brief Weighted mean and covariance of particle poses (x, y, heading). */
+struct PoseMoments
+{
+  Pose2 mean;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+/**
+ * @brief The weighted mean (heading averaged on the circle) and covariance (heading differences wrapped) of
+ * @p poses; @p weights need not be normalised. Without positive total weight every pose counts the same.
+ */
+PoseMoments poseMoments(const std::vector<Pose2>& poses, const std::vector<double>& weights);
 
 }  // namespace core
 }  // namespace rbpf_slam

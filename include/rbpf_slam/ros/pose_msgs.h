@@ -3,8 +3,16 @@
 
 #include <cmath>
 
+#include <string>
+
+#include <Eigen/Eigenvalues>
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/Quaternion.h>
+#include <nav_msgs/Path.h>
+#include <ros/time.h>
 
 #include "rbpf_slam/core/pose2.h"
 
@@ -33,6 +41,57 @@ inline geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
   m.position.y = p.y;
   m.orientation = quaternionOfYaw(p.theta);
   return m;
+}
+
+/**
+ * @brief The pose estimate with its covariance (x, y, yaw in the 6x6 row-major layout). Identical particles
+ * give a covariance whose smallest eigenvalues are rounding noise, sometimes negative: clamped to 0 so that
+ * consumers (rviz's ellipse) can take square roots.
+ */
+inline geometry_msgs::PoseWithCovarianceStamped poseWithCovariance(const ros::Time& stamp, const std::string& frame,
+                                                                   const core::Pose2& mean,
+                                                                   const Eigen::Matrix3d& covariance)
+{
+  geometry_msgs::PoseWithCovarianceStamped m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame;
+  m.pose.pose = toPoseMsg(mean);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (covariance + covariance.transpose()));
+  const Eigen::Matrix3d c =
+      eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+  const int idx[3] = { 0, 1, 5 };
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      m.pose.covariance[idx[i] * 6 + idx[j]] = c(i, j);
+  return m;
+}
+
+/** @brief The particles' poses as a PoseArray (any container of items with a `pose` member). */
+template <typename Particles>
+geometry_msgs::PoseArray particleCloud(const ros::Time& stamp, const std::string& frame, const Particles& particles)
+{
+  geometry_msgs::PoseArray m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame;
+  m.poses.reserve(particles.size());
+  for (const auto& p : particles)
+    m.poses.push_back(toPoseMsg(p.pose));
+  return m;
+}
+
+/** @brief Appends @p pose to @p path (restamped), dropping the oldest poses beyond @p max_poses. */
+inline void appendToPath(nav_msgs::Path* path, const ros::Time& stamp, const std::string& frame,
+                         const core::Pose2& pose, int max_poses)
+{
+  geometry_msgs::PoseStamped ps;
+  ps.header.stamp = stamp;
+  ps.header.frame_id = frame;
+  ps.pose = toPoseMsg(pose);
+  path->header.stamp = stamp;
+  path->header.frame_id = frame;
+  path->poses.push_back(ps);
+  while (path->poses.size() > static_cast<std::size_t>(max_poses > 0 ? max_poses : 1))
+    path->poses.erase(path->poses.begin());
 }
 
 }  // namespace rbpf_slam
