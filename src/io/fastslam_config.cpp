@@ -33,9 +33,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);
-  int seed = static_cast<int>(c->seed);
-  p.get("seed", &seed);
-  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())
     throw std::runtime_error("invalid parameter: " + error);

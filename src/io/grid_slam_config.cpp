@@ -24,9 +24,7 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   if (p.get("mode", &name) && !core::parseGridSlamMode(name, &c->mode))
     throw std::runtime_error("invalid parameter: mode must be 'course' (got '" + name + "')");
   p.get("particles", &c->particles);
-  int seed = static_cast<int>(c->seed);
-  p.get("seed", &seed);
-  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  p.getSeed("seed", &c->seed);
   if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &c->resampling))
     throw std::runtime_error("invalid parameter: resampling must be low_variance or multinomial (got '" + name + "')");
   p.get("resample_neff_ratio", &c->resample_neff_ratio);

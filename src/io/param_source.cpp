@@ -8,6 +8,15 @@ namespace rbpf_slam
 {
 namespace io
 {
+bool ParamSource::getSeed(const std::string& key, std::uint64_t* seed) const
+{
+  int value = static_cast<int>(*seed);
+  if (!get(key, &value))
+    return false;
+  *seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(value));
+  return true;
+}
+
 struct YamlParamSource::Impl
 {
   std::string path;

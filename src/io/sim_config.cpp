@@ -31,9 +31,7 @@ void readMount(const ParamSource& p, const std::string& prefix, core::Mount* m)
 
 void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
 {
-  int seed = static_cast<int>(c->seed);
-  p.get("seed", &seed);
-  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  p.getSeed("seed", &c->seed);
   p.get("physics_rate", &c->physics_rate);
   p.get("truth_rate", &c->truth_rate);
   p.get("start/x", &c->start.x);

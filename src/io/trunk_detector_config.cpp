@@ -40,9 +40,7 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("range_offset", &c->range_offset);
   p.get("min_range", &c->min_range);
   p.get("max_range", &c->max_range);
-  int seed = static_cast<int>(c->seed);
-  p.get("seed", &seed);
-  c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+  p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())
     throw std::runtime_error("invalid parameter: " + error);

@@ -58,15 +58,9 @@ GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
     ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
     c.max_path_poses = d.max_path_poses;
   }
-  const char* keys[3] = { "map_frame", "odom_frame", "base_frame" };
-  std::string* values[3] = { &c.map_frame, &c.odom_frame, &c.base_frame };
-  const std::string defaults[3] = { d.map_frame, d.odom_frame, d.base_frame };
-  for (int i = 0; i < 3; ++i)
-    if (values[i]->empty())
-    {
-      ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(keys[i]).c_str(), defaults[i].c_str());
-      *values[i] = defaults[i];
-    }
+  requireFrame(pnh, "map_frame", &c.map_frame, d.map_frame);
+  requireFrame(pnh, "odom_frame", &c.odom_frame, d.odom_frame);
+  requireFrame(pnh, "base_frame", &c.base_frame, d.base_frame);
   return c;
 }
 

@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_IO_PARAM_SOURCE_H
 #define RBPF_SLAM_IO_PARAM_SOURCE_H
 
+#include <cstdint>
 #include <memory>
 #include <set>
 #include <string>
@@ -23,6 +24,8 @@ public:
   virtual bool get(const std::string& key, int* value) const = 0;
   virtual bool get(const std::string& key, bool* value) const = 0;
   virtual bool get(const std::string& key, std::string* value) const = 0;
+  /** @brief A seed: an int, negative values reinterpreted as unsigned (as `~seed` on the command line). */
+  bool getSeed(const std::string& key, std::uint64_t* seed) const;
 };
 
 /** @brief A YAML file as a ParamSource; remembers which keys were read so typos can be reported. */

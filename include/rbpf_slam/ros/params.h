@@ -34,6 +34,15 @@ void readKey(const RosParamSource& params, const std::string& key, T* value)
   }
 }
 
+/** @brief Frame names must not be empty: an empty one is reported (naming the key) and @p fallback used. */
+inline void requireFrame(const ros::NodeHandle& pnh, const char* key, std::string* frame, const std::string& fallback)
+{
+  if (!frame->empty())
+    return;
+  ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(key).c_str(), fallback.c_str());
+  *frame = fallback;
+}
+
 /**
  * @brief A core configuration read from the private parameters with its io reader (e.g.
  * io::readFastSlamConfig), and `~seed`. A wrong type or an invalid value is reported (naming the key) and
