@@ -341,11 +341,23 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
     addCrowns(spec, world);
   Random& random = placer.random();
 
+  // Up to `count` objects of one kind: each attempt either places one (true) or finds no room (false);
+  // the kind is given up after kMaxConsecutiveFailures attempts in a row find no room.
+  const auto placeSeveral = [](int count, const auto& attempt) {
+    int failures = 0;
+    for (int i = 0; i < count && failures < kMaxConsecutiveFailures; ++i)
+      failures = attempt() ? 0 : failures + 1;
+  };
+  const auto roundFootprint = [&](double radius) {
+    return [&placer, radius]() {
+      const Eigen::Vector2d p = placer.uniformPoint();
+      return ClutterPlacer::circle(p.x(), p.y(), radius);
+    };
+  };
+
   // Largest footprints first (as in bin packing), so that in a crowded stand the long branches still
   // find room and the small rocks fill what is left.
-  int failures = 0;
-  for (int i = 0; i < spec.branches && failures < kMaxConsecutiveFailures; ++i)
-  {
+  placeSeveral(spec.branches, [&]() {
     const double length = random.uniform(kMinBranchLength, kMaxBranchLength);
     const double radius = random.uniform(kMinBranchRadius, kMaxBranchRadius);
     const auto draw = [&]() {
@@ -355,67 +367,40 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
       return Footprint{ mid - half, mid + half, radius };
     };
     Footprint f;
-    if (placer.place(2.0 * radius, draw, &f))
-    {
-      BranchSpec branch;
-      branch.a = f.a;
-      branch.b = f.b;
-      branch.radius = radius;
-      world->branches.push_back(branch);
-      failures = 0;
-    }
-    else
-    {
-      ++failures;
-    }
-  }
+    if (!placer.place(2.0 * radius, draw, &f))
+      return false;
+    BranchSpec branch;
+    branch.a = f.a;
+    branch.b = f.b;
+    branch.radius = radius;
+    world->branches.push_back(branch);
+    return true;
+  });
 
-  failures = 0;
-  for (int i = 0; i < spec.bushes && failures < kMaxConsecutiveFailures; ++i)
-  {
+  placeSeveral(spec.bushes, [&]() {
     const double radius = random.uniform(kMinBushRadius, kMaxBushRadius);
-    const auto draw = [&]() {
-      const Eigen::Vector2d p = placer.uniformPoint();
-      return ClutterPlacer::circle(p.x(), p.y(), radius);
-    };
     Footprint f;
-    if (placer.place((1.0 + kBushCenterHeight) * radius, draw, &f))
-    {
-      FoliageSpec bush;
-      bush.center = Eigen::Vector3d(f.a.x(), f.a.y(), kBushCenterHeight * radius);
-      bush.radius = radius;
-      bush.mean_free_path = kBushMeanFreePath;
-      world->foliage.push_back(bush);
-      failures = 0;
-    }
-    else
-    {
-      ++failures;
-    }
-  }
+    if (!placer.place((1.0 + kBushCenterHeight) * radius, roundFootprint(radius), &f))
+      return false;
+    FoliageSpec bush;
+    bush.center = Eigen::Vector3d(f.a.x(), f.a.y(), kBushCenterHeight * radius);
+    bush.radius = radius;
+    bush.mean_free_path = kBushMeanFreePath;
+    world->foliage.push_back(bush);
+    return true;
+  });
 
-  failures = 0;
-  for (int i = 0; i < spec.rocks && failures < kMaxConsecutiveFailures; ++i)
-  {
+  placeSeveral(spec.rocks, [&]() {
     const double radius = random.uniform(kMinRockRadius, kMaxRockRadius);
-    const auto draw = [&]() {
-      const Eigen::Vector2d p = placer.uniformPoint();
-      return ClutterPlacer::circle(p.x(), p.y(), radius);
-    };
     Footprint f;
-    if (placer.place((1.0 + kRockCenterHeight) * radius, draw, &f))
-    {
-      RockSpec rock;
-      rock.center = Eigen::Vector3d(f.a.x(), f.a.y(), kRockCenterHeight * radius);
-      rock.radius = radius;
-      world->rocks.push_back(rock);
-      failures = 0;
-    }
-    else
-    {
-      ++failures;
-    }
-  }
+    if (!placer.place((1.0 + kRockCenterHeight) * radius, roundFootprint(radius), &f))
+      return false;
+    RockSpec rock;
+    rock.center = Eigen::Vector3d(f.a.x(), f.a.y(), kRockCenterHeight * radius);
+    rock.radius = radius;
+    world->rocks.push_back(rock);
+    return true;
+  });
 }
 
 }  // namespace core
