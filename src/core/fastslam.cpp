@@ -102,99 +102,125 @@ void FastSlam::predict(const OdometryIncrement& u)
     p.pose = sampleOdometryMotion(p.pose, u, config_.motion, random_);
 }
 
-std::vector<int> FastSlam::stableMatching(const std::vector<std::vector<double>>& ll)
+namespace
 {
-  // Observations propose to landmarks in order of decreasing likelihood; a landmark keeps the proposer it
-  // likes best. The result is stable: no observation and landmark both prefer each other to their match.
-  const std::size_t n_obs = ll.size();
-  const std::size_t n_lm = n_obs ? ll[0].size() : 0;
-  std::vector<std::vector<int>> prefs(n_obs);
+/**
+ * Gale-Shapley on a row-major table: observations propose to landmarks in order of decreasing likelihood
+ * (ties: lower index first); a landmark keeps the proposer it likes best. The result is stable: no
+ * observation and landmark both prefer each other to their match.
+ */
+void galeShapley(const double* ll, std::size_t n_obs, std::size_t n_lm, std::vector<int>* match_out,
+                 std::vector<int>* holder, std::vector<int>* free, std::vector<int>* prefs,
+                 std::vector<std::size_t>* prefs_begin, std::vector<std::size_t>* next)
+{
+  std::vector<int>& match = *match_out;
+  match.assign(n_obs, -1);
+  holder->assign(n_lm, -1);
+  next->assign(n_obs, 0);
+  prefs->clear();
+  prefs_begin->assign(n_obs + 1, 0);
   for (std::size_t i = 0; i < n_obs; ++i)
   {
+    const double* row = ll + i * n_lm;
+    const std::size_t b = prefs->size();
+    (*prefs_begin)[i] = b;
     for (std::size_t j = 0; j < n_lm; ++j)
-      if (ll[i][j] > kNegInf)
-        prefs[i].push_back(static_cast<int>(j));
-    std::sort(prefs[i].begin(), prefs[i].end(), [&](int a, int b) {
-      return ll[i][static_cast<std::size_t>(a)] > ll[i][static_cast<std::size_t>(b)] ||
-             (ll[i][static_cast<std::size_t>(a)] == ll[i][static_cast<std::size_t>(b)] && a < b);
+      if (row[j] > kNegInf)
+        prefs->push_back(static_cast<int>(j));
+    std::sort(prefs->begin() + static_cast<std::ptrdiff_t>(b), prefs->end(), [row](int a, int c) {
+      return row[a] > row[c] || (row[a] == row[c] && a < c);
     });
   }
-  std::vector<int> match(n_obs, -1), holder(n_lm, -1);
-  std::vector<std::size_t> next(n_obs, 0);
-  std::vector<int> free;
+  (*prefs_begin)[n_obs] = prefs->size();
+  free->clear();
   for (std::size_t i = n_obs; i-- > 0;)
-    free.push_back(static_cast<int>(i));
-  while (!free.empty())
+    free->push_back(static_cast<int>(i));
+  while (!free->empty())
   {
-    const int i = free.back();
-    free.pop_back();
-    auto& pi = prefs[static_cast<std::size_t>(i)];
-    while (next[static_cast<std::size_t>(i)] < pi.size())
+    const std::size_t i = static_cast<std::size_t>(free->back());
+    free->pop_back();
+    const std::size_t end = (*prefs_begin)[i + 1];
+    std::size_t& n = (*next)[i];
+    while ((*prefs_begin)[i] + n < end)
     {
-      const int j = pi[next[static_cast<std::size_t>(i)]++];
-      const int h = holder[static_cast<std::size_t>(j)];
+      const int j = (*prefs)[(*prefs_begin)[i] + n++];
+      const int h = (*holder)[static_cast<std::size_t>(j)];
       if (h < 0)
       {
-        holder[static_cast<std::size_t>(j)] = i;
-        match[static_cast<std::size_t>(i)] = j;
+        (*holder)[static_cast<std::size_t>(j)] = static_cast<int>(i);
+        match[i] = j;
         break;
       }
-      if (ll[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] >
-          ll[static_cast<std::size_t>(h)][static_cast<std::size_t>(j)])
+      if (ll[i * n_lm + static_cast<std::size_t>(j)] > ll[static_cast<std::size_t>(h) * n_lm + static_cast<std::size_t>(j)])
       {
-        holder[static_cast<std::size_t>(j)] = i;
-        match[static_cast<std::size_t>(i)] = j;
+        (*holder)[static_cast<std::size_t>(j)] = static_cast<int>(i);
+        match[i] = j;
         match[static_cast<std::size_t>(h)] = -1;
-        free.push_back(h);
+        free->push_back(h);
         break;
       }
     }
   }
+}
+}  // namespace
+
+std::vector<int> FastSlam::stableMatching(const std::vector<std::vector<double>>& ll)
+{
+  const std::size_t n_obs = ll.size();
+  const std::size_t n_lm = n_obs ? ll[0].size() : 0;
+  std::vector<double> flat;
+  flat.reserve(n_obs * n_lm);
+  for (const auto& row : ll)
+    flat.insert(flat.end(), row.begin(), row.end());
+  std::vector<int> match, holder, free, prefs;
+  std::vector<std::size_t> prefs_begin, next;
+  galeShapley(flat.data(), n_obs, n_lm, &match, &holder, &free, &prefs, &prefs_begin, &next);
   return match;
+}
+
+void FastSlam::stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm)
+{
+  Scratch& w = scratch_;
+  galeShapley(ll, n_obs, n_lm, &w.match, &w.holder, &w.free, &w.prefs, &w.prefs_begin, &w.next);
 }
 
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
                               FastSlamUpdateStats* stats)
 {
   const FastSlamConfig& c = config_;
+  Scratch& w = scratch_;
   const Pose2 s = p->pose * sensor_in_base;
   const std::size_t n_obs = obs.size();
   const double margin = 0.5;  // landmarks just outside the scope may still take an observation
 
-  // Landmarks near the scope, with their predictions.
-  struct Candidate
-  {
-    std::size_t index;
-    Eigen::Vector2d z;
-    Eigen::Matrix2d H;
-  };
-  std::vector<Candidate> cand;
-  for (std::size_t j = 0; j < p->map.size(); ++j)
+  // Landmarks near the scope, with their predictions: the spatial index returns those within reach of the
+  // sensor (a superset of the scope test below, in ascending index order, as a scan of the map would).
+  p->map.near(Eigen::Vector2d(s.x, s.y), c.max_range + margin + 1e-6, &w.near);
+  w.cand.clear();
+  for (std::size_t j : w.near)
   {
     const Landmark& l = p->map[j];
     Eigen::Matrix2d H;
     const Eigen::Vector2d z = predictObservation(l.mean, s, &H);
     if (z.x() < c.min_range - margin || z.x() > c.max_range + margin || std::abs(z.y()) > 0.5 * c.field_of_view + 0.1)
       continue;
-    cand.push_back({ j, z, H });
+    w.cand.push_back({ j, z, H });
   }
+  const std::size_t n_cand = w.cand.size();
 
-  // Observation noise with the floor; likelihood table (gated).
-  std::vector<Eigen::Matrix2d> R(n_obs);
-  std::vector<std::vector<double>> ll(n_obs, std::vector<double>(cand.size(), kNegInf));
-  std::vector<double> log_new(n_obs);
+  // Likelihood table (gated); S^-1 and the innovation of each gated pair are kept for the EKF update.
+  w.ll.assign(n_obs * n_cand, kNegInf);
+  w.Si.resize(n_obs * n_cand);
+  w.v.resize(n_obs * n_cand);
   for (std::size_t i = 0; i < n_obs; ++i)
   {
-    R[i] = obs[i].covariance;
-    R[i](0, 0) += c.range_sigma_floor * c.range_sigma_floor;
-    R[i](1, 1) += c.bearing_sigma_floor * c.bearing_sigma_floor;
-    // The likelihood of an observation at the gate: below it, a new landmark explains the observation better.
-    log_new[i] = -0.5 * c.association_gate - kLog2Pi - 0.5 * std::log(R[i].determinant());
-    for (std::size_t k = 0; k < cand.size(); ++k)
+    const Eigen::Matrix2d& R = w.R[i];
+    for (std::size_t k = 0; k < n_cand; ++k)
     {
-      const Landmark& l = p->map[cand[k].index];
-      const Eigen::Matrix2d S = cand[k].H * l.covariance * cand[k].H.transpose() + R[i];
-      Eigen::Vector2d v(obs[i].range - cand[k].z.x(), wrapAngle(obs[i].bearing - cand[k].z.y()));
+      const Scratch::Candidate& cd = w.cand[k];
+      const Landmark& l = p->map[cd.index];
+      const Eigen::Matrix2d S = cd.H * l.covariance * cd.H.transpose() + R;
+      const Eigen::Vector2d v(obs[i].range - cd.z.x(), wrapAngle(obs[i].bearing - cd.z.y()));
       const Eigen::Matrix2d Si = S.inverse();
       const double d2 = v.dot(Si * v);
       if (!(d2 < c.association_gate))
@@ -208,59 +234,64 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
           continue;
         value += -0.5 * dr * dr / var - 0.5 * std::log(2.0 * M_PI * var);
       }
-      ll[i][k] = value;
+      const std::size_t ik = i * n_cand + k;
+      w.ll[ik] = value;
+      w.Si[ik] = Si;
+      w.v[ik] = v;
     }
   }
-  const std::vector<int> match = stableMatching(ll);
+  stableMatchingFlat(w.ll.data(), n_obs, n_cand);
 
-  std::vector<bool> seen(cand.size(), false);
+  w.seen.assign(n_cand, 0);
   double log_w = 0.0;
   for (std::size_t i = 0; i < n_obs; ++i)
   {
-    const int k = match[i];
+    const double* row = w.ll.data() + i * n_cand;
+    const int k = w.match[i];
     if (k >= 0)
     {
-      seen[static_cast<std::size_t>(k)] = true;
-      Landmark& l = p->map.mutableAt(cand[static_cast<std::size_t>(k)].index);
-      const Eigen::Matrix2d& H = cand[static_cast<std::size_t>(k)].H;
-      const Eigen::Matrix2d S = H * l.covariance * H.transpose() + R[i];
-      const Eigen::Vector2d v(obs[i].range - cand[static_cast<std::size_t>(k)].z.x(),
-                              wrapAngle(obs[i].bearing - cand[static_cast<std::size_t>(k)].z.y()));
-      const Eigen::Matrix2d K = l.covariance * H.transpose() * S.inverse();
-      l.mean += K * v;
-      // Joseph form keeps the covariance symmetric and positive.
-      const Eigen::Matrix2d IKH = Eigen::Matrix2d::Identity() - K * H;
-      l.covariance = IKH * l.covariance * IKH.transpose() + K * R[i] * K.transpose();
-      if (obs[i].radius_variance > 0.0)
-      {
-        if (l.radius_variance <= 0.0 || l.observations == 0)
+      const std::size_t ik = i * n_cand + static_cast<std::size_t>(k);
+      w.seen[static_cast<std::size_t>(k)] = 1;
+      const Eigen::Matrix2d& H = w.cand[static_cast<std::size_t>(k)].H;
+      const Eigen::Matrix2d& R = w.R[i];
+      const LandmarkObservation& o = obs[i];
+      p->map.modify(w.cand[static_cast<std::size_t>(k)].index, [&](Landmark& l) {
+        const Eigen::Matrix2d K = l.covariance * H.transpose() * w.Si[ik];
+        l.mean += K * w.v[ik];
+        // Joseph form keeps the covariance symmetric and positive.
+        const Eigen::Matrix2d IKH = Eigen::Matrix2d::Identity() - K * H;
+        l.covariance = IKH * l.covariance * IKH.transpose() + K * R * K.transpose();
+        if (o.radius_variance > 0.0)
         {
-          l.radius = obs[i].radius;
-          l.radius_variance = obs[i].radius_variance;
+          if (l.radius_variance <= 0.0 || l.observations == 0)
+          {
+            l.radius = o.radius;
+            l.radius_variance = o.radius_variance;
+          }
+          else
+          {
+            const double g = l.radius_variance / (l.radius_variance + o.radius_variance);
+            l.radius += g * (o.radius - l.radius);
+            l.radius_variance *= (1.0 - g);
+          }
         }
-        else
-        {
-          const double w = l.radius_variance / (l.radius_variance + obs[i].radius_variance);
-          l.radius += w * (obs[i].radius - l.radius);
-          l.radius_variance *= (1.0 - w);
-        }
-      }
-      ++l.observations;
-      l.evidence = std::min(c.evidence_max, l.evidence + c.evidence_hit);
-      if (l.observations >= c.confirm_observations)
-        l.provisional = false;
-      log_w += ll[i][static_cast<std::size_t>(k)];
+        ++l.observations;
+        l.evidence = std::min(c.evidence_max, l.evidence + c.evidence_hit);
+        if (l.observations >= c.confirm_observations)
+          l.provisional = false;
+      });
+      log_w += row[k];
       if (stats)
         ++stats->matched;
       continue;
     }
     // Unmatched: new if no landmark could explain it, else it lost the matching (ignored).
     bool gated = false;
-    for (double v : ll[i])
-      gated = gated || v > kNegInf;
+    for (std::size_t k2 = 0; k2 < n_cand && !gated; ++k2)
+      gated = row[k2] > kNegInf;
     if (gated)
     {
-      log_w += log_new[i];
+      log_w += w.log_new[i];
       if (stats)
         ++stats->ignored;
       continue;
@@ -273,21 +304,21 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     // Trunks do not overlap: an observation whose centre lies inside an existing trunk (plus a margin) is
     // that trunk seen badly (e.g. with a heading error at long range), not a new one.
     bool overlaps = false;
-    for (const auto& cd : cand)
+    for (const auto& cd : w.cand)
     {
       const Landmark& other = p->map[cd.index];
       overlaps = overlaps || (other.mean - l.mean).norm() < other.radius + obs[i].radius + c.min_trunk_gap;
     }
     if (overlaps)
     {
-      log_w += log_new[i];
+      log_w += w.log_new[i];
       if (stats)
         ++stats->ignored;
       continue;
     }
     Eigen::Matrix2d G;  // d(landmark) / d(range, bearing)
     G << std::cos(a), -obs[i].range * std::sin(a), std::sin(a), obs[i].range * std::cos(a);
-    l.covariance = G * R[i] * G.transpose();
+    l.covariance = G * w.R[i] * G.transpose();
     l.radius = obs[i].radius;
     l.radius_variance = std::max(0.0, obs[i].radius_variance);  // 0: the radius is not known yet
     l.observations = 1;
@@ -295,44 +326,47 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     l.provisional = c.confirm_observations > 1;
     l.id = next_id_++;
     p->map.add(l);
-    log_w += log_new[i];
+    log_w += w.log_new[i];
     if (stats)
       ++stats->created;
   }
 
   // Misses: landmarks inside the scope, not hidden behind a nearer landmark, that took no observation.
-  std::vector<std::size_t> to_delete;
-  for (std::size_t k = 0; k < cand.size(); ++k)
+  w.to_delete.clear();
+  for (std::size_t k = 0; k < n_cand; ++k)
   {
-    if (seen[k])
+    if (w.seen[k])
       continue;
-    const double r = cand[k].z.x(), b = cand[k].z.y();
+    const double r = w.cand[k].z.x(), b = w.cand[k].z.y();
     if (r < c.min_range || r > c.max_range || std::abs(b) > 0.5 * c.field_of_view)
       continue;
     // Hidden: a nearer landmark, clearly in front (not a near-duplicate of this one at almost the same
     // place, which must be missed to be removed), covers its bearing.
     bool hidden = false;
-    const double own_radius = p->map[cand[k].index].radius;
-    for (std::size_t m = 0; m < cand.size() && !hidden; ++m)
+    const double own_radius = p->map[w.cand[k].index].radius;
+    for (std::size_t m = 0; m < n_cand && !hidden; ++m)
     {
-      const double other_radius = p->map[cand[m].index].radius;
-      if (m == k || cand[m].z.x() >= r - (own_radius + other_radius + 0.1))
+      const double other_radius = p->map[w.cand[m].index].radius;
+      if (m == k || w.cand[m].z.x() >= r - (own_radius + other_radius + 0.1))
         continue;
-      const double half = (other_radius + 0.15) / cand[m].z.x();
-      hidden = std::abs(wrapAngle(cand[m].z.y() - b)) < half;
+      const double half = (other_radius + 0.15) / w.cand[m].z.x();
+      hidden = std::abs(wrapAngle(w.cand[m].z.y() - b)) < half;
     }
     if (hidden)
       continue;
-    Landmark& l = p->map.mutableAt(cand[k].index);
-    l.evidence -= c.evidence_miss;
-    if (l.evidence < c.delete_evidence)
-      to_delete.push_back(cand[k].index);
+    bool remove = false;
+    p->map.modify(w.cand[k].index, [&](Landmark& l) {
+      l.evidence -= c.evidence_miss;
+      remove = l.evidence < c.delete_evidence;
+    });
+    if (remove)
+      w.to_delete.push_back(w.cand[k].index);
   }
-  std::sort(to_delete.rbegin(), to_delete.rend());
-  for (std::size_t j : to_delete)
+  std::sort(w.to_delete.rbegin(), w.to_delete.rend());
+  for (std::size_t j : w.to_delete)
     p->map.remove(j);
   if (stats)
-    stats->deleted += static_cast<int>(to_delete.size());
+    stats->deleted += static_cast<int>(w.to_delete.size());
   p->log_weight += log_w;
 }
 
@@ -341,6 +375,18 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   FastSlamUpdateStats stats;
   stats.observations = static_cast<int>(observations.size());
   const std::size_t best_before = bestIndex();
+  // Observation noise with the floor, and the likelihood at the gate (below it, a new landmark explains the
+  // observation better): the same for every particle.
+  scratch_.R.resize(observations.size());
+  scratch_.log_new.resize(observations.size());
+  for (std::size_t i = 0; i < observations.size(); ++i)
+  {
+    Eigen::Matrix2d& R = scratch_.R[i];
+    R = observations[i].covariance;
+    R(0, 0) += config_.range_sigma_floor * config_.range_sigma_floor;
+    R(1, 1) += config_.bearing_sigma_floor * config_.bearing_sigma_floor;
+    scratch_.log_new[i] = -0.5 * config_.association_gate - kLog2Pi - 0.5 * std::log(R.determinant());
+  }
   for (std::size_t i = 0; i < particles_.size(); ++i)
     updateParticle(&particles_[i], observations, sensor, i == best_before ? &stats : nullptr);
 
@@ -354,10 +400,20 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   if (stats.neff < config_.resample_threshold * static_cast<double>(particles_.size()))
   {
     const std::vector<int> keep = lowVarianceResample(weights_, random_);
+    // The last copy of a particle takes its map by move; the others share its chunks (copy-on-write).
+    std::vector<int> last_use(particles_.size(), -1);
+    for (std::size_t n = 0; n < keep.size(); ++n)
+      last_use[static_cast<std::size_t>(keep[n])] = static_cast<int>(n);
     std::vector<Particle> next;
     next.reserve(particles_.size());
-    for (int k : keep)
-      next.push_back(particles_[static_cast<std::size_t>(k)]);  // maps are shared, not copied
+    for (std::size_t n = 0; n < keep.size(); ++n)
+    {
+      Particle& src = particles_[static_cast<std::size_t>(keep[n])];
+      if (last_use[static_cast<std::size_t>(keep[n])] == static_cast<int>(n))
+        next.push_back(std::move(src));
+      else
+        next.push_back(src);
+    }
     particles_.swap(next);
     const double uniform = -std::log(static_cast<double>(particles_.size()));
     for (auto& p : particles_)

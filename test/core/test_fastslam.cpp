@@ -212,7 +212,7 @@ TEST(FastSlam, ResamplingSharesMapsInsteadOfCopyingThem)
   }
   LandmarkMap b = a;
   EXPECT_EQ(b.sharedChunks(), 3u);
-  b.mutableAt(5).radius = 1.0;  // copies one chunk only
+  b.modify(5, [](Landmark& l) { l.radius = 1.0; });  // copies one chunk only
   EXPECT_EQ(b.sharedChunks(), 2u);
   EXPECT_EQ(a[5].radius, 0.0);
   b.remove(0);  // the last moves into slot 0

@@ -127,14 +127,38 @@ public:
   static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood);
 
 private:
+  /** @brief Buffers of one particle's update, kept between calls so that an update allocates nothing. */
+  struct Scratch
+  {
+    struct Candidate
+    {
+      std::size_t index;
+      Eigen::Vector2d z;
+      Eigen::Matrix2d H;
+    };
+    std::vector<std::size_t> near;
+    std::vector<Candidate> cand;
+    std::vector<Eigen::Matrix2d> R;  ///< per observation, with the floor
+    std::vector<double> log_new;     ///< per observation: the likelihood at the gate
+    std::vector<double> ll;          ///< observations x candidates, row-major (-inf: outside the gate)
+    std::vector<Eigen::Matrix2d> Si; ///< S^-1 of each gated pair, reused by the EKF update
+    std::vector<Eigen::Vector2d> v;  ///< innovation of each gated pair
+    std::vector<int> match, holder, free, prefs;
+    std::vector<std::size_t> next, prefs_begin, to_delete;
+    std::vector<char> seen;
+  };
+
   void updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
                       FastSlamUpdateStats* stats);
+  /** @brief stableMatching() on a row-major table, into scratch_.match. */
+  void stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm);
 
   FastSlamConfig config_;
   std::vector<Particle> particles_;
   Random random_;
   int next_id_ = 0;
   std::vector<double> weights_;
+  Scratch scratch_;
 };
 
 }  // namespace core
