@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 
 #include "rbpf_slam/core/trunk_detector.h"
 
@@ -17,6 +18,8 @@ namespace
 {
 constexpr double kNegInf = -std::numeric_limits<double>::infinity();
 constexpr double kLog2Pi = 1.8378770664093453;
+// The cheap bound of the gate rejects only pairs clearly outside it (rounding cannot change a decision).
+constexpr double kGateSafety = 1.0 + 1e-9;
 
 /** Predicted range-bearing of @p l from the sensor pose @p s, with the Jacobian wrt the landmark. */
 Eigen::Vector2d predictObservation(const Eigen::Vector2d& l, const Pose2& s, Eigen::Matrix2d* H)
@@ -27,7 +30,96 @@ Eigen::Vector2d predictObservation(const Eigen::Vector2d& l, const Pose2& s, Eig
   *H << dx / r, dy / r, -dy / q, dx / q;
   return Eigen::Vector2d(r, wrapAngle(std::atan2(dy, dx) - s.theta));
 }
+
+using Matrix23d = Eigen::Matrix<double, 2, 3>;
+
+/**
+ * Jacobian of the range-bearing of a landmark wrt the base pose (x, y, theta), from its Jacobian @p Hm wrt
+ * the landmark, with the sensor at @p sensor on base_link: wrt the sensor position it is -Hm, wrt the sensor
+ * heading (0, -1), and the sensor moves with the base's heading by its lever arm.
+ */
+Matrix23d poseJacobian(const Eigen::Matrix2d& Hm, const Pose2& base, const Pose2& sensor)
+{
+  const double c = std::cos(base.theta), s = std::sin(base.theta);
+  const double dsx = -s * sensor.x - c * sensor.y, dsy = c * sensor.x - s * sensor.y;
+  Matrix23d Hx;
+  Hx.col(0) = -Hm.col(0);
+  Hx.col(1) = -Hm.col(1);
+  Hx.col(2) = -Hm.col(0) * dsx - Hm.col(1) * dsy + Eigen::Vector2d(0.0, -1.0);
+  return Hx;
+}
+
+Eigen::Vector3d poseDifference(const Pose2& a, const Pose2& b)
+{
+  return Eigen::Vector3d(a.x - b.x, a.y - b.y, wrapAngle(a.theta - b.theta));
+}
+
+/** log N(x; mean, covariance); -inf when the covariance is not positive definite. */
+double logGaussian(const Pose2& x, const Pose2& mean, const Eigen::Matrix3d& covariance)
+{
+  const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
+  if (llt.info() != Eigen::Success)
+    return kNegInf;
+  const Eigen::Vector3d d = poseDifference(x, mean);
+  const Eigen::Matrix3d L = llt.matrixL();
+  const double log_det = 2.0 * (std::log(L(0, 0)) + std::log(L(1, 1)) + std::log(L(2, 2)));
+  return -0.5 * d.dot(llt.solve(d)) - 1.5 * kLog2Pi - 0.5 * log_det;
+}
+
+double logSumExp(double a, double b)
+{
+  const double m = std::max(a, b);
+  return m == kNegInf ? kNegInf : m + std::log(std::exp(a - m) + std::exp(b - m));
+}
 }  // namespace
+
+bool parsePoseProposal(const std::string& name, PoseProposal* out)
+{
+  if (name == "fastslam1")
+    *out = PoseProposal::kFastSlam1;
+  else if (name == "fastslam2")
+    *out = PoseProposal::kFastSlam2;
+  else
+    return false;
+  return true;
+}
+
+const char* toString(PoseProposal p)
+{
+  return p == PoseProposal::kFastSlam2 ? "fastslam2" : "fastslam1";
+}
+
+void conditionPoseOnLandmark(Pose2* mean, Eigen::Matrix3d* covariance, const Landmark& l, const Eigen::Vector2d& z,
+                             const Eigen::Matrix2d& R, const Pose2& sensor)
+{
+  const Pose2 s = *mean * sensor;
+  Eigen::Matrix2d Hm;
+  const Eigen::Vector2d zhat = predictObservation(l.mean, s, &Hm);
+  const Matrix23d Hx = poseJacobian(Hm, *mean, sensor);
+  const Eigen::Matrix2d Q = R + Hm * l.covariance * Hm.transpose();
+  const Eigen::Matrix3d& P = *covariance;
+  const Eigen::Matrix<double, 3, 2> K = P * Hx.transpose() * (Hx * P * Hx.transpose() + Q).inverse();
+  const Eigen::Vector3d d = K * Eigen::Vector2d(z.x() - zhat.x(), wrapAngle(z.y() - zhat.y()));
+  *mean = Pose2(mean->x + d.x(), mean->y + d.y(), wrapAngle(mean->theta + d.z()));
+  const Eigen::Matrix3d next = (Eigen::Matrix3d::Identity() - K * Hx) * P;
+  *covariance = 0.5 * (next + next.transpose());
+}
+
+void propagatePoseGaussian(Pose2* mean, Eigen::Matrix3d* covariance, const OdometryIncrement& u,
+                           const OdometryMotionNoise& n)
+{
+  const double s1 = n.alpha1 * std::abs(u.rot1) + n.alpha2 * u.trans;
+  const double st = n.alpha3 * u.trans + n.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
+  const double s2 = n.alpha1 * std::abs(u.rot2) + n.alpha2 * u.trans;
+  const double h = mean->theta + u.rot1, ch = std::cos(h), sh = std::sin(h);
+  Eigen::Matrix3d F;
+  F << 1, 0, -u.trans * sh, 0, 1, u.trans * ch, 0, 0, 1;
+  Eigen::Matrix3d V;  // wrt (rot1, trans, rot2)
+  V << -u.trans * sh, ch, 0, u.trans * ch, sh, 0, 1, 0, 1;
+  const Eigen::Vector3d m(s1 * s1, st * st, s2 * s2);
+  *covariance = F * *covariance * F.transpose() + V * m.asDiagonal() * V.transpose();
+  *mean = Pose2(mean->x + u.trans * ch, mean->y + u.trans * sh, wrapAngle(h + u.rot2));
+}
 
 LandmarkObservation toLandmarkObservation(const TrunkObservation& t)
 {
@@ -74,6 +166,8 @@ std::string FastSlamConfig::validate() const
     return "resample_threshold must be in [0, 1]";
   if (!(roughening_sigma_xy >= 0.0) || !(roughening_sigma_theta >= 0.0))
     return "roughening sigmas must be >= 0";
+  if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
+    return "mixture_fraction must be in [0, 1)";
   return "";
 }
 
@@ -92,12 +186,19 @@ void FastSlam::initialize(const Pose2& start)
   {
     p.pose = start;
     p.log_weight = -std::log(static_cast<double>(config_.particles));
+    p.motion_covariance.setZero();
   }
   next_id_ = 0;
 }
 
 void FastSlam::predict(const OdometryIncrement& u)
 {
+  if (gaussianPose())
+  {
+    for (auto& p : particles_)
+      propagatePoseGaussian(&p.pose, &p.motion_covariance, u, config_.motion);
+    return;
+  }
   for (auto& p : particles_)
     p.pose = sampleOdometryMotion(p.pose, u, config_.motion, random_);
 }
@@ -164,6 +265,15 @@ void galeShapley(const double* ll, std::size_t n_obs, std::size_t n_lm, std::vec
 }
 }  // namespace
 
+void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)
+{
+  initialize(start);
+  for (auto& p : particles_)
+    p.map = map;
+  for (std::size_t j = 0; j < map.size(); ++j)
+    next_id_ = std::max(next_id_, map[j].id + 1);
+}
+
 std::vector<int> FastSlam::stableMatching(const std::vector<std::vector<double>>& ll)
 {
   const std::size_t n_obs = ll.size();
@@ -189,9 +299,10 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
 {
   const FastSlamConfig& c = config_;
   Scratch& w = scratch_;
-  const Pose2 s = p->pose * sensor_in_base;
+  Pose2 s = p->pose * sensor_in_base;
   const std::size_t n_obs = obs.size();
   const double margin = 0.5;  // landmarks just outside the scope may still take an observation
+  const bool gaussian = gaussianPose();
 
   // Landmarks near the scope, with their predictions: the spatial index returns those within reach of the
   // sensor (a superset of the scope test below, in ascending index order, as a scan of the map would).
@@ -204,7 +315,16 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     const Eigen::Vector2d z = predictObservation(l.mean, s, &H);
     if (z.x() < c.min_range - margin || z.x() > c.max_range + margin || std::abs(z.y()) > 0.5 * c.field_of_view + 0.1)
       continue;
-    w.cand.push_back({ j, z, H });
+    Eigen::Matrix2d pose_term = Eigen::Matrix2d::Zero();
+    if (gaussian)
+    {
+      const Matrix23d Hx = poseJacobian(H, p->pose, sensor_in_base);
+      pose_term = Hx * p->motion_covariance * Hx.transpose();
+    }
+    Eigen::Matrix2d A = H * l.covariance * H.transpose();
+    if (gaussian)
+      A += pose_term;
+    w.cand.push_back({ j, z, H, pose_term, A });
   }
   const std::size_t n_cand = w.cand.size();
 
@@ -212,38 +332,94 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
   w.ll.assign(n_obs * n_cand, kNegInf);
   w.Si.resize(n_obs * n_cand);
   w.v.resize(n_obs * n_cand);
+  if (gaussian)
+    w.radius_term.resize(n_obs * n_cand);
+  // Candidates by predicted range: an observation is tested only against those whose range could be inside
+  // the gate (|v_r| <= sqrt(gate S_rr) with the largest S_rr), which the bound below would reject anyway.
+  w.by_range.clear();
+  double max_arr = 0.0;
+  for (std::size_t k = 0; k < n_cand; ++k)
+  {
+    w.by_range.emplace_back(w.cand[k].z.x(), k);
+    max_arr = std::max(max_arr, w.cand[k].A(0, 0));
+  }
+  std::sort(w.by_range.begin(), w.by_range.end());
   for (std::size_t i = 0; i < n_obs; ++i)
   {
     const Eigen::Matrix2d& R = w.R[i];
-    for (std::size_t k = 0; k < n_cand; ++k)
+    const double reach = std::sqrt(kGateSafety * c.association_gate * (max_arr + R(0, 0))) * kGateSafety + 1e-9;
+    auto first = std::lower_bound(w.by_range.begin(), w.by_range.end(), std::make_pair(obs[i].range - reach, std::size_t(0)));
+    for (auto it = first; it != w.by_range.end() && it->first <= obs[i].range + reach; ++it)
     {
+      const std::size_t k = it->second;
       const Scratch::Candidate& cd = w.cand[k];
       const Landmark& l = p->map[cd.index];
-      const Eigen::Matrix2d S = cd.H * l.covariance * cd.H.transpose() + R;
-      const Eigen::Vector2d v(obs[i].range - cd.z.x(), wrapAngle(obs[i].bearing - cd.z.y()));
+      // A cheap bound first: v' S^-1 v >= v_i^2 / S_ii for each component (Cauchy-Schwarz), so a pair whose
+      // range or bearing alone is outside the gate is outside it (most pairs of a dense stand).
+      const double vr = obs[i].range - cd.z.x();
+      const double srr = cd.A(0, 0) + R(0, 0);
+      if (vr * vr > kGateSafety * c.association_gate * srr)
+        continue;
+      const Eigen::Vector2d v(vr, wrapAngle(obs[i].bearing - cd.z.y()));
+      if (v.y() * v.y() > kGateSafety * c.association_gate * (cd.A(1, 1) + R(1, 1)))
+        continue;
+      const Eigen::Matrix2d S = cd.A + R;
       const Eigen::Matrix2d Si = S.inverse();
       const double d2 = v.dot(Si * v);
       if (!(d2 < c.association_gate))
         continue;
       double value = -0.5 * d2 - kLog2Pi - 0.5 * std::log(S.determinant());
+      double radius_term = 0.0;
       if (c.use_radius && obs[i].radius_variance > 0.0 && l.radius_variance > 0.0)
       {
         const double var = obs[i].radius_variance + l.radius_variance + c.radius_sigma_floor * c.radius_sigma_floor;
         const double dr = obs[i].radius - l.radius;
         if (dr * dr / var > c.association_gate)
           continue;
-        value += -0.5 * dr * dr / var - 0.5 * std::log(2.0 * M_PI * var);
+        radius_term = -0.5 * dr * dr / var - 0.5 * std::log(2.0 * M_PI * var);
+        value += radius_term;
       }
       const std::size_t ik = i * n_cand + k;
       w.ll[ik] = value;
+      if (gaussian)
+        w.radius_term[ik] = radius_term;
       w.Si[ik] = Si;
       w.v[ik] = v;
     }
   }
   stableMatchingFlat(w.ll.data(), n_obs, n_cand);
 
-  w.seen.assign(n_cand, 0);
   double log_w = 0.0;
+  if (gaussian)
+  {
+    // Draw the pose, then predict every candidate from it: the maps are updated from the drawn pose.
+    bool dual = false;
+    const double correction = drawPose(p, obs, sensor_in_base, &dual);
+    if (stats && dual)
+      ++stats->dual;
+    s = p->pose * sensor_in_base;
+    for (auto& cd : w.cand)
+      cd.z = predictObservation(p->map[cd.index].mean, s, &cd.H);
+    const bool mixture = c.mixture_fraction > 0.0;
+    if (mixture)
+      log_w += correction;
+    for (std::size_t i = 0; i < n_obs; ++i)
+    {
+      const int k = w.match[i];
+      if (k < 0)
+        continue;
+      const std::size_t ik = i * n_cand + static_cast<std::size_t>(k);
+      const Scratch::Candidate& cd = w.cand[static_cast<std::size_t>(k)];
+      const Eigen::Matrix2d S = cd.H * p->map[cd.index].covariance * cd.H.transpose() + w.R[i];
+      w.Si[ik] = S.inverse();
+      w.v[ik] = Eigen::Vector2d(obs[i].range - cd.z.x(), wrapAngle(obs[i].bearing - cd.z.y()));
+      // The mixture weighs p(z | x, m) at the drawn pose; FastSLAM 2.0 keeps the likelihood under the prior.
+      if (mixture)
+        w.ll[ik] = -0.5 * w.v[ik].dot(w.Si[ik] * w.v[ik]) - kLog2Pi - 0.5 * std::log(S.determinant()) + w.radius_term[ik];
+    }
+  }
+
+  w.seen.assign(n_cand, 0);
   for (std::size_t i = 0; i < n_obs; ++i)
   {
     const double* row = w.ll.data() + i * n_cand;
@@ -368,6 +544,90 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
   if (stats)
     stats->deleted += static_cast<int>(w.to_delete.size());
   p->log_weight += log_w;
+}
+
+double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual)
+{
+  const FastSlamConfig& c = config_;
+  Scratch& w = scratch_;
+  const std::size_t n_cand = w.cand.size();
+  const Pose2 prior = p->pose;
+  const Eigen::Matrix3d prior_cov = p->motion_covariance;
+  // A robot at rest has no motion uncertainty to draw from.
+  const bool degenerate = !(prior_cov.determinant() > 1e-24);
+  Pose2 mu = prior;
+  Eigen::Matrix3d cov = prior_cov;
+  std::size_t matched = 0;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+  {
+    const int k = w.match[i];
+    if (k < 0)
+      continue;
+    ++matched;
+    if (c.proposal == PoseProposal::kFastSlam2 && !degenerate)
+      conditionPoseOnLandmark(&mu, &cov, p->map[w.cand[static_cast<std::size_t>(k)].index],
+                              Eigen::Vector2d(obs[i].range, obs[i].bearing), w.R[i], sensor);
+  }
+  const bool mixture = c.mixture_fraction > 0.0 && !degenerate;
+  const double u = c.mixture_fraction > 0.0 ? random_.uniform() : 1.0;
+
+  // Dual proposal: the pose that best explains the matched observations alone (Gauss-Newton from mu).
+  Pose2 mu_d = mu;
+  Eigen::Matrix3d cov_d = Eigen::Matrix3d::Zero();
+  bool have_dual = false;
+  if (mixture && matched >= 2)
+  {
+    for (int iteration = 0; iteration < 4; ++iteration)
+    {
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      const Pose2 s = mu_d * sensor;
+      for (std::size_t i = 0; i < obs.size(); ++i)
+      {
+        const int k = w.match[i];
+        if (k < 0)
+          continue;
+        const Landmark& l = p->map[w.cand[static_cast<std::size_t>(k)].index];
+        Eigen::Matrix2d Hm;
+        const Eigen::Vector2d zhat = predictObservation(l.mean, s, &Hm);
+        const Matrix23d Hx = poseJacobian(Hm, mu_d, sensor);
+        const Eigen::Matrix2d Qi = (w.R[i] + Hm * l.covariance * Hm.transpose()).inverse();
+        const Eigen::Vector2d v(obs[i].range - zhat.x(), wrapAngle(obs[i].bearing - zhat.y()));
+        A += Hx.transpose() * Qi * Hx;
+        b += Hx.transpose() * Qi * v;
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(A);
+      have_dual = eig.eigenvalues().minCoeff() > 1e-9 * eig.eigenvalues().maxCoeff();
+      if (!have_dual)
+        break;
+      cov_d = A.inverse();
+      const Eigen::Vector3d d = cov_d * b;
+      mu_d = Pose2(mu_d.x + d.x(), mu_d.y + d.y(), wrapAngle(mu_d.theta + d.z()));
+    }
+    // Observations that cannot pin the pose (a fit far from the prior) give no dual proposal.
+    have_dual = have_dual && poseDifference(mu_d, prior).head<2>().norm() < 3.0;
+  }
+  *dual = have_dual && u < c.mixture_fraction;
+
+  // Sample from the chosen Gaussian (a symmetric square root copes with a singular covariance).
+  const Pose2& m = *dual ? mu_d : mu;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(*dual ? cov_d : cov);
+  const Eigen::Vector3d xi(random_.gaussian(), random_.gaussian(), random_.gaussian());
+  const Eigen::Vector3d d = eig.eigenvectors() * (eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().cwiseProduct(xi));
+  const Pose2 x(m.x + d.x(), m.y + d.y(), wrapAngle(m.theta + d.z()));
+  p->pose = x;
+  p->motion_covariance.setZero();
+  (void)n_cand;
+  if (!mixture)
+    return 0.0;
+  // Weight of the mixture: p(x | u) / ((1 - f) q(x) + f q_dual(x)), p(z | x, m) being added by the caller.
+  const double log_q = logGaussian(x, mu, cov);
+  const double log_mix = have_dual ? logSumExp(std::log(1.0 - c.mixture_fraction) + log_q,
+                                                std::log(c.mixture_fraction) + logGaussian(x, mu_d, cov_d))
+                                   : log_q;
+  if (!std::isfinite(log_mix))
+    return 0.0;
+  return logGaussian(x, prior, prior_cov) - log_mix;
 }
 
 FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor)
