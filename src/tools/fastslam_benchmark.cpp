@@ -3,6 +3,7 @@
 //
 //   rosrun rbpf_slam fastslam_benchmark [--world FILE] [--drive straight|loop|FILE] [--particles N]
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
+//                                       [--proposal fastslam1|fastslam2] [--mixture F] [--odometry-noise K]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -56,6 +57,9 @@ int main(int argc, char** argv)
   std::string drive = "straight", method = "circle";
   int particles = 100, seeds = 20, first_seed = 1;
   bool ideal = false;
+  std::string proposal = "fastslam1";
+  double mixture = 0.0;
+  double odometry_noise = 1.0;  // --odometry-noise K: the simulated wheel noise and scale mismatch times K
   std::string out_dir;  // --out DIR: TUM trajectories, maps and summary.json  // diagnostic: odometry without noise, mismatch or latency
   for (int i = 1; i < argc; ++i)
   {
@@ -77,11 +81,18 @@ int main(int argc, char** argv)
       ideal = true;
     else if (a == "--method" && has)
       method = argv[++i];
+    else if (a == "--proposal" && has)
+      proposal = argv[++i];
+    else if (a == "--mixture" && has)
+      mixture = std::atof(argv[++i]);
+    else if (a == "--odometry-noise" && has)
+      odometry_noise = std::atof(argv[++i]);
     else
     {
       std::fprintf(stderr,
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N] [--seeds K] "
-                   "[--method circle|centroid] [--first-seed S] [--ideal-odometry] [--out DIR]\n",
+                   "[--method circle|centroid] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
+                   "       [--proposal fastslam1|fastslam2] [--mixture F] [--odometry-noise K]\n",
                    argv[0]);
       return 2;
     }
@@ -97,15 +108,25 @@ int main(int argc, char** argv)
     if (!core::parseTrunkMethod(method, &cfg.detector.method))
       throw std::runtime_error("--method must be circle or centroid");
     cfg.filter.particles = particles;
+    if (!core::parsePoseProposal(proposal, &cfg.filter.proposal))
+      throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
+    cfg.filter.mixture_fraction = mixture;
+    {
+      auto& o = cfg.scenario.sim.odometry;
+      o.wheel_sigma *= odometry_noise;
+      o.left_scale = 1.0 + odometry_noise * (o.left_scale - 1.0);
+      o.right_scale = 1.0 + odometry_noise * (o.right_scale - 1.0);
+    }
     if (ideal)
     {
       cfg.scenario.sim.odometry.left_scale = cfg.scenario.sim.odometry.right_scale = 1.0;
       cfg.scenario.sim.odometry.wheel_sigma = 0.0;
       cfg.scenario.sim.robot.turn_slip = 0.0;
     }
-    std::printf("FastSLAM %s, %s drive, %d particles, extraction %s, seeds %d..%d\n",
+    std::printf("FastSLAM %s, %s drive, %d particles, extraction %s, proposal %s, mixture %.2f, odometry noise x%.1f, "
+                "seeds %d..%d\n",
                 world_path.substr(world_path.find_last_of('/') + 1).c_str(), drive.c_str(), particles, method.c_str(),
-                first_seed, first_seed + seeds - 1);
+                proposal.c_str(), mixture, odometry_noise, first_seed, first_seed + seeds - 1);
     std::printf("%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s\n", "seed", "final [m]", "DR [m]", "ATE [m]",
                 "DR ATE", "tree-ft", "recall", "dup", "spur", "r RMS cm", "sweeps", "rate Hz");
     std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate;
@@ -157,7 +178,8 @@ int main(int argc, char** argv)
     {
       std::ofstream js(out_dir + "/summary.json");
       js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << particles
-         << ", \"method\": \"" << method << "\", \"first_seed\": " << first_seed << ", \"seeds\": " << seeds
+         << ", \"method\": \"" << method << "\", \"proposal\": \"" << proposal << "\", \"mixture\": " << mixture
+         << ", \"odometry_noise\": " << odometry_noise << ", \"first_seed\": " << first_seed << ", \"seeds\": " << seeds
          << ", \"failed\": " << failed << ",\n " << jsonStats("final_error_m", fin) << ",\n "
          << jsonStats("final_error_dead_reckoning_m", fin_dr, false) << ",\n " << jsonStats("ate_m", ate) << ",\n "
          << jsonStats("ate_dead_reckoning_m", ate_dr, false) << ",\n " << jsonStats("tree_to_feature_m", dist)
