@@ -390,19 +390,28 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
   stableMatchingFlat(w.ll.data(), n_obs, n_cand);
 
   double log_w = 0.0;
+  double dual_weight = std::numeric_limits<double>::quiet_NaN();
   if (gaussian)
   {
     // Draw the pose, then predict every candidate from it: the maps are updated from the drawn pose.
     bool dual = false;
-    const double correction = drawPose(p, obs, sensor_in_base, &dual);
+    double log_prior = 0.0;
+    const double correction = drawPose(p, obs, sensor_in_base, &dual, &log_prior);
     if (stats && dual)
       ++stats->dual;
+    scratch_.dual_flags.push_back(dual ? 1 : 0);
     s = p->pose * sensor_in_base;
     for (auto& cd : w.cand)
       cd.z = predictObservation(p->map[cd.index].mean, s, &cd.H);
     const bool mixture = c.mixture_fraction > 0.0;
-    if (mixture)
+    if (mixture && c.mixture_balance)
       log_w += correction;
+    // Thrun's dual weighting: a dual sample weighs p(x | u), its set being normalised apart (in update()).
+    if (dual && !c.mixture_balance)
+      dual_weight = log_prior;
+    // p(z | x, m) at the drawn pose: the mixture's weights, and those of a FastSLAM 1.0 sample from the
+    // Gaussian prior; FastSLAM 2.0 keeps the likelihood under the prior.
+    const bool at_drawn_pose = mixture && (c.mixture_balance || c.proposal == PoseProposal::kFastSlam1);
     for (std::size_t i = 0; i < n_obs; ++i)
     {
       const int k = w.match[i];
@@ -413,8 +422,7 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       const Eigen::Matrix2d S = cd.H * p->map[cd.index].covariance * cd.H.transpose() + w.R[i];
       w.Si[ik] = S.inverse();
       w.v[ik] = Eigen::Vector2d(obs[i].range - cd.z.x(), wrapAngle(obs[i].bearing - cd.z.y()));
-      // The mixture weighs p(z | x, m) at the drawn pose; FastSLAM 2.0 keeps the likelihood under the prior.
-      if (mixture)
+      if (at_drawn_pose)
         w.ll[ik] = -0.5 * w.v[ik].dot(w.Si[ik] * w.v[ik]) - kLog2Pi - 0.5 * std::log(S.determinant()) + w.radius_term[ik];
     }
   }
@@ -543,10 +551,11 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     p->map.remove(j);
   if (stats)
     stats->deleted += static_cast<int>(w.to_delete.size());
-  p->log_weight += log_w;
+  p->log_weight += std::isnan(dual_weight) ? log_w : dual_weight;
 }
 
-double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual)
+double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
+                          double* log_prior)
 {
   const FastSlamConfig& c = config_;
   Scratch& w = scratch_;
@@ -617,6 +626,7 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
   const Pose2 x(m.x + d.x(), m.y + d.y(), wrapAngle(m.theta + d.z()));
   p->pose = x;
   p->motion_covariance.setZero();
+  *log_prior = mixture ? logGaussian(x, prior, prior_cov) : 0.0;
   (void)n_cand;
   if (!mixture)
     return 0.0;
@@ -627,7 +637,7 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
                                    : log_q;
   if (!std::isfinite(log_mix))
     return 0.0;
-  return logGaussian(x, prior, prior_cov) - log_mix;
+  return *log_prior - log_mix;
 }
 
 FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor)
@@ -647,12 +657,30 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     R(1, 1) += config_.bearing_sigma_floor * config_.bearing_sigma_floor;
     scratch_.log_new[i] = -0.5 * config_.association_gate - kLog2Pi - 0.5 * std::log(R.determinant());
   }
+  scratch_.dual_flags.clear();
   for (std::size_t i = 0; i < particles_.size(); ++i)
     updateParticle(&particles_[i], observations, sensor, i == best_before ? &stats : nullptr);
 
   std::vector<double> log_w(particles_.size());
   for (std::size_t i = 0; i < particles_.size(); ++i)
     log_w[i] = particles_[i].log_weight;
+  if (config_.mixture_fraction > 0.0 && !config_.mixture_balance && scratch_.dual_flags.size() == particles_.size())
+  {
+    // Thrun et al.'s dual weighting: the dual and the regular samples are normalised apart and hold the mass
+    // f and 1 - f (all of it when the other set is empty).
+    double lse[2] = { kNegInf, kNegInf };
+    for (std::size_t i = 0; i < log_w.size(); ++i)
+      lse[scratch_.dual_flags[i] ? 1 : 0] = logSumExp(lse[scratch_.dual_flags[i] ? 1 : 0], log_w[i]);
+    if (lse[1] > kNegInf && lse[0] > kNegInf)
+    {
+      const double mass[2] = { std::log(1.0 - config_.mixture_fraction), std::log(config_.mixture_fraction) };
+      for (std::size_t i = 0; i < log_w.size(); ++i)
+      {
+        const int set = scratch_.dual_flags[i] ? 1 : 0;
+        log_w[i] += mass[set] - lse[set];
+      }
+    }
+  }
   normalizeLogWeights(&log_w, &weights_);
   for (std::size_t i = 0; i < particles_.size(); ++i)
     particles_[i].log_weight = log_w[i];

@@ -38,6 +38,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   if (!core::parsePoseProposal(proposal, &c->proposal))
     throw std::runtime_error("parameter 'proposal' must be fastslam1 or fastslam2, not '" + proposal + "'");
   p.get("mixture_fraction", &c->mixture_fraction);
+  p.get("mixture_balance", &c->mixture_balance);
   int seed = static_cast<int>(c->seed);
   p.get("seed", &seed);
   c->seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));

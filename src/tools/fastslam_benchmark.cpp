@@ -5,7 +5,8 @@
 //
 //   rosrun rbpf_slam fastslam_benchmark [--world FILE] [--drive straight|loop|FILE] [--particles N]
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
-//                                       [--proposal fastslam1|fastslam2] [--mixture F] [--odometry-noise K]
+//                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
+//                                       [--odometry-noise K]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -68,7 +69,7 @@ struct Series
 {
   std::string label, proposal, method;
   int particles = 0;
-  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate;
+  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate;
   std::vector<std::string> rows;
   int failed = 0;
 };
@@ -81,6 +82,7 @@ int main(int argc, char** argv)
   int seeds = 20, first_seed = 1;
   bool ideal = false;  // diagnostic: odometry without noise, mismatch or latency
   double mixture = 0.0;
+  bool mixture_balance = false;
   double odometry_noise = 1.0;  // --odometry-noise K: the simulated wheel noise and scale mismatch times K
   std::string out_dir;          // --out DIR: TUM trajectories, maps and summary.json
   for (int i = 1; i < argc; ++i)
@@ -107,6 +109,8 @@ int main(int argc, char** argv)
       proposals = argv[++i];
     else if (a == "--mixture" && has)
       mixture = std::atof(argv[++i]);
+    else if (a == "--mixture-balance")
+      mixture_balance = true;
     else if (a == "--odometry-noise" && has)
       odometry_noise = std::atof(argv[++i]);
     else
@@ -114,7 +118,7 @@ int main(int argc, char** argv)
       std::fprintf(stderr,
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N[,N...]] [--seeds K] "
                    "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
-                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--odometry-noise K]\n",
+                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n",
                    argv[0]);
       return 2;
     }
@@ -152,6 +156,7 @@ int main(int argc, char** argv)
             throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
           v.filter.particles = std::atoi(np.c_str());
           v.filter.mixture_fraction = mixture;
+          v.filter.mixture_balance = mixture_balance;
           const std::string err = v.filter.validate();
           if (!err.empty())
             throw std::runtime_error(err);
@@ -213,6 +218,7 @@ int main(int argc, char** argv)
         q.dup.push_back(r.map.duplicates);
         q.spur.push_back(r.map.spurious);
         q.rate.push_back(hz);
+        q.filter_rate.push_back(r.sweeps / std::max(1e-9, r.seconds_filter));
         q.failed += r.final_error > 1.0;
         if (!out_dir.empty())
         {
@@ -263,7 +269,8 @@ int main(int argc, char** argv)
            << jsonStats("ate_m", q.ate) << ",\n " << jsonStats("ate_dead_reckoning_m", q.ate_dr, false) << ",\n "
            << jsonStats("tree_to_feature_m", q.dist) << ",\n " << jsonStats("recall", q.recall, false) << ",\n "
            << jsonStats("duplicates", q.dup) << ",\n " << jsonStats("spurious", q.spur) << ",\n "
-           << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << "}\n";
+           << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << ",\n "
+           << jsonStats("filter_rate_hz", q.filter_rate, false) << "}\n";
         std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
       }
       std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "

@@ -41,6 +41,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.seed, defaults.seed);
   EXPECT_EQ(read.proposal, defaults.proposal);
   EXPECT_EQ(read.mixture_fraction, defaults.mixture_fraction);
+  EXPECT_EQ(read.mixture_balance, defaults.mixture_balance);
   // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||

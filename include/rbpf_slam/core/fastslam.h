@@ -85,6 +85,10 @@ struct FastSlamConfig
   /// update from the dual proposal instead, the pose that best explains the matched observations in the
   /// particle's own map; the weights are those of the mixture (see FastSlam). 0: off.
   double mixture_fraction = 0.0;
+  /// Weights of the mixture: false = Thrun et al.'s dual weighting (a dual sample weighs p(x | u), the dual and
+  /// the regular samples are normalised apart and hold f and 1 - f of the mass); true = the balance heuristic
+  /// (every sample weighs p(z | x, m) p(x | u) over the mixture's density).
+  bool mixture_balance = false;
 
   std::uint64_t seed = 0;
 
@@ -142,9 +146,10 @@ void propagatePoseGaussian(Pose2* mean, Eigen::Matrix3d* covariance, const Odome
  *
  * Mixture MCL: with mixture_fraction f > 0 each particle draws its pose with probability f from the dual
  * proposal N(mu_d, S_d), the observation-only pose fit (Gauss-Newton on the matched landmarks of its map,
- * needs two), else from its regular proposal q (the motion prior, or the FastSLAM 2.0 proposal). The weight
- * is p(z | x, m) p(x | u) / ((1 - f) q(x) + f N(x; mu_d, S_d)) at the drawn x for every particle (the
- * mixture's own density, so regular and dual samples share one scale).
+ * needs two), else from its regular proposal q (the motion prior, or the FastSLAM 2.0 proposal). Weights:
+ * Thrun et al.'s dual weighting by default (dual samples weigh p(x | u), regular ones as usual, the two sets
+ * normalised apart to f and 1 - f), or with mixture_balance p(z | x, m) p(x | u) / ((1 - f) q(x) + f q_d(x))
+ * at the drawn x for every particle (the mixture's own density, one scale for both kinds).
  */
 class FastSlam
 {
@@ -200,6 +205,7 @@ private:
     std::vector<int> match, holder, free, prefs;
     std::vector<std::size_t> next, prefs_begin, to_delete;
     std::vector<char> seen;
+    std::vector<char> dual_flags;  ///< per particle of the current update: pose from the dual proposal
   };
 
   void updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
@@ -210,7 +216,8 @@ private:
    * @brief Draws the pose of a Gaussian-pose particle for the matched observations; returns the log of
    * the weight's correction (target over proposal density) for the mixture, 0 otherwise.
    */
-  double drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual);
+  double drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
+                  double* log_prior);
   /** @brief stableMatching() on a row-major table, into scratch_.match. */
   void stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm);
 
