@@ -212,27 +212,33 @@ namespace
  */
 void galeShapley(const double* ll, std::size_t n_obs, std::size_t n_lm, std::vector<int>* match_out,
                  std::vector<int>* holder, std::vector<int>* free, std::vector<int>* prefs,
-                 std::vector<std::size_t>* prefs_begin, std::vector<std::size_t>* next)
+                 std::vector<std::size_t>* prefs_begin, std::vector<std::size_t>* next, bool prefs_filled)
 {
   std::vector<int>& match = *match_out;
   match.assign(n_obs, -1);
   holder->assign(n_lm, -1);
   next->assign(n_obs, 0);
-  prefs->clear();
-  prefs_begin->assign(n_obs + 1, 0);
+  // Each observation's acceptable landmarks (those inside the gate), given or found here, best first.
+  if (!prefs_filled)
+  {
+    prefs->clear();
+    prefs_begin->assign(n_obs + 1, 0);
+    for (std::size_t i = 0; i < n_obs; ++i)
+    {
+      (*prefs_begin)[i] = prefs->size();
+      for (std::size_t j = 0; j < n_lm; ++j)
+        if (ll[i * n_lm + j] > kNegInf)
+          prefs->push_back(static_cast<int>(j));
+    }
+    (*prefs_begin)[n_obs] = prefs->size();
+  }
   for (std::size_t i = 0; i < n_obs; ++i)
   {
     const double* row = ll + i * n_lm;
-    const std::size_t b = prefs->size();
-    (*prefs_begin)[i] = b;
-    for (std::size_t j = 0; j < n_lm; ++j)
-      if (row[j] > kNegInf)
-        prefs->push_back(static_cast<int>(j));
-    std::sort(prefs->begin() + static_cast<std::ptrdiff_t>(b), prefs->end(), [row](int a, int c) {
-      return row[a] > row[c] || (row[a] == row[c] && a < c);
-    });
+    std::sort(prefs->begin() + static_cast<std::ptrdiff_t>((*prefs_begin)[i]),
+              prefs->begin() + static_cast<std::ptrdiff_t>((*prefs_begin)[i + 1]),
+              [row](int a, int c) { return row[a] > row[c] || (row[a] == row[c] && a < c); });
   }
-  (*prefs_begin)[n_obs] = prefs->size();
   free->clear();
   for (std::size_t i = n_obs; i-- > 0;)
     free->push_back(static_cast<int>(i));
@@ -284,14 +290,15 @@ std::vector<int> FastSlam::stableMatching(const std::vector<std::vector<double>>
     flat.insert(flat.end(), row.begin(), row.end());
   std::vector<int> match, holder, free, prefs;
   std::vector<std::size_t> prefs_begin, next;
-  galeShapley(flat.data(), n_obs, n_lm, &match, &holder, &free, &prefs, &prefs_begin, &next);
+  galeShapley(flat.data(), n_obs, n_lm, &match, &holder, &free, &prefs, &prefs_begin, &next, false);
   return match;
 }
 
 void FastSlam::stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm)
 {
   Scratch& w = scratch_;
-  galeShapley(ll, n_obs, n_lm, &w.match, &w.holder, &w.free, &w.prefs, &w.prefs_begin, &w.next);
+  // The table's gated entries were listed while it was filled (scratch_.prefs, prefs_begin).
+  galeShapley(ll, n_obs, n_lm, &w.match, &w.holder, &w.free, &w.prefs, &w.prefs_begin, &w.next, true);
 }
 
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
@@ -344,8 +351,11 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     max_arr = std::max(max_arr, w.cand[k].A(0, 0));
   }
   std::sort(w.by_range.begin(), w.by_range.end());
+  w.prefs.clear();
+  w.prefs_begin.assign(n_obs + 1, 0);
   for (std::size_t i = 0; i < n_obs; ++i)
   {
+    w.prefs_begin[i] = w.prefs.size();
     const Eigen::Matrix2d& R = w.R[i];
     const double reach = std::sqrt(kGateSafety * c.association_gate * (max_arr + R(0, 0))) * kGateSafety + 1e-9;
     auto first = std::lower_bound(w.by_range.begin(), w.by_range.end(), std::make_pair(obs[i].range - reach, std::size_t(0)));
@@ -381,12 +391,14 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       }
       const std::size_t ik = i * n_cand + k;
       w.ll[ik] = value;
+      w.prefs.push_back(static_cast<int>(k));
       if (gaussian)
         w.radius_term[ik] = radius_term;
       w.Si[ik] = Si;
       w.v[ik] = v;
     }
   }
+  w.prefs_begin[n_obs] = w.prefs.size();
   stableMatchingFlat(w.ll.data(), n_obs, n_cand);
 
   double log_w = 0.0;
@@ -470,9 +482,7 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       continue;
     }
     // Unmatched: new if no landmark could explain it, else it lost the matching (ignored).
-    bool gated = false;
-    for (std::size_t k2 = 0; k2 < n_cand && !gated; ++k2)
-      gated = row[k2] > kNegInf;
+    const bool gated = w.prefs_begin[i + 1] > w.prefs_begin[i];  // some landmark was inside its gate
     if (gated)
     {
       log_w += w.log_new[i];
