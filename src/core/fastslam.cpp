@@ -569,7 +569,6 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
 {
   const FastSlamConfig& c = config_;
   Scratch& w = scratch_;
-  const std::size_t n_cand = w.cand.size();
   const Pose2 prior = p->pose;
   const Eigen::Matrix3d prior_cov = p->motion_covariance;
   // A robot at rest has no motion uncertainty to draw from.
@@ -637,7 +636,6 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
   p->pose = x;
   p->motion_covariance.setZero();
   *log_prior = mixture ? logGaussian(x, prior, prior_cov) : 0.0;
-  (void)n_cand;
   if (!mixture)
     return 0.0;
   // Weight of the mixture: p(x | u) / ((1 - f) q(x) + f q_dual(x)), p(z | x, m) being added by the caller.
