@@ -409,8 +409,6 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     bool dual = false;
     double log_prior = 0.0;
     const double correction = drawPose(p, obs, sensor_in_base, &dual, &log_prior);
-    if (stats && dual)
-      ++stats->dual;
     scratch_.dual_flags.push_back(dual ? 1 : 0);
     s = p->pose * sensor_in_base;
     for (auto& cd : w.cand)
@@ -668,6 +666,7 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   scratch_.dual_flags.clear();
   for (std::size_t i = 0; i < particles_.size(); ++i)
     updateParticle(&particles_[i], observations, sensor, i == best_before ? &stats : nullptr);
+  stats.dual = static_cast<int>(std::count(scratch_.dual_flags.begin(), scratch_.dual_flags.end(), 1));
 
   std::vector<double> log_w(particles_.size());
   for (std::size_t i = 0; i < particles_.size(); ++i)

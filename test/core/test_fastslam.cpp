@@ -359,10 +359,11 @@ TEST(FastSlam2, MotionGaussianMatchesTheSampledMotionModel)
   EXPECT_LT((c - cov).cwiseAbs().maxCoeff(), 0.05 * cov.cwiseAbs().maxCoeff()) << c << "\n" << cov;
 }
 
-TEST(FastSlam2, OneParticleFollowsTheTruthInAKnownMapWhereOdometryDrifts)
+TEST(FastSlam2, ProposalsFollowTheTruthInASurveyedMapWhereOdometryDrifts)
 {
-  // A surveyed map of four trunks (1 mm); odometry reads 5 % short and turns 0.01 rad too far per step. FastSLAM 1.0
-  // with one particle can only follow odometry; FastSLAM 2.0 draws its pose from the observations.
+  // A surveyed map of four trunks (1 mm); odometry reads 5 % short and turns 0.01 rad too far per step (twice the
+  // filter's noise class). FastSLAM 1.0 with one particle can only follow odometry; FastSLAM 2.0 draws its pose
+  // from the observations; so does the mixture's dual proposal for some of FastSLAM 1.0's particles.
   LandmarkMap map;
   const std::vector<Eigen::Vector2d> trees{ { 3, 4 }, { 6, -4 }, { 9, 4 }, { 12, -4 } };
   for (std::size_t i = 0; i < trees.size(); ++i)
@@ -378,10 +379,11 @@ TEST(FastSlam2, OneParticleFollowsTheTruthInAKnownMapWhereOdometryDrifts)
     l.id = static_cast<int>(i);
     map.add(l);
   }
-  const auto run = [&](PoseProposal proposal) {
+  const auto run = [&](PoseProposal proposal, double mixture = 0.0, int particles = 1) {
     FastSlamConfig c;
-    c.particles = 1;
+    c.particles = particles;
     c.proposal = proposal;
+    c.mixture_fraction = mixture;
     c.motion.alpha1 = c.motion.alpha2 = c.motion.alpha3 = 0.05;
     c.motion.alpha4 = 0.01;
     FastSlam f(c);
@@ -405,4 +407,8 @@ TEST(FastSlam2, OneParticleFollowsTheTruthInAKnownMapWhereOdometryDrifts)
   const double e1 = run(PoseProposal::kFastSlam1), e2 = run(PoseProposal::kFastSlam2);
   EXPECT_GT(e1, 0.5);   // about the odometry's drift
   EXPECT_LT(e2, 0.1);
+  // Mixture MCL: FastSLAM 1.0 whose particles are sometimes drawn from the observations of the map.
+  const double e1_mixture = run(PoseProposal::kFastSlam1, 0.2, 10), e1_many = run(PoseProposal::kFastSlam1, 0.0, 10);
+  EXPECT_GT(e1_many, 0.3);
+  EXPECT_LT(e1_mixture, 0.1) << "without the mixture " << e1_many;
 }

@@ -114,7 +114,7 @@ struct FastSlamUpdateStats
   int created = 0;     ///< in the best particle
   int ignored = 0;     ///< lost the matching but inside a gate: neither matched nor new (best particle)
   int deleted = 0;     ///< in the best particle
-  int dual = 0;        ///< particles whose pose came from the dual proposal (mixture)
+  int dual = 0;        ///< particles (all of them) whose pose came from the dual proposal (mixture)
   double neff = 0.0;   ///< before resampling
   bool resampled = false;
 };
