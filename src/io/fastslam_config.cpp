@@ -33,6 +33,12 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);
+  std::string proposal = core::toString(c->proposal);
+  p.get("proposal", &proposal);
+  if (!core::parsePoseProposal(proposal, &c->proposal))
+    throw std::runtime_error("parameter 'proposal' must be fastslam1 or fastslam2, not '" + proposal + "'");
+  p.get("mixture_fraction", &c->mixture_fraction);
+  p.get("mixture_balance", &c->mixture_balance);
   p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())

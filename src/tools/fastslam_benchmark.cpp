@@ -1,8 +1,12 @@
 // FastSLAM on the simulated forest through the in-process runner, over seeds; prints a table with the same
-// runs' dead reckoning. Not a test.
+// runs' dead reckoning. Not a test. --particles, --method and --proposal take comma-separated lists: every
+// combination runs on the same simulated data of each seed (one simulation per seed, paired comparisons),
+// each with its own table and, with --out, its own directory DIR/<proposal>_<method>_p<particles>.
 //
 //   rosrun rbpf_slam fastslam_benchmark [--world FILE] [--drive straight|loop|FILE] [--particles N]
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
+//                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
+//                                       [--odometry-noise K]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -48,15 +52,39 @@ double best(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end());
 }
+
+std::vector<std::string> splitList(const std::string& s)
+{
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty())
+      out.push_back(item);
+  return out;
+}
+
+/** Figures of one variant over the seeds. */
+struct Series
+{
+  std::string label, proposal, method;
+  int particles = 0;
+  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate;
+  std::vector<std::string> rows;
+  int failed = 0;
+};
 }  // namespace
 
 int main(int argc, char** argv)
 {
   std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml";
-  std::string drive = "straight", method = "circle";
-  int particles = 100, seeds = 20, first_seed = 1;
-  bool ideal = false;
-  std::string out_dir;  // --out DIR: TUM trajectories, maps and summary.json  // diagnostic: odometry without noise, mismatch or latency
+  std::string drive = "straight", methods = "circle", particle_list = "100", proposals = "fastslam1";
+  int seeds = 20, first_seed = 1;
+  bool ideal = false;  // diagnostic: odometry without noise, mismatch or latency
+  double mixture = 0.0;
+  bool mixture_balance = false;
+  double odometry_noise = 1.0;  // --odometry-noise K: the simulated wheel noise and scale mismatch times K
+  std::string out_dir;          // --out DIR: TUM trajectories, maps and summary.json
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -66,7 +94,7 @@ int main(int argc, char** argv)
     else if (a == "--drive" && has)
       drive = argv[++i];
     else if (a == "--particles" && has)
-      particles = std::atoi(argv[++i]);
+      particle_list = argv[++i];
     else if (a == "--seeds" && has)
       seeds = std::atoi(argv[++i]);
     else if (a == "--first-seed" && has)
@@ -76,12 +104,21 @@ int main(int argc, char** argv)
     else if (a == "--ideal-odometry")
       ideal = true;
     else if (a == "--method" && has)
-      method = argv[++i];
+      methods = argv[++i];
+    else if (a == "--proposal" && has)
+      proposals = argv[++i];
+    else if (a == "--mixture" && has)
+      mixture = std::atof(argv[++i]);
+    else if (a == "--mixture-balance")
+      mixture_balance = true;
+    else if (a == "--odometry-noise" && has)
+      odometry_noise = std::atof(argv[++i]);
     else
     {
       std::fprintf(stderr,
-                   "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N] [--seeds K] "
-                   "[--method circle|centroid] [--first-seed S] [--ideal-odometry] [--out DIR]\n",
+                   "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N[,N...]] [--seeds K] "
+                   "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
+                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n",
                    argv[0]);
       return 2;
     }
@@ -89,86 +126,157 @@ int main(int argc, char** argv)
   try
   {
     const core::ForestWorld world = io::loadForestWorld(world_path);
-    core::ForestSlamRunConfig cfg;
+    core::ScenarioConfig scenario;
     std::string error;
-    cfg.scenario.drive = core::namedDrive(drive, &error);
+    scenario.drive = core::namedDrive(drive, &error);
     if (!error.empty())
       throw std::runtime_error(error);
-    if (!core::parseTrunkMethod(method, &cfg.detector.method))
-      throw std::runtime_error("--method must be circle or centroid");
-    cfg.filter.particles = particles;
     if (ideal)
     {
-      cfg.scenario.sim.odometry.left_scale = cfg.scenario.sim.odometry.right_scale = 1.0;
-      cfg.scenario.sim.odometry.wheel_sigma = 0.0;
-      cfg.scenario.sim.robot.turn_slip = 0.0;
+      scenario.sim.odometry.left_scale = scenario.sim.odometry.right_scale = 1.0;
+      scenario.sim.odometry.wheel_sigma = 0.0;
+      scenario.sim.robot.turn_slip = 0.0;
     }
-    std::printf("FastSLAM %s, %s drive, %d particles, extraction %s, seeds %d..%d\n",
-                world_path.substr(world_path.find_last_of('/') + 1).c_str(), drive.c_str(), particles, method.c_str(),
-                first_seed, first_seed + seeds - 1);
-    std::printf("%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s\n", "seed", "final [m]", "DR [m]", "ATE [m]",
-                "DR ATE", "tree-ft", "recall", "dup", "spur", "r RMS cm", "sweeps", "rate Hz");
-    std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate;
-    int failed = 0;
+    {
+      auto& o = scenario.sim.odometry;
+      o.wheel_sigma *= odometry_noise;
+      o.left_scale = 1.0 + odometry_noise * (o.left_scale - 1.0);
+      o.right_scale = 1.0 + odometry_noise * (o.right_scale - 1.0);
+    }
+    std::vector<core::ForestSlamVariant> variants;
+    std::vector<Series> series;
+    for (const std::string& proposal : splitList(proposals))
+      for (const std::string& method : splitList(methods))
+        for (const std::string& np : splitList(particle_list))
+        {
+          core::ForestSlamVariant v;
+          if (!core::parseTrunkMethod(method, &v.detector.method))
+            throw std::runtime_error("--method must be circle or centroid");
+          if (!core::parsePoseProposal(proposal, &v.filter.proposal))
+            throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
+          v.filter.particles = std::atoi(np.c_str());
+          v.filter.mixture_fraction = mixture;
+          v.filter.mixture_balance = mixture_balance;
+          const std::string err = v.filter.validate();
+          if (!err.empty())
+            throw std::runtime_error(err);
+          variants.push_back(v);
+          Series s;
+          s.proposal = proposal;
+          s.method = method;
+          s.particles = v.filter.particles;
+          s.label = proposal + "_" + method + "_p" + np;
+          series.push_back(s);
+        }
+    const std::string world_name = world_path.substr(world_path.find_last_of('/') + 1);
+    const char* header = "%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s\n";
     for (int s = first_seed; s < first_seed + seeds; ++s)
     {
-      cfg.scenario.sim.seed = static_cast<std::uint64_t>(s);
-      cfg.filter.seed = static_cast<std::uint64_t>(s);
-      cfg.detector.seed = static_cast<std::uint64_t>(s);
-      const core::ForestSlamRunResult r = core::runForestSlam(world, cfg);
-      const double hz = r.sweeps / std::max(1e-9, r.seconds_extraction + r.seconds_filter);
-      std::printf("%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f\n", s, r.final_error,
-                  r.final_error_odometry, r.ate, r.ate_odometry, r.map.mean_distance, 100.0 * r.map.recall,
-                  r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz);
-      std::fflush(stdout);
-      fin.push_back(r.final_error);
-      fin_dr.push_back(r.final_error_odometry);
-      ate.push_back(r.ate);
-      ate_dr.push_back(r.ate_odometry);
-      dist.push_back(r.map.mean_distance);
-      recall.push_back(r.map.recall);
-      rad.push_back(r.map.radius_rms);
-      dup.push_back(r.map.duplicates);
-      spur.push_back(r.map.spurious);
-      rate.push_back(hz);
-      failed += r.final_error > 1.0;
-      if (!out_dir.empty())
+      scenario.sim.seed = static_cast<std::uint64_t>(s);
+      for (auto& v : variants)
       {
-        mkdir(out_dir.c_str(), 0755);
-        const std::string base = out_dir + "/seed" + std::to_string(s);
-        io::writeTum(base + "_estimate.tum", r.stamps, r.estimate);
-        io::writeTum(base + "_odometry.tum", r.stamps, r.odometry);
-        io::writeTum(base + "_truth.tum", r.stamps, r.truth);
-        io::writeLandmarksCsv(base + "_map.csv", r.landmarks);
-        std::ofstream trees(base + "_trees.csv");
-        trees << "x,y,radius,seen\n";
-        for (std::size_t k = 0; k < r.trees.size(); ++k)
-          trees << r.trees[k].position.x() << ',' << r.trees[k].position.y() << ',' << r.trees[k].radius << ','
-                << (r.tree_seen[k] ? 1 : 0) << '\n';
+        v.filter.seed = static_cast<std::uint64_t>(s);
+        v.detector.seed = static_cast<std::uint64_t>(s);
+      }
+      const std::vector<core::ForestSlamRunResult> results = core::runForestSlamVariants(world, scenario, variants);
+      for (std::size_t k = 0; k < results.size(); ++k)
+      {
+        const core::ForestSlamRunResult& r = results[k];
+        Series& q = series[k];
+        const double hz = r.sweeps / std::max(1e-9, r.seconds_extraction + r.seconds_filter);
+        char row[256];
+        std::snprintf(row, sizeof(row), "%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f\n", s,
+                      r.final_error, r.final_error_odometry, r.ate, r.ate_odometry, r.map.mean_distance,
+                      100.0 * r.map.recall, r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz);
+        q.rows.push_back(row);
+        if (series.size() == 1)
+        {
+          if (s == first_seed)
+          {
+            std::printf("FastSLAM %s, %s drive, %d particles, extraction %s, proposal %s, mixture %.2f, odometry noise "
+                        "x%.1f, seeds %d..%d\n",
+                        world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
+                        odometry_noise, first_seed, first_seed + seeds - 1);
+            std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
+                        "r RMS cm", "sweeps", "rate Hz");
+          }
+          std::fputs(row, stdout);
+          std::fflush(stdout);
+        }
+        else
+        {
+          std::fprintf(stderr, "seed %d %s: final %.3f m (DR %.3f), ATE %.3f (DR %.3f)\n", s, q.label.c_str(),
+                       r.final_error, r.final_error_odometry, r.ate, r.ate_odometry);
+        }
+        q.fin.push_back(r.final_error);
+        q.fin_dr.push_back(r.final_error_odometry);
+        q.ate.push_back(r.ate);
+        q.ate_dr.push_back(r.ate_odometry);
+        q.dist.push_back(r.map.mean_distance);
+        q.recall.push_back(r.map.recall);
+        q.rad.push_back(r.map.radius_rms);
+        q.dup.push_back(r.map.duplicates);
+        q.spur.push_back(r.map.spurious);
+        q.rate.push_back(hz);
+        q.filter_rate.push_back(r.sweeps / std::max(1e-9, r.seconds_filter));
+        q.failed += r.final_error > 1.0;
+        if (!out_dir.empty())
+        {
+          mkdir(out_dir.c_str(), 0755);
+          const std::string dir = series.size() == 1 ? out_dir : out_dir + "/" + q.label;
+          mkdir(dir.c_str(), 0755);
+          const std::string base = dir + "/seed" + std::to_string(s);
+          io::writeTum(base + "_estimate.tum", r.stamps, r.estimate);
+          io::writeTum(base + "_odometry.tum", r.stamps, r.odometry);
+          io::writeTum(base + "_truth.tum", r.stamps, r.truth);
+          io::writeLandmarksCsv(base + "_map.csv", r.landmarks);
+          std::ofstream trees(base + "_trees.csv");
+          trees << "x,y,radius,seen\n";
+          for (std::size_t t = 0; t < r.trees.size(); ++t)
+            trees << r.trees[t].position.x() << ',' << r.trees[t].position.y() << ',' << r.trees[t].radius << ','
+                  << (r.tree_seen[t] ? 1 : 0) << '\n';
+        }
       }
     }
-    std::printf("median %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", median(fin), median(fin_dr),
-                median(ate), median(ate_dr), median(dist), 100.0 * median(recall), median(dup), median(spur),
-                100.0 * median(rad), "", median(rate));
-    std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", worst(fin), best(fin_dr),
-                worst(ate), best(ate_dr), worst(dist), 100.0 * best(recall), worst(dup), worst(spur), 100.0 * worst(rad),
-                "", best(rate));
-    if (!out_dir.empty())
+    for (const Series& q : series)
     {
-      std::ofstream js(out_dir + "/summary.json");
-      js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << particles
-         << ", \"method\": \"" << method << "\", \"first_seed\": " << first_seed << ", \"seeds\": " << seeds
-         << ", \"failed\": " << failed << ",\n " << jsonStats("final_error_m", fin) << ",\n "
-         << jsonStats("final_error_dead_reckoning_m", fin_dr, false) << ",\n " << jsonStats("ate_m", ate) << ",\n "
-         << jsonStats("ate_dead_reckoning_m", ate_dr, false) << ",\n " << jsonStats("tree_to_feature_m", dist)
-         << ",\n " << jsonStats("recall", recall, false) << ",\n " << jsonStats("duplicates", dup) << ",\n "
-         << jsonStats("spurious", spur) << ",\n " << jsonStats("radius_rms_m", rad) << ",\n "
-         << jsonStats("rate_hz", rate, false) << "}\n";
-      std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", out_dir.c_str());
+      if (series.size() > 1)
+      {
+        std::printf("\nFastSLAM %s, %s drive, %d particles, extraction %s, proposal %s, mixture %.2f, odometry noise "
+                    "x%.1f, seeds %d..%d\n",
+                    world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
+                    odometry_noise, first_seed, first_seed + seeds - 1);
+        std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
+                    "r RMS cm", "sweeps", "rate Hz");
+        for (const auto& row : q.rows)
+          std::fputs(row.c_str(), stdout);
+      }
+      std::printf("median %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", median(q.fin),
+                  median(q.fin_dr), median(q.ate), median(q.ate_dr), median(q.dist), 100.0 * median(q.recall),
+                  median(q.dup), median(q.spur), 100.0 * median(q.rad), "", median(q.rate));
+      std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", worst(q.fin),
+                  best(q.fin_dr), worst(q.ate), best(q.ate_dr), worst(q.dist), 100.0 * best(q.recall), worst(q.dup),
+                  worst(q.spur), 100.0 * worst(q.rad), "", best(q.rate));
+      if (!out_dir.empty())
+      {
+        const std::string dir = series.size() == 1 ? out_dir : out_dir + "/" + q.label;
+        std::ofstream js(dir + "/summary.json");
+        js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << q.particles
+           << ", \"method\": \"" << q.method << "\", \"proposal\": \"" << q.proposal << "\", \"mixture\": " << mixture
+           << ", \"odometry_noise\": " << odometry_noise << ", \"first_seed\": " << first_seed
+           << ", \"seeds\": " << seeds << ", \"failed\": " << q.failed << ",\n " << jsonStats("final_error_m", q.fin)
+           << ",\n " << jsonStats("final_error_dead_reckoning_m", q.fin_dr, false) << ",\n "
+           << jsonStats("ate_m", q.ate) << ",\n " << jsonStats("ate_dead_reckoning_m", q.ate_dr, false) << ",\n "
+           << jsonStats("tree_to_feature_m", q.dist) << ",\n " << jsonStats("recall", q.recall, false) << ",\n "
+           << jsonStats("duplicates", q.dup) << ",\n " << jsonStats("spurious", q.spur) << ",\n "
+           << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << ",\n "
+           << jsonStats("filter_rate_hz", q.filter_rate, false) << "}\n";
+        std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
+      }
+      std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "
+                  "'worst' DR = the smallest drift)\n",
+                  q.failed, seeds);
     }
-    std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "
-                "'worst' DR = the smallest drift)\n",
-                failed, seeds);
   }
   catch (const std::exception& e)
   {

@@ -39,6 +39,9 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.roughening_sigma_xy, defaults.roughening_sigma_xy);
   EXPECT_EQ(read.roughening_sigma_theta, defaults.roughening_sigma_theta);
   EXPECT_EQ(read.seed, defaults.seed);
+  EXPECT_EQ(read.proposal, defaults.proposal);
+  EXPECT_EQ(read.mixture_fraction, defaults.mixture_fraction);
+  EXPECT_EQ(read.mixture_balance, defaults.mixture_balance);
   // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
@@ -70,5 +73,20 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
   {
     EXPECT_NE(std::string(e.what()).find("particles"), std::string::npos) << e.what();
   }
+  std::ofstream(path) << "proposal: fastslam3\n";
+  try
+  {
+    io::readFastSlamConfig(io::YamlParamSource(path), &c);
+    FAIL() << "no error for an unknown proposal";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("proposal"), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << "proposal: fastslam2\nmixture_fraction: 0.1\n";
+  core::FastSlamConfig ok;
+  io::readFastSlamConfig(io::YamlParamSource(path), &ok);
+  EXPECT_EQ(ok.proposal, core::PoseProposal::kFastSlam2);
+  EXPECT_EQ(ok.mixture_fraction, 0.1);
   std::remove(path.c_str());
 }

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +28,16 @@ struct LandmarkObservation
   double radius = 0.0;           ///< [m] observed trunk radius (0: unknown)
   double radius_variance = 0.0;  ///< [m^2] (0: unknown, the radius is not used)
 };
+
+/** @brief How each particle's pose is drawn at an update. */
+enum class PoseProposal
+{
+  kFastSlam1,  ///< the motion model alone, sampled at each odometry step (FastSLAM 1.0)
+  kFastSlam2,  ///< the motion prior conditioned on the matched observations (FastSLAM 2.0)
+};
+/** @brief "fastslam1" or "fastslam2"; false (and @p out unchanged) otherwise. */
+bool parsePoseProposal(const std::string& name, PoseProposal* out);
+const char* toString(PoseProposal p);
 
 /** @brief Range-bearing form of a detected trunk (its Cartesian covariance carried through the Jacobian). */
 LandmarkObservation toLandmarkObservation(const TrunkObservation& trunk);
@@ -68,6 +79,17 @@ struct FastSlamConfig
   double roughening_sigma_xy = 0.01;     ///< [m]
   double roughening_sigma_theta = 0.002; ///< [rad]
 
+  // Proposal distribution of the pose.
+  PoseProposal proposal = PoseProposal::kFastSlam1;
+  /// Mixture MCL (Thrun, Fox, Burgard, Dellaert 2001): the probability that a particle's pose is drawn at an
+  /// update from the dual proposal instead, the pose that best explains the matched observations in the
+  /// particle's own map; the weights are those of the mixture (see FastSlam). 0: off.
+  double mixture_fraction = 0.0;
+  /// Weights of the mixture: false = Thrun et al.'s dual weighting (a dual sample weighs p(x | u), the dual and
+  /// the regular samples are normalised apart and hold f and 1 - f of the mass); true = the balance heuristic
+  /// (every sample weighs p(z | x, m) p(x | u) over the mixture's density).
+  bool mixture_balance = false;
+
   std::uint64_t seed = 0;
 
   /** @brief Empty when valid, else a message naming the first bad parameter. */
@@ -79,6 +101,9 @@ struct Particle
   Pose2 pose;               ///< base_link in the map frame
   double log_weight = 0.0;  ///< normalised after each update
   LandmarkMap map;
+  /// Covariance of the pose gathered by predict() since the last update, when the pose is carried as a
+  /// Gaussian (FastSLAM 2.0, mixture); zero otherwise.
+  Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
 };
 
 /** @brief Counters of one update() for diagnostics. */
@@ -89,14 +114,42 @@ struct FastSlamUpdateStats
   int created = 0;     ///< in the best particle
   int ignored = 0;     ///< lost the matching but inside a gate: neither matched nor new (best particle)
   int deleted = 0;     ///< in the best particle
+  int dual = 0;        ///< particles (all of them) whose pose came from the dual proposal (mixture)
   double neff = 0.0;   ///< before resampling
   bool resampled = false;
 };
 
 /**
- * @brief FastSLAM 1.0 over point landmarks with radii: per particle a pose and a map of independent 2D EKFs.
+ * @brief FastSLAM 2.0 proposal step: conditions the pose Gaussian (@p mean, @p covariance) of base_link on
+ * one range-bearing observation @p z (noise @p R) of landmark @p l by the sensor at @p sensor on base_link,
+ * linearised at the mean (Thrun, Burgard, Fox 13.3: Sigma' = (Hx^T Q^-1 Hx + Sigma^-1)^-1,
+ * mu' = mu + Sigma' Hx^T Q^-1 (z - zhat), Q = R + Hm Sigma_m Hm^T), in the gain form that needs no inverse
+ * of Sigma (a zero covariance stays zero).
+ */
+void conditionPoseOnLandmark(Pose2* mean, Eigen::Matrix3d* covariance, const Landmark& l, const Eigen::Vector2d& z,
+                             const Eigen::Matrix2d& R, const Pose2& sensor);
+
+/** @brief Propagates a pose Gaussian through the odometry motion model (linearised rot1-trans-rot2). */
+void propagatePoseGaussian(Pose2* mean, Eigen::Matrix3d* covariance, const OdometryIncrement& u,
+                           const OdometryMotionNoise& noise);
+
+/**
+ * @brief FastSLAM over point landmarks with radii: per particle a pose and a map of independent 2D EKFs.
  * Association per particle by maximum likelihood solved for all observations of a scan at once with
  * Gale-Shapley stable matching. ROS-free, deterministic for a given seed.
+ *
+ * Proposals: FastSLAM 1.0 samples the motion model at each odometry step. FastSLAM 2.0 (Montemerlo et al.
+ * 2003) carries each particle's pose as a Gaussian between updates (the motion model linearised), associates
+ * with the pose uncertainty in the innovation covariance, conditions the Gaussian on the matched observations
+ * one after another and samples the pose from it; the weight is the product of the matched observations'
+ * likelihoods under the prior (innovation covariance R + Hm Sm Hm^T + Hx Sx Hx^T).
+ *
+ * Mixture MCL: with mixture_fraction f > 0 each particle draws its pose with probability f from the dual
+ * proposal N(mu_d, S_d), the observation-only pose fit (Gauss-Newton on the matched landmarks of its map,
+ * needs two), else from its regular proposal q (the motion prior, or the FastSLAM 2.0 proposal). Weights:
+ * Thrun et al.'s dual weighting by default (dual samples weigh p(x | u), regular ones as usual, the two sets
+ * normalised apart to f and 1 - f), or with mixture_balance p(z | x, m) p(x | u) / ((1 - f) q(x) + f q_d(x))
+ * at the drawn x for every particle (the mixture's own density, one scale for both kinds).
  */
 class FastSlam
 {
@@ -105,6 +158,8 @@ public:
 
   /** @brief All particles at @p start with empty maps and equal weights. */
   void initialize(const Pose2& start = Pose2());
+  /** @brief All particles at @p start sharing the prior map @p map (copy-on-write), equal weights. */
+  void initialize(const Pose2& start, const LandmarkMap& map);
   /** @brief Samples every particle's motion for one odometry increment. */
   void predict(const OdometryIncrement& u);
   /**
@@ -129,14 +184,51 @@ public:
   static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood);
 
 private:
+  /** @brief Buffers of one particle's update, kept between calls so that an update allocates nothing. */
+  struct Scratch
+  {
+    struct Candidate
+    {
+      std::size_t index;
+      Eigen::Vector2d z;
+      Eigen::Matrix2d H;
+      Eigen::Matrix2d pose_term;  ///< Hx Sx Hx^T (Gaussian pose only)
+      Eigen::Matrix2d A;          ///< H Sm H^T (+ pose_term): S = A + R of each observation
+    };
+    std::vector<std::size_t> near;
+    std::vector<Candidate> cand;
+    std::vector<std::pair<double, std::size_t>> by_range;  ///< (predicted range, candidate), ascending
+    std::vector<Eigen::Matrix2d> R;  ///< per observation, with the floor
+    std::vector<double> log_new;     ///< per observation: the likelihood at the gate
+    std::vector<double> ll;          ///< observations x candidates, row-major (-inf: outside the gate)
+    std::vector<Eigen::Matrix2d> Si; ///< S^-1 of each gated pair, reused by the EKF update
+    std::vector<Eigen::Vector2d> v;  ///< innovation of each gated pair
+    std::vector<double> radius_term; ///< the radius's part of each gated pair's likelihood (Gaussian pose only)
+    std::vector<int> match, holder, free, prefs;
+    std::vector<std::size_t> next, prefs_begin, to_delete;
+    std::vector<char> seen;
+    std::vector<char> dual_flags;  ///< per particle of the current update: pose from the dual proposal
+  };
+
   void updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
                       FastSlamUpdateStats* stats);
+  /** @brief Pose carried as a Gaussian between updates (FastSLAM 2.0 or the mixture). */
+  bool gaussianPose() const { return config_.proposal == PoseProposal::kFastSlam2 || config_.mixture_fraction > 0.0; }
+  /**
+   * @brief Draws the pose of a Gaussian-pose particle for the matched observations; returns the log of
+   * the weight's correction (target over proposal density) for the mixture, 0 otherwise.
+   */
+  double drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
+                  double* log_prior);
+  /** @brief stableMatching() on a row-major table, into scratch_.match. */
+  void stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm);
 
   FastSlamConfig config_;
   std::vector<Particle> particles_;
   Random random_;
   int next_id_ = 0;
   std::vector<double> weights_;
+  Scratch scratch_;
 };
 
 }  // namespace core

@@ -53,6 +53,22 @@ struct ForestSlamRunResult
  */
 ForestSlamRunResult runForestSlam(const ForestWorld& world, const ForestSlamRunConfig& config);
 
+/** @brief One extraction + filter configuration among several run on the same simulated data. */
+struct ForestSlamVariant
+{
+  TrunkDetectorConfig detector;
+  FastSlamConfig filter;
+};
+
+/**
+ * @brief runForestSlam() for several extraction + filter variants fed the very same simulated sweeps and
+ * odometry (one simulation; the path follower steers on odometry, so the data do not depend on the filters).
+ * Each result equals that of runForestSlam() with the variant's configuration; comparisons between variants
+ * are paired (same data), and the simulation, which costs most, is done once.
+ */
+std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world, const ScenarioConfig& scenario,
+                                                       const std::vector<ForestSlamVariant>& variants);
+
 }  // namespace core
 }  // namespace rbpf_slam
 
