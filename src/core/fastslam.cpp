@@ -531,7 +531,13 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       continue;
     const double r = w.cand[k].z.x(), b = w.cand[k].z.y();
     if (r < c.min_range || r > c.max_range || std::abs(b) > 0.5 * c.field_of_view)
+    {
+      // Just outside the scope (the candidates reach half a metre beyond it): a provisional landmark here is
+      // leaving the scope unconfirmed (the sensor moves a few centimetres per update, so none jumps the ring).
+      if (c.drop_unconfirmed_leaving_scope && p->map[w.cand[k].index].provisional)
+        w.to_delete.push_back(w.cand[k].index);
       continue;
+    }
     // Hidden: a nearer landmark, clearly in front (not a near-duplicate of this one at almost the same
     // place, which must be missed to be removed), covers its bearing.
     bool hidden = false;

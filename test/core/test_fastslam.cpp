@@ -412,3 +412,37 @@ TEST(FastSlam2, ProposalsFollowTheTruthInASurveyedMapWhereOdometryDrifts)
   EXPECT_GT(e1_many, 0.3);
   EXPECT_LT(e1_mixture, 0.1) << "without the mixture " << e1_many;
 }
+
+TEST(FastSlam, ProvisionalLandmarkLeavingTheScopeUnconfirmedIsDropped)
+{
+  // Two landmarks just beyond the 12 m scope (inside the half-metre candidate ring): one provisional (seen
+  // once), one confirmed. The provisional one leaves the scope unconfirmed and is dropped; the confirmed one
+  // stays; with the rule off both stay.
+  LandmarkMap map;
+  for (int i = 0; i < 2; ++i)
+  {
+    Landmark l;
+    l.mean = Eigen::Vector2d(i == 0 ? 12.2 : -12.2, 0.0);
+    l.covariance = Eigen::Matrix2d::Identity() * 1e-3;
+    l.radius = 0.2;
+    l.evidence = 1.0;
+    l.observations = i == 0 ? 1 : 10;
+    l.provisional = i == 0;
+    l.id = i;
+    map.add(l);
+  }
+  for (bool rule : { true, false })
+  {
+    FastSlamConfig c;
+    c.particles = 1;
+    c.drop_unconfirmed_leaving_scope = rule;
+    FastSlam f(c);
+    f.initialize(Pose2(), map);
+    f.update({}, Pose2());
+    const LandmarkMap& m = f.best().map;
+    ASSERT_EQ(m.size(), rule ? 1u : 2u);
+    EXPECT_EQ(m[0].provisional && rule, false);
+    if (rule)
+      EXPECT_EQ(m[0].id, 1);
+  }
+}

@@ -34,6 +34,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.evidence_max, defaults.evidence_max);
   EXPECT_EQ(read.delete_evidence, defaults.delete_evidence);
   EXPECT_EQ(read.confirm_observations, defaults.confirm_observations);
+  EXPECT_EQ(read.drop_unconfirmed_leaving_scope, defaults.drop_unconfirmed_leaving_scope);
   EXPECT_EQ(read.resample_threshold, defaults.resample_threshold);
   EXPECT_EQ(read.roughening, defaults.roughening);
   EXPECT_EQ(read.roughening_sigma_xy, defaults.roughening_sigma_xy);

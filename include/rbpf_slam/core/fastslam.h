@@ -72,6 +72,9 @@ struct FastSlamConfig
   double evidence_max = 6.0;
   double delete_evidence = -1.5;
   int confirm_observations = 3;
+  // A provisional landmark that leaves the visibility scope before it is confirmed is dropped: a tentative
+  // track that did not make it (a trunk-like object glimpsed once at the scope's edge), not a tree.
+  bool drop_unconfirmed_leaving_scope = true;
 
   // Resampling.
   double resample_threshold = 0.5;  ///< resample when Neff < threshold * N
