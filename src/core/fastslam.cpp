@@ -532,9 +532,12 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     const double r = w.cand[k].z.x(), b = w.cand[k].z.y();
     if (r < c.min_range || r > c.max_range || std::abs(b) > 0.5 * c.field_of_view)
     {
-      // Just outside the scope (the candidates reach half a metre beyond it): a provisional landmark here is
-      // leaving the scope unconfirmed (the sensor moves a few centimetres per update, so none jumps the ring).
-      if (c.drop_unconfirmed_leaving_scope && p->map[w.cand[k].index].provisional)
+      // Just beyond the scope's far edge (the candidates reach half a metre further): a provisional landmark
+      // here is leaving the scope unconfirmed (the sensor moves a few centimetres per update, so none jumps
+      // the ring). Landmarks outside the field of view or too near may come back into view as the robot
+      // turns or passes: they are kept.
+      if (c.drop_unconfirmed_leaving_scope && r > c.max_range && std::abs(b) <= 0.5 * c.field_of_view &&
+          p->map[w.cand[k].index].provisional)
         w.to_delete.push_back(w.cand[k].index);
       continue;
     }
