@@ -1,5 +1,6 @@
 #include "rbpf_slam/core/scan_matcher.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -43,6 +44,7 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
   const double inv_like = 1.0 / (2.0 * config_.likelihood_sigma * config_.likelihood_sigma);
   const double no_hit = -config_.no_hit_distance * config_.no_hit_distance * inv_like;
   const int k = config_.kernel;
+  const double free_delta = std::sqrt(2.0) * res;
   const float occ = map.config().occupied_log_odds;
   for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(config_.beam_step))
   {
@@ -51,6 +53,17 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
     const double y = s.y + sn * e.first + c * e.second;
     const double fx = x * inv, fy = y * inv;
     const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
+    // GMapping's free-cell test: the point sqrt(2) cells back along the beam, with the same window offset, must
+    // not be occupied (a wall seen from the wrong side does not match).
+    int gx = 0, gy = 0;
+    if (config_.free_check)
+    {
+      const double r = std::hypot(e.first, e.second);
+      const double back = r > 0.0 ? std::max(0.0, 1.0 - free_delta / r) : 0.0;
+      const double bx = e.first * back, by = e.second * back;
+      gx = static_cast<int>(std::floor((s.x + c * bx - sn * by) * inv)) - cx;
+      gy = static_cast<int>(std::floor((s.y + sn * bx + c * by) * inv)) - cy;
+    }
     double best = std::numeric_limits<double>::infinity();
     // Most windows lie in one tile: look it up once (a missing tile has no occupied cell).
     const int tx = (cx - k) >> OccupancyGrid::kTileBits, ty = (cy - k) >> OccupancyGrid::kTileBits;
@@ -68,6 +81,8 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
         const float v = tile ? (*tile)[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx + dx, cy + dy))] :
                                map.logOdds(cx + dx, cy + dy);
         if (v <= occ)
+          continue;
+        if (config_.free_check && map.logOdds(cx + dx + gx, cy + dy + gy) > occ)
           continue;
         const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
         const double d2 = ex * ex + ey * ey;

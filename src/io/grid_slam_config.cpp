@@ -55,6 +55,7 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   p.get("rbpf/refinements", &c->matcher.refinements);
   p.get("rbpf/max_iterations", &c->matcher.max_iterations);
   p.get("rbpf/beam_step", &c->matcher.beam_step);
+  p.get("rbpf/free_check", &c->matcher.free_check);
   p.get("range_min", &c->limits.range_min);
   p.get("range_max", &c->limits.range_max);
   p.get("no_return_free_range", &c->limits.no_return_free_range);

@@ -48,6 +48,7 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.matcher.refinements, defaults.matcher.refinements);
   EXPECT_EQ(read.matcher.max_iterations, defaults.matcher.max_iterations);
   EXPECT_EQ(read.matcher.beam_step, defaults.matcher.beam_step);
+  EXPECT_EQ(read.matcher.free_check, defaults.matcher.free_check);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||

@@ -30,6 +30,9 @@ struct ScanMatcherConfig
   int refinements = 5;             ///< step halvings before hill climbing stops
   int max_iterations = 100;        ///< cap on the moves of one match
   int beam_step = 1;               ///< match and weigh with every n-th hit beam
+  /// GMapping's test: a window cell counts only if the cell at the same offset from the point sqrt(2) cells back
+  /// along the beam is not occupied.
+  bool free_check = false;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
