@@ -31,6 +31,25 @@ std::string ScanMatcherConfig::validate() const
   return "";
 }
 
+ScanMatcher::ScanMatcher(const ScanMatcherConfig& config) : config_(config)
+{
+  const int n = static_cast<int>(kExpTableMax * kExpTableScale) + 2;
+  exp_table_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i)
+    exp_table_[static_cast<std::size_t>(i)] = std::exp(-static_cast<double>(i) / kExpTableScale);
+}
+
+double ScanMatcher::matchKernel(double x) const
+{
+  // x = d^2 / (2 sigma^2) >= 0
+  if (x >= kExpTableMax)
+    return 0.0;
+  const double f = x * kExpTableScale;
+  const std::size_t i = static_cast<std::size_t>(f);
+  const double t = f - static_cast<double>(i);
+  return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
+}
+
 ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
                                 const std::vector<std::pair<double, double>>& end_points) const
 {
@@ -91,7 +110,7 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
       }
     if (std::isfinite(best))
     {
-      m.score += std::exp(-best * inv_match);
+      m.score += matchKernel(best * inv_match);
       m.log_likelihood += -best * inv_like;
       ++m.matched;
     }

@@ -51,7 +51,7 @@ struct ScanMatch
 class ScanMatcher
 {
 public:
-  explicit ScanMatcher(const ScanMatcherConfig& config = ScanMatcherConfig()) : config_(config) {}
+  explicit ScanMatcher(const ScanMatcherConfig& config = ScanMatcherConfig());
   const ScanMatcherConfig& config() const { return config_; }
 
   /**
@@ -69,7 +69,13 @@ public:
                   const std::vector<std::pair<double, double>>& end_points) const;
 
 private:
+  /** @brief exp(-d2 / (2 match_sigma^2)) by linear interpolation in a table (the profile's second item). */
+  double matchKernel(double d2) const;
+
   ScanMatcherConfig config_;
+  std::vector<double> exp_table_;  // exp(-x) at x = i / kExpTableScale
+  static constexpr double kExpTableScale = 256.0;
+  static constexpr double kExpTableMax = 16.0;  // exp(-16) ~ 1e-7: beyond, 0
 };
 
 }  // namespace core
