@@ -15,6 +15,11 @@ bool parseGridSlamMode(const std::string& name, GridSlamMode* mode)
     *mode = GridSlamMode::kCourse;
     return true;
   }
+  if (name == "rbpf")
+  {
+    *mode = GridSlamMode::kRbpf;
+    return true;
+  }
   return false;
 }
 
@@ -28,7 +33,17 @@ std::string GridSlamConfig::validate() const
     return "correlation_gain must be >= 0";
   if (score_beam_step < 1)
     return "score_beam_step must be >= 1";
+  if (!(std::isfinite(likelihood_gain) && likelihood_gain >= 0.0))
+    return "likelihood_gain must be >= 0";
+  if (!(std::isfinite(proposal_sigma_xy) && proposal_sigma_xy >= 0.0))
+    return "proposal_sigma_xy must be >= 0";
+  if (!(std::isfinite(proposal_sigma_theta) && proposal_sigma_theta >= 0.0))
+    return "proposal_sigma_theta must be >= 0";
+  if (!(std::isfinite(min_matched_ratio) && min_matched_ratio >= 0.0 && min_matched_ratio <= 1.0))
+    return "min_matched_ratio must be in [0, 1]";
   std::string e = motion.validate();
+  if (e.empty())
+    e = matcher.validate();
   if (e.empty())
     e = grid.validate();
   if (e.empty())
@@ -36,7 +51,8 @@ std::string GridSlamConfig::validate() const
   return e;
 }
 
-GridSlam::GridSlam(const GridSlamConfig& config) : config_(config), random_(config.seed), map_(config.grid)
+GridSlam::GridSlam(const GridSlamConfig& config)
+  : config_(config), random_(config.seed), map_(config.grid), matcher_(config.matcher)
 {
   const std::string e = config_.validate();
   if (!e.empty())
@@ -55,6 +71,14 @@ void GridSlam::reset()
     p.log_weight = std::log(p.weight);
   }
   map_ = OccupancyGrid(config_.grid);
+  maps_.clear();
+  histories_.clear();
+  if (config_.mode == GridSlamMode::kRbpf)
+  {
+    maps_.assign(n, OccupancyGrid(config_.grid));
+    histories_.assign(n, nullptr);
+  }
+  best_index_ = 0;
   initialised_ = false;
   last_odometry_ = Pose2();
   mapping_pose_ = Pose2();
@@ -109,12 +133,28 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
       p.pose = odometry;
     step.initialised = true;
     step.neff = static_cast<double>(particles_.size());
-    step.beams_mapped = map_.insertScan(odometry * sensor, scan, config_.limits);
+    if (config_.mode == GridSlamMode::kRbpf)
+    {
+      // One map for all: the others share its tiles until they write.
+      step.beams_mapped = maps_[0].insertScan(odometry * sensor, scan, config_.limits);
+      const auto root = std::make_shared<const TrajectoryNode>(TrajectoryNode{ odometry, nullptr });
+      for (std::size_t i = 0; i < maps_.size(); ++i)
+      {
+        if (i > 0)
+          maps_[i] = maps_[0];
+        histories_[i] = root;
+      }
+      best_index_ = 0;
+    }
+    else
+      step.beams_mapped = map_.insertScan(odometry * sensor, scan, config_.limits);
     return step;
   }
-  // Prediction: every particle takes the odometry increment with its own noise.
   const OdometryIncrement u = decomposeOdometry(last_odometry_, odometry);
   last_odometry_ = odometry;
+  if (config_.mode == GridSlamMode::kRbpf)
+    return updateRbpf(u, scan, sensor);
+  // Prediction: every particle takes the odometry increment with its own noise.
   for (auto& p : particles_)
     p.pose = sampleOdometryMotion(p.pose, u, config_.motion, random_);
 
@@ -156,6 +196,103 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
     step.resampled = true;
   }
   return step;
+}
+
+GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor)
+{
+  GridSlamStep step;
+  scanEndPoints(scan, config_.limits, 1, &end_points_);
+  const std::size_t n = particles_.size();
+  const std::size_t used = (end_points_.size() + static_cast<std::size_t>(config_.matcher.beam_step) - 1) /
+                           static_cast<std::size_t>(config_.matcher.beam_step);
+  const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
+  log_weights_.resize(n);
+  std::vector<int> matched(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    GridParticle& p = particles_[i];
+    // Proposal: odometry sample, scan-matched against the particle's own map, then a small Gaussian around the
+    // match. The weight is the likelihood at the match (GMapping's "best score" normaliser).
+    const Pose2 predicted = sampleOdometryMotion(p.pose, u, config_.motion, random_);
+    ScanMatch m = matcher_.match(maps_[i], predicted, sensor, end_points_);
+    Pose2 pose;
+    if (used > 0 && static_cast<double>(m.matched) >= min_matched)
+    {
+      pose = Pose2(m.pose.x + random_.gaussian(config_.proposal_sigma_xy),
+                   m.pose.y + random_.gaussian(config_.proposal_sigma_xy),
+                   wrapAngle(m.pose.theta + random_.gaussian(config_.proposal_sigma_theta)));
+      ++step.matches_trusted;
+    }
+    else
+    {
+      pose = predicted;
+      m = matcher_.evaluate(maps_[i], predicted, sensor, end_points_);
+    }
+    p.pose = pose;
+    matched[i] = m.matched;
+    log_weights_[i] = p.log_weight + config_.likelihood_gain * m.log_likelihood;
+  }
+  normalizeLogWeights(&log_weights_, &weights_);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    particles_[i].log_weight = log_weights_[i];
+    particles_[i].weight = weights_[i];
+  }
+  best_index_ = static_cast<std::size_t>(std::max_element(weights_.begin(), weights_.end()) - weights_.begin());
+  step.best = static_cast<int>(best_index_);
+  step.best_correlation = matched[best_index_];
+  mapping_pose_ = particles_[best_index_].pose;
+
+  // Every particle maps with its own pose (copy-on-write clones the shared tiles it writes).
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const int b = maps_[i].insertScan(particles_[i].pose * sensor, scan, config_.limits);
+    if (i == best_index_)
+      step.beams_mapped = b;
+    histories_[i] = std::make_shared<const TrajectoryNode>(TrajectoryNode{ particles_[i].pose, histories_[i] });
+  }
+
+  step.neff = effectiveSampleSize(weights_);
+  if (step.neff < config_.resample_neff_ratio * static_cast<double>(n))
+  {
+    const std::vector<int> keep = resample(weights_, config_.resampling, random_);
+    std::vector<GridParticle> next(n);
+    std::vector<OccupancyGrid> next_maps;
+    next_maps.reserve(n);
+    std::vector<std::shared_ptr<const TrajectoryNode>> next_histories(n);
+    std::size_t next_best = n;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const std::size_t k = static_cast<std::size_t>(keep[i]);
+      next[i].pose = particles_[k].pose;
+      next[i].weight = 1.0 / static_cast<double>(n);
+      next[i].log_weight = std::log(next[i].weight);
+      next_maps.push_back(maps_[k]);  // copies tile pointers only
+      next_histories[i] = histories_[k];
+      if (k == best_index_ && next_best == n)
+        next_best = i;
+    }
+    particles_.swap(next);
+    maps_.swap(next_maps);
+    histories_.swap(next_histories);
+    // The estimate stays the particle that was best, if it survived (it nearly always does).
+    best_index_ = next_best < n ? next_best : 0;
+    if (next_best == n)
+      mapping_pose_ = particles_[0].pose;
+    step.resampled = true;
+  }
+  return step;
+}
+
+std::vector<Pose2> GridSlam::bestTrajectory() const
+{
+  std::vector<Pose2> poses;
+  if (config_.mode != GridSlamMode::kRbpf || histories_.empty())
+    return poses;
+  for (const TrajectoryNode* node = histories_[best_index_].get(); node; node = node->parent.get())
+    poses.push_back(node->pose);
+  std::reverse(poses.begin(), poses.end());
+  return poses;
 }
 
 }  // namespace core

@@ -22,7 +22,7 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
 {
   std::string name;
   if (p.get("mode", &name) && !core::parseGridSlamMode(name, &c->mode))
-    throw std::runtime_error("invalid parameter: mode must be 'course' (got '" + name + "')");
+    throw std::runtime_error("invalid parameter: mode must be 'course' or 'rbpf' (got '" + name + "')");
   p.get("particles", &c->particles);
   p.getSeed("seed", &c->seed);
   if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &c->resampling))
@@ -40,6 +40,20 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   getFloat(p, "grid/log_odds_clamp", &c->grid.log_odds_clamp);
   getFloat(p, "grid/occupied_log_odds", &c->grid.occupied_log_odds);
   getFloat(p, "grid/free_log_odds", &c->grid.free_log_odds);
+  p.get("likelihood_gain", &c->likelihood_gain);
+  p.get("proposal_sigma_xy", &c->proposal_sigma_xy);
+  p.get("proposal_sigma_theta", &c->proposal_sigma_theta);
+  p.get("min_matched_ratio", &c->min_matched_ratio);
+  p.get("rbpf/kernel", &c->matcher.kernel);
+  p.get("rbpf/match_sigma", &c->matcher.match_sigma);
+  p.get("rbpf/likelihood_sigma", &c->matcher.likelihood_sigma);
+  p.get("rbpf/no_hit_distance", &c->matcher.no_hit_distance);
+  p.get("rbpf/linear_step", &c->matcher.linear_step);
+  p.get("rbpf/angular_step", &c->matcher.angular_step);
+  p.get("rbpf/refinements", &c->matcher.refinements);
+  p.get("rbpf/max_iterations", &c->matcher.max_iterations);
+  p.get("rbpf/beam_step", &c->matcher.beam_step);
+  p.get("rbpf/free_check", &c->matcher.free_check);
   p.get("range_min", &c->limits.range_min);
   p.get("range_max", &c->limits.range_max);
   p.get("no_return_free_range", &c->limits.no_return_free_range);

@@ -353,6 +353,7 @@ int runGrid(const Options& o)
   std::deque<std::pair<double, core::ScanData>> pending;
   int scans = 0, dropped = 0, bad_scans = 0, resamples = 0;
   double last_scan = -1e300, seconds = 0.0, worst = 0.0;
+  std::vector<double> scan_stamps;
   const auto addOdometry = [&](double t, const core::Pose2& p) {
     if (!std::isfinite(t) || !std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta) ||
         odometry.add(t, p) == core::OdometryBuffer::AddResult::kBackwards)
@@ -375,6 +376,7 @@ int runGrid(const Options& o)
       worst = std::max(worst, dt);
       resamples += step.resampled ? 1 : 0;
       ++scans;
+      scan_stamps.push_back(t);
       if (est.is_open())
       {
         io::writeTumLine(est, t, slam.mappingPose());
@@ -447,6 +449,16 @@ int runGrid(const Options& o)
   {
     if (slam.initialised())
       io::saveMapImage(slam.map().toImage(), o.out_dir + "/map.yaml");
+    // rbpf mode: the best particle's whole history (its poses as its lineage saw them), one per scan - the
+    // smoothed trajectory that matches the final map; estimate.tum is the online estimate.
+    const std::vector<core::Pose2> history = slam.bestTrajectory();
+    if (!history.empty() && history.size() == scan_stamps.size())
+    {
+      std::ofstream best;
+      openOut(o.out_dir, "estimate_best_history.tum", &best);
+      for (std::size_t i = 0; i < history.size(); ++i)
+        io::writeTumLine(best, scan_stamps[i], history[i]);
+    }
     std::ofstream timing(o.out_dir + "/timing.txt");
     timing << "scans " << scans << "\nfilter_seconds " << seconds << "\nms_per_scan "
            << 1e3 * seconds / std::max(1, scans) << "\nworst_ms " << 1e3 * worst << "\nresamples " << resamples

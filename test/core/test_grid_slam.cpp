@@ -9,80 +9,10 @@
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/skid_steer_odometry.h"
+#include "grid_test_world.h"
 
 using namespace rbpf_slam::core;
-
-namespace
-{
-struct Segment
-{
-  double x0, y0, x1, y1;
-};
-
-// An asymmetric room (10 x 8 m) with a box and a pillar, so that no two poses see the same scan.
-const std::vector<Segment>& room()
-{
-  static const std::vector<Segment> walls = {
-    { -4, -3, 6, -3 }, { 6, -3, 6, 5 },   { 6, 5, -4, 5 },     { -4, 5, -4, -3 },   // outer walls
-    { 1, 1, 2.5, 1 },  { 2.5, 1, 2.5, 2 }, { 2.5, 2, 1, 2 },   { 1, 2, 1, 1 },      // box
-    { -2.5, -1.5, -2.2, -1.5 }, { -2.2, -1.5, -2.2, -1.2 }, { -2.2, -1.2, -2.5, -1.2 }, { -2.5, -1.2, -2.5, -1.5 },
-    { 4, 3.5, 6, 2.5 },  // a slanted corner
-  };
-  return walls;
-}
-
-double castRay(double x, double y, double a)
-{
-  const double dx = std::cos(a), dy = std::sin(a);
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& s : room())
-  {
-    const double ex = s.x1 - s.x0, ey = s.y1 - s.y0;
-    const double den = dx * ey - dy * ex;
-    if (std::abs(den) < 1e-12)
-      continue;
-    const double t = ((s.x0 - x) * ey - (s.y0 - y) * ex) / den;
-    const double u = ((s.x0 - x) * dy - (s.y0 - y) * dx) / den;
-    if (t > 0 && u >= 0 && u <= 1)
-      best = std::min(best, t);
-  }
-  return best;
-}
-
-ScanData simulateScan(const Pose2& sensor, Random* noise = nullptr)
-{
-  ScanData scan;
-  scan.angle_min = -M_PI / 2;
-  scan.angle_increment = M_PI / 180;
-  scan.range_min = 0.02;
-  scan.range_max = 30.0;
-  for (int i = 0; i <= 180; ++i)
-  {
-    double r = castRay(sensor.x, sensor.y, sensor.theta + scan.angle_min + i * scan.angle_increment);
-    if (noise && std::isfinite(r))
-      r += noise->gaussian(0.01);
-    scan.ranges.push_back(static_cast<float>(r));
-  }
-  return scan;
-}
-
-// A drive through the room: 0.05 m steps along a loop around the box.
-std::vector<Pose2> truePath()
-{
-  std::vector<Pose2> path;
-  const std::vector<Pose2> corners = { Pose2(-1, -1.5, 0), Pose2(4, -1.5, 0), Pose2(4, 3.5, 0), Pose2(-1.5, 3.5, 0),
-                                       Pose2(-1.5, -1.0, 0) };
-  for (std::size_t k = 0; k + 1 < corners.size(); ++k)
-  {
-    const Pose2 a = corners[k], b = corners[k + 1];
-    const double heading = std::atan2(b.y - a.y, b.x - a.x);
-    const int steps = static_cast<int>(std::hypot(b.x - a.x, b.y - a.y) / 0.05);
-    for (int i = 0; i < steps; ++i)
-      path.emplace_back(a.x + (b.x - a.x) * i / steps, a.y + (b.y - a.y) * i / steps, heading);
-  }
-  return path;
-}
-}  // namespace
+using namespace grid_test_world;
 
 TEST(GridSlam, ScanScorePeaksAtTheTruePose)
 {

@@ -35,6 +35,20 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.limits.range_min, defaults.limits.range_min);
   EXPECT_EQ(read.limits.range_max, defaults.limits.range_max);
   EXPECT_EQ(read.limits.no_return_free_range, defaults.limits.no_return_free_range);
+  EXPECT_EQ(read.likelihood_gain, defaults.likelihood_gain);
+  EXPECT_EQ(read.proposal_sigma_xy, defaults.proposal_sigma_xy);
+  EXPECT_EQ(read.proposal_sigma_theta, defaults.proposal_sigma_theta);
+  EXPECT_EQ(read.min_matched_ratio, defaults.min_matched_ratio);
+  EXPECT_EQ(read.matcher.kernel, defaults.matcher.kernel);
+  EXPECT_EQ(read.matcher.match_sigma, defaults.matcher.match_sigma);
+  EXPECT_EQ(read.matcher.likelihood_sigma, defaults.matcher.likelihood_sigma);
+  EXPECT_EQ(read.matcher.no_hit_distance, defaults.matcher.no_hit_distance);
+  EXPECT_EQ(read.matcher.linear_step, defaults.matcher.linear_step);
+  EXPECT_EQ(read.matcher.angular_step, defaults.matcher.angular_step);
+  EXPECT_EQ(read.matcher.refinements, defaults.matcher.refinements);
+  EXPECT_EQ(read.matcher.max_iterations, defaults.matcher.max_iterations);
+  EXPECT_EQ(read.matcher.beam_step, defaults.matcher.beam_step);
+  EXPECT_EQ(read.matcher.free_check, defaults.matcher.free_check);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||
@@ -62,6 +76,8 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("grid:\n  resolution: fine\n", "grid/resolution");
   expectError("resampling: stratified\n", "resampling");
   expectError("mode: gmapping\n", "mode");
+  expectError("rbpf:\n  kernel: -1\n", "rbpf/kernel");
+  expectError("likelihood_gain: -1\n", "likelihood_gain");
   expectError("grid:\n  log_odds_free: 0.1\n", "log_odds_free");
   expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
 }

@@ -2,6 +2,7 @@
 #define RBPF_SLAM_CORE_GRID_SLAM_H
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -9,15 +10,20 @@
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/pose2.h"
 #include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/scan_matcher.h"
 
 namespace rbpf_slam
 {
 namespace core
 {
-/** @brief The grid SLAM methods; `course` is issue 8's, `rbpf` (per-particle maps) comes later. */
+/**
+ * @brief The grid SLAM methods: `course` (issue 8: one map, the best particle maps) and `rbpf` (issue 9:
+ * GMapping-like, each particle owns its map, scan-matched proposal, likelihood-field weights).
+ */
 enum class GridSlamMode
 {
-  kCourse
+  kCourse,
+  kRbpf
 };
 bool parseGridSlamMode(const std::string& name, GridSlamMode* mode);
 
@@ -38,6 +44,17 @@ struct GridSlamConfig
   int score_beam_step = 1;  ///< use every n-th beam for the correlation (1 = all)
   OccupancyGridConfig grid;
   ScanLimits limits;
+  /// `rbpf` mode only: the scan matcher / likelihood field (see ScanMatcherConfig).
+  ScanMatcherConfig matcher;
+  /// `rbpf` mode only: log-weight gain on the likelihood-field log-likelihood. GMapping divides its
+  /// log-likelihood by the number of particles (its default 30) to keep the weights from collapsing.
+  double likelihood_gain = 1.0 / 30.0;
+  /// `rbpf` mode only: standard deviations [m, rad] of the Gaussian the pose is drawn from around the match.
+  double proposal_sigma_xy = 0.005;
+  double proposal_sigma_theta = 0.002;
+  /// `rbpf` mode only: a match with fewer than this fraction of the end points matched is not trusted (the
+  /// particle keeps its odometry sample, weighted at that pose).
+  double min_matched_ratio = 0.3;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
@@ -57,12 +74,20 @@ struct GridSlamStep
   double neff = 0.0;         ///< before resampling
   bool resampled = false;
   int best = 0;                ///< index of the particle whose pose updated the map (before resampling)
-  int best_correlation = 0;    ///< its number of end points on occupied cells
+  int best_correlation = 0;    ///< its number of end points on occupied cells (rbpf: matched end points)
   int beams_mapped = 0;
+  int matches_trusted = 0;     ///< rbpf mode: particles whose scan match was trusted
 };
 
 /**
- * @brief Grid SLAM, course mode ("Odometry Based Mapping"): one log-odds map; each particle's pose moves by
+ * @brief Grid SLAM. `rbpf` mode: every particle owns its map (copy-on-write by tiles: copying a particle copies
+ * tile pointers, a scan clones only the tiles it writes); each particle's pose is sampled from the odometry
+ * motion model, refined by hill-climbing scan matching against its own map, then drawn from a small Gaussian
+ * around the match; its log-weight grows by likelihood_gain times the likelihood-field log-likelihood at the
+ * match (GMapping's approximation of the proposal's normaliser); Neff < ratio * N resamples; every particle
+ * inserts the scan in its own map; the best particle (largest weight) is the estimate.
+ *
+ * Course mode ("Odometry Based Mapping"): one log-odds map; each particle's pose moves by
  * the odometry increment with rot1-trans-rot2 noise; the weights grow by the correlation of the particle's
  * scan end points with the map (softmax normalisation); Neff < ratio * N resamples; the best particle's pose
  * updates the map. The map frame is the odometry frame as it was at the first scan (the particles start at the
@@ -87,9 +112,26 @@ public:
   const std::vector<GridParticle>& particles() const { return particles_; }
   /** @brief The particle with the largest weight. */
   const GridParticle& best() const;
-  /** @brief The particle whose pose last updated the map (before any resampling) - its pose. */
+  /**
+   * @brief The particle whose pose last updated the map (before any resampling) - its pose. In rbpf mode, the
+   * best particle's pose (largest weight at the last update).
+   */
   const Pose2& mappingPose() const { return mapping_pose_; }
-  const OccupancyGrid& map() const { return map_; }
+  /** @brief The map: course mode's one map; in rbpf mode the best particle's (the one of mappingPose()). */
+  const OccupancyGrid& map() const
+  {
+    return config_.mode == GridSlamMode::kRbpf && !maps_.empty() ? maps_[best_index_] : map_;
+  }
+  /** @brief rbpf mode: particle @p i's map (course mode: the one map). */
+  const OccupancyGrid& particleMap(std::size_t i) const
+  {
+    return config_.mode == GridSlamMode::kRbpf ? maps_.at(i) : map_;
+  }
+  /**
+   * @brief rbpf mode: the poses of the best particle's history, one per update() since the first scan (its
+   * ancestors' poses before resampling); course mode: empty.
+   */
+  std::vector<Pose2> bestTrajectory() const;
   const GridSlamConfig& config() const { return config_; }
   /** @brief The odometry pose of the last scan. */
   const Pose2& lastOdometry() const { return last_odometry_; }
@@ -105,6 +147,14 @@ public:
                             std::vector<std::pair<double, double>>* end_points);
 
 private:
+  GridSlamStep updateRbpf(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor);
+  /** @brief A pose of a particle's history; ancestors shared between particles. */
+  struct TrajectoryNode
+  {
+    Pose2 pose;
+    std::shared_ptr<const TrajectoryNode> parent;
+  };
+
   GridSlamConfig config_;
   Random random_;
   std::vector<GridParticle> particles_;
@@ -114,6 +164,11 @@ private:
   Pose2 last_odometry_;
   Pose2 mapping_pose_;
   std::vector<std::pair<double, double>> end_points_;
+  // rbpf mode
+  ScanMatcher matcher_;
+  std::vector<OccupancyGrid> maps_;  // one per particle
+  std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
+  std::size_t best_index_ = 0;
 };
 
 }  // namespace core

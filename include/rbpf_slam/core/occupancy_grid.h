@@ -98,6 +98,11 @@ public:
     const Tile* t = tile(ix >> kTileBits, iy >> kTileBits);
     return t ? (*t)[index(ix, iy)] : 0.0f;
   }
+  /** @brief The tile (tx, ty) (cells [tx * kTileSize, (tx + 1) * kTileSize) x ...), null if it does not exist. */
+  const Tile* tileAt(int tx, int ty) const { return tile(tx, ty); }
+  /** @brief Index of cell (ix, iy) in its tile. */
+  static int cellIndexInTile(int ix, int iy) { return index(ix, iy); }
+
   /** @brief Adds @p delta to a cell (clamped), creating its tile if needed. */
   void addLogOdds(int ix, int iy, float delta);
 

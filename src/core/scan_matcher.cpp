@@ -1,0 +1,160 @@
+#include "rbpf_slam/core/scan_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace rbpf_slam
+{
+namespace core
+{
+std::string ScanMatcherConfig::validate() const
+{
+  if (kernel < 0 || kernel > 10)
+    return "rbpf/kernel must be in [0, 10]";
+  if (!(std::isfinite(match_sigma) && match_sigma > 0.0))
+    return "rbpf/match_sigma must be > 0";
+  if (!(std::isfinite(likelihood_sigma) && likelihood_sigma > 0.0))
+    return "rbpf/likelihood_sigma must be > 0";
+  if (!(std::isfinite(no_hit_distance) && no_hit_distance >= 0.0))
+    return "rbpf/no_hit_distance must be >= 0";
+  if (!(std::isfinite(linear_step) && linear_step >= 0.0))
+    return "rbpf/linear_step must be >= 0";
+  if (!(std::isfinite(angular_step) && angular_step >= 0.0))
+    return "rbpf/angular_step must be >= 0";
+  if (refinements < 0)
+    return "rbpf/refinements must be >= 0";
+  if (max_iterations < 0)
+    return "rbpf/max_iterations must be >= 0";
+  if (beam_step < 1)
+    return "rbpf/beam_step must be >= 1";
+  return "";
+}
+
+ScanMatcher::ScanMatcher(const ScanMatcherConfig& config) : config_(config)
+{
+  const int n = static_cast<int>(kExpTableMax * kExpTableScale) + 2;
+  exp_table_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i)
+    exp_table_[static_cast<std::size_t>(i)] = std::exp(-static_cast<double>(i) / kExpTableScale);
+}
+
+double ScanMatcher::matchKernel(double x) const
+{
+  // x = d^2 / (2 sigma^2) >= 0
+  if (x >= kExpTableMax)
+    return 0.0;
+  const double f = x * kExpTableScale;
+  const std::size_t i = static_cast<std::size_t>(f);
+  const double t = f - static_cast<double>(i);
+  return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
+}
+
+ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                                const std::vector<std::pair<double, double>>& end_points) const
+{
+  ScanMatch m;
+  m.pose = pose;
+  m.evaluations = 1;
+  const Pose2 s = pose * sensor;
+  const double c = std::cos(s.theta), sn = std::sin(s.theta);
+  const double res = map.resolution(), inv = 1.0 / res;
+  const double inv_match = 1.0 / (2.0 * config_.match_sigma * config_.match_sigma);
+  const double inv_like = 1.0 / (2.0 * config_.likelihood_sigma * config_.likelihood_sigma);
+  const double no_hit = -config_.no_hit_distance * config_.no_hit_distance * inv_like;
+  const int k = config_.kernel;
+  const double free_delta = std::sqrt(2.0) * res;
+  const float occ = map.config().occupied_log_odds;
+  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(config_.beam_step))
+  {
+    const auto& e = end_points[i];
+    const double x = s.x + c * e.first - sn * e.second;
+    const double y = s.y + sn * e.first + c * e.second;
+    const double fx = x * inv, fy = y * inv;
+    const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
+    // GMapping's free-cell test: the point sqrt(2) cells back along the beam, with the same window offset, must
+    // not be occupied (a wall seen from the wrong side does not match).
+    int gx = 0, gy = 0;
+    if (config_.free_check)
+    {
+      const double r = std::hypot(e.first, e.second);
+      const double back = r > 0.0 ? std::max(0.0, 1.0 - free_delta / r) : 0.0;
+      const double bx = e.first * back, by = e.second * back;
+      gx = static_cast<int>(std::floor((s.x + c * bx - sn * by) * inv)) - cx;
+      gy = static_cast<int>(std::floor((s.y + sn * bx + c * by) * inv)) - cy;
+    }
+    double best = std::numeric_limits<double>::infinity();
+    // Most windows lie in one tile: look it up once (a missing tile has no occupied cell).
+    const int tx = (cx - k) >> OccupancyGrid::kTileBits, ty = (cy - k) >> OccupancyGrid::kTileBits;
+    const bool one_tile =
+        tx == ((cx + k) >> OccupancyGrid::kTileBits) && ty == ((cy + k) >> OccupancyGrid::kTileBits);
+    const OccupancyGrid::Tile* tile = one_tile ? map.tileAt(tx, ty) : nullptr;
+    if (one_tile && !tile)
+    {
+      m.log_likelihood += no_hit;
+      continue;
+    }
+    for (int dy = -k; dy <= k; ++dy)
+      for (int dx = -k; dx <= k; ++dx)
+      {
+        const float v = tile ? (*tile)[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx + dx, cy + dy))] :
+                               map.logOdds(cx + dx, cy + dy);
+        if (v <= occ)
+          continue;
+        if (config_.free_check && map.logOdds(cx + dx + gx, cy + dy + gy) > occ)
+          continue;
+        const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
+        const double d2 = ex * ex + ey * ey;
+        if (d2 < best)
+          best = d2;
+      }
+    if (std::isfinite(best))
+    {
+      m.score += matchKernel(best * inv_match);
+      m.log_likelihood += -best * inv_like;
+      ++m.matched;
+    }
+    else
+      m.log_likelihood += no_hit;
+  }
+  return m;
+}
+
+ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                             const std::vector<std::pair<double, double>>& end_points) const
+{
+  ScanMatch best = evaluate(map, start, sensor, end_points);
+  int evaluations = 1;
+  double lin = config_.linear_step, ang = config_.angular_step;
+  int refinements = 0, iterations = 0;
+  while (refinements <= config_.refinements && iterations < config_.max_iterations)
+  {
+    ++iterations;
+    const Pose2& p = best.pose;
+    const Pose2 moves[6] = { Pose2(p.x + lin, p.y, p.theta), Pose2(p.x - lin, p.y, p.theta),
+                             Pose2(p.x, p.y + lin, p.theta), Pose2(p.x, p.y - lin, p.theta),
+                             Pose2(p.x, p.y, wrapAngle(p.theta + ang)),
+                             Pose2(p.x, p.y, wrapAngle(p.theta - ang)) };
+    ScanMatch step = best;
+    for (const Pose2& q : moves)
+    {
+      const ScanMatch m = evaluate(map, q, sensor, end_points);
+      ++evaluations;
+      if (m.score > step.score)
+        step = m;
+    }
+    if (step.score > best.score)
+      best = step;
+    else
+    {
+      lin *= 0.5;
+      ang *= 0.5;
+      ++refinements;
+    }
+  }
+  best.evaluations = evaluations;
+  return best;
+}
+
+}  // namespace core
+}  // namespace rbpf_slam

@@ -1,0 +1,238 @@
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "grid_test_world.h"
+#include "rbpf_slam/core/grid_slam.h"
+#include "rbpf_slam/core/occupancy_grid.h"
+#include "rbpf_slam/core/scan_matcher.h"
+
+using namespace rbpf_slam::core;
+using namespace grid_test_world;
+
+namespace
+{
+OccupancyGrid roomMap()
+{
+  OccupancyGrid map;
+  const ScanLimits limits;
+  const std::vector<Pose2> path = truePath();
+  for (std::size_t i = 0; i < path.size(); i += 5)
+    map.insertScan(path[i], simulateScan(path[i]), limits);
+  return map;
+}
+
+bool sameCells(const OccupancyGrid& a, const OccupancyGrid& b)
+{
+  std::vector<std::int8_t> da, db;
+  int wa, ha, wb, hb;
+  MapOrigin oa, ob;
+  a.exportProbabilities(&da, &wa, &ha, &oa);
+  b.exportProbabilities(&db, &wb, &hb, &ob);
+  return wa == wb && ha == hb && da == db;
+}
+}  // namespace
+
+TEST(GridRbpf, CopyOnWriteKeepsParticleMapsIndependent)
+{
+  const OccupancyGrid original = roomMap();
+  OccupancyGrid a = original;  // as resampling copies a particle: tile pointers only
+  OccupancyGrid b = original;
+  ASSERT_GT(original.tileCount(), 4u);
+  for (int ty = a.tileY0(); ty < a.tileY0() + a.tilesY(); ++ty)
+    for (int tx = a.tileX0(); tx < a.tileX0() + a.tilesX(); ++tx)
+      EXPECT_EQ(a.sharesTileWith(b, tx, ty), original.tileAt(tx, ty) != nullptr);
+  // A scan into one copy from a pose near the room's lower-left corner.
+  const Pose2 pose(-3.0, -2.0, 0.3);
+  a.insertScan(pose, simulateScan(pose), ScanLimits());
+  EXPECT_TRUE(sameCells(b, original));  // the other copy never changes
+  EXPECT_FALSE(sameCells(a, original));
+  int cloned = 0, shared = 0;
+  for (int ty = b.tileY0(); ty < b.tileY0() + b.tilesY(); ++ty)
+    for (int tx = b.tileX0(); tx < b.tileX0() + b.tilesX(); ++tx)
+    {
+      if (!original.tileAt(tx, ty))
+        continue;
+      if (a.sharesTileWith(b, tx, ty))
+        ++shared;
+      else
+        ++cloned;
+      EXPECT_TRUE(b.sharesTileWith(original, tx, ty));
+    }
+  EXPECT_GT(cloned, 0);
+  EXPECT_GT(shared, 0);  // tiles the scan did not touch stay shared
+  // A write through the other copy: a's content stays as it was.
+  OccupancyGrid a_before = a;
+  b.addLogOdds(0, 0, 5.0f);
+  EXPECT_TRUE(sameCells(a, a_before));
+  EXPECT_FLOAT_EQ(b.logOdds(0, 0), original.logOdds(0, 0) + 5.0f);
+  EXPECT_FLOAT_EQ(a.logOdds(0, 0), a_before.logOdds(0, 0));
+}
+
+TEST(GridRbpf, ScanMatcherRecoversAKnownOffset)
+{
+  const OccupancyGrid map = roomMap();
+  const Pose2 truth(0.3, -0.4, 0.35);
+  std::vector<std::pair<double, double>> ends;
+  Random noise(3);
+  GridSlam::scanEndPoints(simulateScan(truth, &noise), ScanLimits(), 1, &ends);
+  ScanMatcher matcher;
+  const ScanMatch at_truth = matcher.evaluate(map, truth, Pose2(), ends);
+  EXPECT_GT(at_truth.matched, static_cast<int>(0.9 * ends.size()));
+  const double deg = M_PI / 180.0;
+  const Pose2 starts[] = { Pose2(truth.x + 0.2, truth.y, truth.theta + 5 * deg),
+                           Pose2(truth.x - 0.1, truth.y + 0.15, truth.theta - 5 * deg),
+                           Pose2(truth.x + 0.14, truth.y - 0.14, truth.theta + 3 * deg) };
+  for (const Pose2& start : starts)
+  {
+    const ScanMatch m = matcher.match(map, start, Pose2(), ends);
+    EXPECT_NEAR(m.pose.x, truth.x, 0.03);
+    EXPECT_NEAR(m.pose.y, truth.y, 0.03);
+    EXPECT_NEAR(wrapAngle(m.pose.theta - truth.theta), 0.0, 1.0 * deg);
+    EXPECT_GE(m.score, matcher.evaluate(map, start, Pose2(), ends).score);
+    EXPECT_GT(m.log_likelihood, matcher.evaluate(map, start, Pose2(), ends).log_likelihood);
+  }
+  // With a sensor mounted off the robot's centre, the robot pose is found (not the sensor's).
+  const Pose2 sensor(0.2, 0.05, 0.1);
+  GridSlam::scanEndPoints(simulateScan(truth * sensor), ScanLimits(), 1, &ends);
+  const ScanMatch m = matcher.match(map, Pose2(truth.x - 0.2, truth.y + 0.05, truth.theta - 4 * deg), sensor, ends);
+  EXPECT_NEAR(m.pose.x, truth.x, 0.03);
+  EXPECT_NEAR(m.pose.y, truth.y, 0.03);
+  EXPECT_NEAR(wrapAngle(m.pose.theta - truth.theta), 0.0, 1.0 * deg);
+}
+
+namespace
+{
+struct RbpfRun
+{
+  std::vector<Pose2> poses;
+  std::vector<std::vector<Pose2>> particles;
+  std::vector<bool> resampled;
+  std::vector<double> neff;
+  std::vector<std::int8_t> map;
+  double final_error = 0.0, odometry_error = 0.0, worst_error = 0.0;
+  std::vector<Pose2> history;
+};
+
+RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5)
+{
+  GridSlamConfig c;
+  c.mode = GridSlamMode::kRbpf;
+  c.seed = seed;
+  c.particles = 10;
+  c.resampling = ResamplingMethod::kLowVariance;
+  c.resample_neff_ratio = neff_ratio;
+  GridSlam slam(c);
+  const std::vector<Pose2> path = truePath();
+  Random odo_noise(99);
+  Pose2 odom = path.front();
+  const Pose2 sensor(0.1, 0.0, 0.0);
+  RbpfRun r;
+  for (std::size_t i = 0; i < path.size(); ++i)
+  {
+    if (i > 0)
+    {
+      const Pose2 d = between(path[i - 1], path[i]);
+      odom = odom * Pose2(d.x * 1.02, d.y, d.theta + 0.02 * std::hypot(d.x, d.y) + odo_noise.gaussian(0.002));
+    }
+    const GridSlamStep step = slam.update(odom, simulateScan(path[i] * sensor), sensor);
+    r.poses.push_back(slam.mappingPose());
+    r.resampled.push_back(step.resampled);
+    r.neff.push_back(step.neff);
+    std::vector<Pose2> ps;
+    for (const auto& p : slam.particles())
+      ps.push_back(p.pose);
+    r.particles.push_back(ps);
+    r.worst_error = std::max(r.worst_error, std::hypot(slam.mappingPose().x - path[i].x, slam.mappingPose().y - path[i].y));
+  }
+  r.final_error = std::hypot(slam.mappingPose().x - path.back().x, slam.mappingPose().y - path.back().y);
+  r.odometry_error = std::hypot(odom.x - path.back().x, odom.y - path.back().y);
+  int w, h;
+  MapOrigin o;
+  slam.map().exportProbabilities(&r.map, &w, &h, &o);
+  r.history = slam.bestTrajectory();
+  EXPECT_EQ(r.history.size(), path.size());
+  return r;
+}
+}  // namespace
+
+TEST(GridRbpf, SameSeedSameResultAndFollowsTheTruth)
+{
+  const RbpfRun a = runRoomRbpf(7);
+  const RbpfRun b = runRoomRbpf(7);
+  ASSERT_EQ(a.poses.size(), b.poses.size());
+  for (std::size_t i = 0; i < a.poses.size(); ++i)
+  {
+    ASSERT_EQ(a.poses[i].x, b.poses[i].x) << i;
+    ASSERT_EQ(a.poses[i].y, b.poses[i].y) << i;
+    ASSERT_EQ(a.poses[i].theta, b.poses[i].theta) << i;
+  }
+  EXPECT_EQ(a.map, b.map);
+  const RbpfRun c = runRoomRbpf(8);
+  EXPECT_NE(a.poses.back().x, c.poses.back().x);
+  // Scan matching against its own map holds every particle on the truth while odometry drifts away.
+  EXPECT_GT(a.odometry_error, 0.5);
+  EXPECT_LT(a.final_error, 0.1);
+  EXPECT_LT(a.worst_error, 0.15);
+  EXPECT_LT(c.final_error, 0.1);
+  EXPECT_LT(c.worst_error, 0.15);
+}
+
+TEST(GridRbpf, SelectiveResamplingLeavesParticlesAloneAboveTheThreshold)
+{
+  // Ratio 0.5: a step resamples exactly when Neff < N / 2 (10 particles); above it the particles are left alone.
+  const RbpfRun half = runRoomRbpf(7, 0.5);
+  int kept = 0;
+  for (std::size_t i = 1; i < half.resampled.size(); ++i)
+  {
+    ASSERT_EQ(half.resampled[i], half.neff[i] < 5.0) << i << " neff " << half.neff[i];
+    kept += half.resampled[i] ? 0 : 1;
+  }
+  EXPECT_GT(kept, 0);
+  // Ratio 0: Neff is never below 0, so no step resamples.
+  const RbpfRun never = runRoomRbpf(7, 0.0);
+  for (std::size_t i = 0; i < never.resampled.size(); ++i)
+    ASSERT_FALSE(never.resampled[i]) << i;
+  // Ratio 1: Neff < N on any step whose weights are not exactly uniform: resampling happens.
+  const RbpfRun always = runRoomRbpf(7, 1.0);
+  int count = 0;
+  for (bool r : always.resampled)
+    count += r ? 1 : 0;
+  EXPECT_GT(count, 10);
+}
+
+TEST(GridRbpf, ResamplingIsSkippedWhenNeffIsAboveTheThreshold)
+{
+  // One step with uniform-ish weights: with two particles in the same place, the weights are equal, Neff = N.
+  GridSlamConfig c;
+  c.mode = GridSlamMode::kRbpf;
+  c.particles = 5;
+  c.motion = OdometryMotionNoise{ 0.0, 0.0, 0.0, 0.0 };
+  c.proposal_sigma_xy = 0.0;
+  c.proposal_sigma_theta = 0.0;
+  GridSlam slam(c);
+  const Pose2 p0(0.0, 0.0, 0.0), p1(0.05, 0.0, 0.0);
+  slam.update(p0, simulateScan(p0), Pose2());
+  const GridSlamStep s = slam.update(p1, simulateScan(p1), Pose2());
+  EXPECT_NEAR(s.neff, 5.0, 1e-9);
+  EXPECT_FALSE(s.resampled);
+  for (const auto& p : slam.particles())
+  {
+    EXPECT_NEAR(p.weight, 0.2, 1e-12);
+    EXPECT_NEAR(p.pose.x, slam.particles()[0].pose.x, 1e-12);
+  }
+  // Each particle has its own map; untouched-by-anyone tiles stay shared between them.
+  EXPECT_EQ(&slam.particleMap(0), &slam.map());
+}
+
+TEST(GridRbpf, ParsesTheMode)
+{
+  GridSlamMode m = GridSlamMode::kCourse;
+  EXPECT_TRUE(parseGridSlamMode("rbpf", &m));
+  EXPECT_EQ(m, GridSlamMode::kRbpf);
+  EXPECT_FALSE(parseGridSlamMode("gmapping", &m));
+  GridSlamConfig c;
+  c.matcher.beam_step = 0;
+  EXPECT_NE(c.validate().find("beam_step"), std::string::npos);
+}
