@@ -1,6 +1,7 @@
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 
 namespace rbpf_slam
@@ -49,6 +50,8 @@ void TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& s
   p.trunks = detector_.detectScan(scan);
   p.tilt_roll = 0.0;
   p.tilt_pitch = 0.0;
+  p.geometry.start_angle = scan.angle_min;
+  p.geometry.span = std::max(1e-9, std::abs(scan.angle_increment) * (scan.ranges.size() > 1 ? scan.ranges.size() - 1 : 1));
   pending_.push_back(std::move(p));
   seconds_extraction_ += since(t0);
 }
@@ -56,7 +59,7 @@ void TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& s
 std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
                                                    double period, double tilt_roll, double tilt_pitch,
                                                    const SensorMount& mount, const OdometryBuffer& odometry,
-                                                   double t_ref)
+                                                   double t_ref, const SweepGeometry& geometry)
 {
   const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
   const Eigen::Vector2d lever = mount.z * Eigen::Vector2d(std::tan(tilt_pitch), -std::tan(tilt_roll));
@@ -70,7 +73,9 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
     t.center += lever;
     t.range = t.center.norm();
     t.bearing = std::atan2(t.center.y(), t.center.x());
-    const double t_obs = stamp + period * (wrapAngle(t.bearing) + M_PI) / (2.0 * M_PI);
+    double turned = t.bearing - geometry.start_angle;  // counter-clockwise from the sweep's first bearing
+    turned -= 2.0 * M_PI * std::floor(turned / (2.0 * M_PI));
+    const double t_obs = stamp + period * std::min(1.0, turned / geometry.span);
     const Pose2 sensor_obs = odometry.at(t_obs) * mount_pose;
     double wx = 0.0, wy = 0.0, mx = 0.0, my = 0.0;
     sensor_obs.transformPoint(t.center.x(), t.center.y(), &wx, &wy);
@@ -104,7 +109,8 @@ std::vector<PipelineUpdate> TrunkSlamPipeline::process(bool flush)
     filter_.predict(decomposeOdometry(last_odometry_, odom_mid));
     last_odometry_ = odom_mid;
     const std::vector<LandmarkObservation> obs =
-        sweepObservations(ps.trunks, ps.stamp, ps.period, ps.tilt_roll, ps.tilt_pitch, mount_, odometry_, t_mid);
+        sweepObservations(ps.trunks, ps.stamp, ps.period, ps.tilt_roll, ps.tilt_pitch, mount_, odometry_, t_mid,
+                          ps.geometry);
     PipelineUpdate u;
     u.stats = filter_.update(obs, mount);
     u.stamp = t_mid;

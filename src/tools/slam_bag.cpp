@@ -246,7 +246,11 @@ int runFastSlam(const Options& o)
       planar.angle_increment = scan->angle_increment;
       planar.range_min = scan->range_min;
       planar.range_max = scan->range_max;
-      pipeline.addScan(stamp, std::max(static_cast<double>(scan->scan_time), 1e-3), planar);
+      // The beams' own times: time_increment apart (0 when the driver does not say: one instant).
+      const double period = scan->time_increment > 0.0f && scan->ranges.size() > 1
+                                ? static_cast<double>(scan->time_increment) * static_cast<double>(scan->ranges.size() - 1)
+                                : 0.0;
+      pipeline.addScan(stamp, std::max(period, 1e-3), planar);
       ++clouds;
     }
     else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())

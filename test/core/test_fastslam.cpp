@@ -11,6 +11,7 @@
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/landmark_map.h"
 #include "rbpf_slam/core/particle_filter.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
 
@@ -445,4 +446,30 @@ TEST(FastSlam, ProvisionalLandmarkLeavingTheScopeUnconfirmedIsDropped)
     if (rule)
       EXPECT_EQ(m[0].id, 1);
   }
+}
+
+TEST(SweepObservations, EachTrunkIsCarriedFromItsOwnBeamTime)
+{
+  // The robot drives +x at 1 m/s. A trunk 5 m to the left (bearing +pi/2) is the last beam of a 2D scan that
+  // covers -pi/2 .. +pi/2 in 0.1 s, so it was seen 0.1 s after the stamp: taken back to the stamp it sits
+  // 0.1 m further ahead. Under the spinning-lidar default (starting behind, 2 pi per period) the same bearing
+  // is three quarters through the sweep: 0.075 m.
+  OdometryBuffer odometry;
+  for (int k = 0; k <= 20; ++k)
+    odometry.add(0.01 * k, Pose2(0.01 * k, 0.0, 0.0));
+  TrunkObservation t;
+  t.center = Eigen::Vector2d(0.0, 5.0);
+  t.range = 5.0;
+  t.bearing = M_PI / 2;
+  t.covariance = Eigen::Matrix2d::Identity() * 1e-4;
+  t.radius = 0.2;
+  const auto along = [&](const SweepGeometry& g) {
+    const auto obs = sweepObservations({ t }, 0.0, 0.1, 0.0, 0.0, SensorMount(), odometry, 0.0, g);
+    return obs.at(0).range * std::cos(obs.at(0).bearing);
+  };
+  SweepGeometry scan;
+  scan.start_angle = -M_PI / 2;
+  scan.span = M_PI;
+  EXPECT_NEAR(along(scan), 0.1, 1e-9);
+  EXPECT_NEAR(along(SweepGeometry()), 0.075, 1e-9);
 }

@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_TRUNK_SLAM_PIPELINE_H
 #define RBPF_SLAM_CORE_TRUNK_SLAM_PIPELINE_H
 
+#include <cmath>
 #include <deque>
 #include <vector>
 
@@ -18,6 +19,17 @@ namespace core
 struct SensorMount
 {
   double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0;
+};
+
+/**
+ * @brief Which bearings a sweep covers in its period: it starts at @p start_angle and turns counter-clockwise
+ * through @p span. A spinning lidar starts behind (-pi) and covers 2 pi; a 2D scanner covers angle_min ..
+ * angle_min + (n - 1) * angle_increment.
+ */
+struct SweepGeometry
+{
+  double start_angle = -M_PI;
+  double span = 2.0 * M_PI;
 };
 
 /** @brief One sweep after extraction and the filter update. */
@@ -38,15 +50,15 @@ struct PipelineUpdate
 std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
                                                    double period, double tilt_roll, double tilt_pitch,
                                                    const SensorMount& mount, const OdometryBuffer& odometry,
-                                                   double t_ref);
+                                                   double t_ref, const SweepGeometry& geometry = SweepGeometry());
 
 /**
  * @brief Trunk extraction and FastSLAM on sweeps and wheel odometry, shared by every offline runner (the
  * simulator runner and the bag runner), ROS-free.
  *
  * Odometry may arrive late: a sweep waits until odometry covers its end. Each trunk is seen at its own
- * instant of the sweep (a spinning lidar reaches bearing b at (b + pi) / 2 pi of the sweep, starting
- * behind); it is carried to the sweep's middle by the odometry between the two instants, and the filter
+ * instant of the sweep (bearing b at (b - start_angle) / span of the sweep; a spinning lidar starts behind);
+ * it is carried to the sweep's middle by the odometry between the two instants, and the filter
  * updates there. On a tilted body the lidar on its mast is not above base_link: the tilt estimated by the
  * detector moves the trunks by mount.z * (tan pitch, -tan roll).
  */
@@ -59,7 +71,8 @@ public:
   bool addOdometry(double stamp, const Pose2& pose);
   /** @brief Extracts the trunks now (points in the sensor frame) and queues the sweep for the filter. */
   void addSweep(double stamp, double period, const std::vector<Eigen::Vector3f>& points);
-  /** @brief The same for a 2D scan (sensor frame; no levelling: the scanner is taken as level). */
+  /** @brief The same for a 2D scan (sensor frame; no levelling: the scanner is taken as level); @p period is
+   * the time from the first beam to the last. */
   void addScan(double stamp, double period, const PlanarScan& scan);
   /** @brief Runs the filter on the queued sweeps that odometry covers (all of them with @p flush). */
   std::vector<PipelineUpdate> process(bool flush = false);
@@ -72,6 +85,7 @@ private:
   struct Pending
   {
     double stamp, period, tilt_roll, tilt_pitch;
+    SweepGeometry geometry;
     std::vector<TrunkObservation> trunks;
   };
   TrunkDetector detector_;
