@@ -208,13 +208,23 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
   const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
   log_weights_.resize(n);
   std::vector<int> matched(n, 0);
+  // The motion prior of the match: the motion model's standard deviations for this increment.
+  MatchPrior prior;
+  {
+    const OdometryMotionNoise& a = config_.motion;
+    const double rot = std::abs(u.rot1) + std::abs(u.rot2), trans = std::abs(u.trans);
+    prior.sigma_xy = a.alpha3 * trans + a.alpha4 * rot;
+    prior.sigma_theta = a.alpha1 * rot + a.alpha2 * trans;
+  }
   for (std::size_t i = 0; i < n; ++i)
   {
     GridParticle& p = particles_[i];
     // Proposal: odometry sample, scan-matched against the particle's own map, then a small Gaussian around the
     // match. The weight is the likelihood at the match (GMapping's "best score" normaliser).
     const Pose2 predicted = sampleOdometryMotion(p.pose, u, config_.motion, random_);
-    ScanMatch m = matcher_.match(maps_[i], predicted, sensor, end_points_);
+    prior.centre = predicted;
+    ScanMatch m = matcher_.match(maps_[i], predicted, sensor, end_points_, &prior);
+    step.matcher_evaluations += m.evaluations;
     Pose2 pose;
     if (used > 0 && static_cast<double>(m.matched) >= min_matched)
     {

@@ -34,6 +34,11 @@ std::string OccupancyGridConfig::validate() const
     return "log_odds_clamp must be > 0";
   if (!(std::isfinite(occupied_log_odds) && std::isfinite(free_log_odds) && free_log_odds <= occupied_log_odds))
     return "free_log_odds must be <= occupied_log_odds";
+  if (occupied_log_odds < 0.0f)
+    return "occupied_log_odds must be >= 0 (an unobserved cell, log-odds 0, is not occupied)";
+  const double unit = static_cast<double>(log_odds_clamp) / OccupancyGrid::kCellMax;
+  if (log_odds_hit < unit || -log_odds_free < unit)
+    return "log_odds_hit and -log_odds_free must be >= log_odds_clamp / 32000 (the cells' fixed-point unit)";
   return "";
 }
 
@@ -77,7 +82,20 @@ BeamKind classifyBeam(float r, const ScanData& scan, const ScanLimits& limits, d
   return BeamKind::kHit;
 }
 
-OccupancyGrid::OccupancyGrid(const OccupancyGridConfig& config) : config_(config) {}
+OccupancyGrid::OccupancyGrid(const OccupancyGridConfig& config)
+  : config_(config), scale_(static_cast<float>(kCellMax) / std::max(config.log_odds_clamp, 1e-6f))
+{
+  raw_hit_ = rawDelta(config_.log_odds_hit);
+  raw_free_ = rawDelta(config_.log_odds_free);
+  const double occ = std::floor(static_cast<double>(config_.occupied_log_odds) * scale_);
+  raw_occupied_ = static_cast<int>(std::max<double>(-kCellMax - 1, std::min<double>(kCellMax, occ)));
+}
+
+int OccupancyGrid::rawDelta(float delta) const
+{
+  const long r = std::lround(static_cast<double>(delta) * scale_);
+  return static_cast<int>(std::max<long>(-2 * kCellMax, std::min<long>(2 * kCellMax, r)));
+}
 
 void OccupancyGrid::cellOf(double x, double y, int* ix, int* iy) const
 {
@@ -126,7 +144,8 @@ OccupancyGrid::Tile& OccupancyGrid::mutableTile(int tx, int ty)
   if (!p)
   {
     p = std::make_shared<Tile>();
-    p->fill(0.0f);
+    p->cells.fill(0);
+    p->coarse.fill(0);
   }
   else if (p.use_count() > 1)
     p = std::make_shared<Tile>(*p);  // copy-on-write: another grid still reads the old one
@@ -135,8 +154,7 @@ OccupancyGrid::Tile& OccupancyGrid::mutableTile(int tx, int ty)
 
 void OccupancyGrid::addLogOdds(int ix, int iy, float delta)
 {
-  float& v = mutableTile(ix >> kTileBits, iy >> kTileBits)[index(ix, iy)];
-  v = std::max(-config_.log_odds_clamp, std::min(config_.log_odds_clamp, v + delta));
+  addRaw(&mutableTile(ix >> kTileBits, iy >> kTileBits), ix, iy, rawDelta(delta));
 }
 
 void OccupancyGrid::bresenham(int x0, int y0, int x1, int y1, std::vector<std::pair<int, int>>* cells)
@@ -187,7 +205,6 @@ void OccupancyGrid::updateRay(double sx, double sy, double ex, double ey, bool h
   // Cache the tile of the previous cell: a ray stays in one tile for up to 64 cells.
   int ctx = std::numeric_limits<int>::min(), cty = 0;
   Tile* t = nullptr;
-  const float lo = -config_.log_odds_clamp, hi = config_.log_odds_clamp;
   for (std::size_t k = 0; k < line_.size(); ++k)
   {
     const int ix = line_[k].first, iy = line_[k].second;
@@ -198,9 +215,8 @@ void OccupancyGrid::updateRay(double sx, double sy, double ex, double ey, bool h
       ctx = tx;
       cty = ty;
     }
-    const float d = (hit && k + 1 == line_.size()) ? config_.log_odds_hit : config_.log_odds_free;
-    float& v = (*t)[index(ix, iy)];
-    v = std::max(lo, std::min(hi, v + d));
+    const int d = (hit && k + 1 == line_.size()) ? raw_hit_ : raw_free_;
+    addRaw(t, ix, iy, d);
   }
 }
 
@@ -271,7 +287,7 @@ void OccupancyGrid::exportCells(const std::function<std::int8_t(float)>& convert
         std::int8_t* row = data->data() + static_cast<std::size_t>((j - j0) * kTileSize + r) * w + (i - i0) * kTileSize;
         for (int c = 0; c < kTileSize; ++c)
         {
-          const float l = (*t)[(r << kTileBits) | c];
+          const float l = static_cast<float>((*t)[(r << kTileBits) | c]) / scale_;
           row[c] = convert(l);
         }
       }

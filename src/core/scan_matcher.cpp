@@ -28,6 +28,19 @@ std::string ScanMatcherConfig::validate() const
     return "rbpf/max_iterations must be >= 0";
   if (beam_step < 1)
     return "rbpf/beam_step must be >= 1";
+  if (coarse_kernel < 0 || coarse_kernel > 4)
+    return "rbpf/coarse_kernel must be in [0, 4]";
+  if (!(std::isfinite(coarse_sigma) && coarse_sigma > 0.0))
+    return "rbpf/coarse_sigma must be > 0";
+  if (coarse_beam_step < 1)
+    return "rbpf/coarse_beam_step must be >= 1";
+  if (coarse_refinements < 0)
+    return "rbpf/coarse_refinements must be >= 0";
+  if (!(std::isfinite(prior_weight) && prior_weight >= 0.0))
+    return "rbpf/prior_weight must be >= 0";
+  if (!(std::isfinite(prior_floor_xy) && prior_floor_xy > 0.0 && std::isfinite(prior_floor_theta) &&
+        prior_floor_theta > 0.0))
+    return "rbpf/prior_floor_xy and rbpf/prior_floor_theta must be > 0";
   return "";
 }
 
@@ -50,22 +63,36 @@ double ScanMatcher::matchKernel(double x) const
   return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
 }
 
+ScanMatcher::Level ScanMatcher::fineLevel() const
+{
+  return Level{ false, config_.kernel, config_.match_sigma, config_.beam_step, config_.refinements,
+                config_.linear_step, config_.angular_step };
+}
+
 ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
                                 const std::vector<std::pair<double, double>>& end_points) const
 {
+  return evaluateAt(fineLevel(), map, pose, sensor, end_points);
+}
+
+ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, const Pose2& pose,
+                                  const Pose2& sensor, const std::vector<std::pair<double, double>>& end_points) const
+{
+  if (level.coarse)
+    return evaluateCoarse(level, map, pose, sensor, end_points);
   ScanMatch m;
   m.pose = pose;
   m.evaluations = 1;
   const Pose2 s = pose * sensor;
   const double c = std::cos(s.theta), sn = std::sin(s.theta);
   const double res = map.resolution(), inv = 1.0 / res;
-  const double inv_match = 1.0 / (2.0 * config_.match_sigma * config_.match_sigma);
+  const double inv_match = 1.0 / (2.0 * level.sigma * level.sigma);
   const double inv_like = 1.0 / (2.0 * config_.likelihood_sigma * config_.likelihood_sigma);
   const double no_hit = -config_.no_hit_distance * config_.no_hit_distance * inv_like;
-  const int k = config_.kernel;
+  const int k = level.kernel;
   const double free_delta = std::sqrt(2.0) * res;
-  const float occ = map.config().occupied_log_odds;
-  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(config_.beam_step))
+  const int occ = map.rawOccupiedThreshold();
+  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(level.beam_step))
   {
     const auto& e = end_points[i];
     const double x = s.x + c * e.first - sn * e.second;
@@ -97,11 +124,11 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
     for (int dy = -k; dy <= k; ++dy)
       for (int dx = -k; dx <= k; ++dx)
       {
-        const float v = tile ? (*tile)[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx + dx, cy + dy))] :
-                               map.logOdds(cx + dx, cy + dy);
+        const int v = tile ? (*tile)[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx + dx, cy + dy))] :
+                             map.rawLogOdds(cx + dx, cy + dy);
         if (v <= occ)
           continue;
-        if (config_.free_check && map.logOdds(cx + dx + gx, cy + dy + gy) > occ)
+        if (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ)
           continue;
         const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
         const double d2 = ex * ex + ey * ey;
@@ -120,14 +147,53 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, con
   return m;
 }
 
-ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                             const std::vector<std::pair<double, double>>& end_points) const
+ScanMatch ScanMatcher::evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose,
+                                      const Pose2& sensor,
+                                      const std::vector<std::pair<double, double>>& end_points) const
 {
-  ScanMatch best = evaluate(map, start, sensor, end_points);
-  int evaluations = 1;
-  double lin = config_.linear_step, ang = config_.angular_step;
+  // Score only (the weights come from the fine level): nearest coarse cell with an occupied cell.
+  ScanMatch m;
+  m.pose = pose;
+  m.evaluations = 1;
+  const Pose2 s = pose * sensor;
+  const double c = std::cos(s.theta), sn = std::sin(s.theta);
+  const double res = map.resolution() * OccupancyGrid::kCoarseSize, inv = 1.0 / res;
+  const double inv_match = 1.0 / (2.0 * level.sigma * level.sigma);
+  const int k = level.kernel;
+  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(level.beam_step))
+  {
+    const auto& e = end_points[i];
+    const double fx = (s.x + c * e.first - sn * e.second) * inv, fy = (s.y + sn * e.first + c * e.second) * inv;
+    const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
+    double best = std::numeric_limits<double>::infinity();
+    for (int dy = -k; dy <= k; ++dy)
+      for (int dx = -k; dx <= k; ++dx)
+      {
+        if (map.coarseCount(cx + dx, cy + dy) == 0)
+          continue;
+        const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
+        best = std::min(best, ex * ex + ey * ey);
+      }
+    if (std::isfinite(best))
+    {
+      m.score += matchKernel(best * inv_match);
+      ++m.matched;
+    }
+  }
+  return m;
+}
+
+ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                             const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
+                             int* evaluations) const
+{
+  // Objective: the level's score minus the prior's penalty; the result keeps the score itself.
+  ScanMatch best = evaluateAt(level, map, start, sensor, end_points);
+  double best_objective = best.score - penalty(best.pose, prior);
+  ++*evaluations;
+  double lin = level.linear_step, ang = level.angular_step;
   int refinements = 0, iterations = 0;
-  while (refinements <= config_.refinements && iterations < config_.max_iterations)
+  while (refinements <= level.refinements && iterations < config_.max_iterations)
   {
     ++iterations;
     const Pose2& p = best.pose;
@@ -136,15 +202,23 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
                              Pose2(p.x, p.y, wrapAngle(p.theta + ang)),
                              Pose2(p.x, p.y, wrapAngle(p.theta - ang)) };
     ScanMatch step = best;
+    double step_objective = best_objective;
     for (const Pose2& q : moves)
     {
-      const ScanMatch m = evaluate(map, q, sensor, end_points);
-      ++evaluations;
-      if (m.score > step.score)
+      const ScanMatch m = evaluateAt(level, map, q, sensor, end_points);
+      ++*evaluations;
+      const double o = m.score - penalty(q, prior);
+      if (o > step_objective)
+      {
         step = m;
+        step_objective = o;
+      }
     }
-    if (step.score > best.score)
+    if (step_objective > best_objective)
+    {
       best = step;
+      best_objective = step_objective;
+    }
     else
     {
       lin *= 0.5;
@@ -152,6 +226,43 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
       ++refinements;
     }
   }
+  return best;
+}
+
+double ScanMatcher::penalty(const Pose2& pose, const MatchPrior* prior) const
+{
+  if (!prior || config_.prior_weight <= 0.0)
+    return 0.0;
+  const double sxy = std::max(prior->sigma_xy, config_.prior_floor_xy);
+  const double st = std::max(prior->sigma_theta, config_.prior_floor_theta);
+  const double dx = pose.x - prior->centre.x, dy = pose.y - prior->centre.y;
+  const double dt = wrapAngle(pose.theta - prior->centre.theta);
+  return config_.prior_weight * ((dx * dx + dy * dy) / (2.0 * sxy * sxy) + dt * dt / (2.0 * st * st));
+}
+
+ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                             const std::vector<std::pair<double, double>>& end_points) const
+{
+  return match(map, start, sensor, end_points, nullptr);
+}
+
+ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                             const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const
+{
+  int evaluations = 0;
+  Pose2 from = start;
+  Level fine = fineLevel();
+  if (config_.coarse_kernel > 0)
+  {
+    const Level coarse{ true, config_.coarse_kernel, config_.coarse_sigma, config_.coarse_beam_step,
+                        config_.coarse_refinements, config_.linear_step, config_.angular_step };
+    from = climb(coarse, map, start, sensor, end_points, prior, &evaluations).pose;
+    // The fine climb starts where the coarse one's last step size left off.
+    const double shrink = std::ldexp(1.0, -(config_.coarse_refinements + 1));
+    fine.linear_step *= shrink * 2.0;
+    fine.angular_step *= shrink * 2.0;
+  }
+  ScanMatch best = climb(fine, map, from, sensor, end_points, prior, &evaluations);
   best.evaluations = evaluations;
   return best;
 }

@@ -356,6 +356,7 @@ int runGrid(const Options& o)
   core::OdometryBuffer odometry;
   std::deque<std::pair<double, core::ScanData>> pending;
   int scans = 0, dropped = 0, bad_scans = 0, resamples = 0;
+  long evaluations = 0;
   double last_scan = -1e300, seconds = 0.0, worst = 0.0;
   std::vector<double> scan_stamps;
   const auto addOdometry = [&](double t, const core::Pose2& p) {
@@ -379,6 +380,7 @@ int runGrid(const Options& o)
       seconds += dt;
       worst = std::max(worst, dt);
       resamples += step.resampled ? 1 : 0;
+      evaluations += step.matcher_evaluations;
       ++scans;
       scan_stamps.push_back(t);
       if (est.is_open())
@@ -479,6 +481,9 @@ int runGrid(const Options& o)
                 p.theta * 180.0 / M_PI, slam.map().tileCount());
     std::printf("  filter time %.2f s, %.3f ms per scan (worst %.1f ms), %d particles\n", seconds,
                 1e3 * seconds / std::max(1, scans), 1e3 * worst, gc.particles);
+    if (gc.mode == core::GridSlamMode::kRbpf)
+      std::printf("  scan matcher: %.1f poses scored per particle and scan\n",
+                  static_cast<double>(evaluations) / std::max(1, scans) / std::max(1, gc.particles));
     if (use_wheels && o.imu_weight > 0.0)
       std::printf("  gyro bias (from standing still) %.5f rad/s\n", wheels.gyroBias());
   }

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <iostream>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -100,6 +101,76 @@ TEST(GridRbpf, ScanMatcherRecoversAKnownOffset)
   EXPECT_NEAR(m.pose.x, truth.x, 0.03);
   EXPECT_NEAR(m.pose.y, truth.y, 0.03);
   EXPECT_NEAR(wrapAngle(m.pose.theta - truth.theta), 0.0, 1.0 * deg);
+}
+
+TEST(GridRbpf, CoarseToFineWidensTheCaptureRange)
+{
+  // Starts on rings of growing offset (position and heading together): the coarse climb (3 x 3 coarse cells,
+  // wide score) must recover every start up to 0.3 m / 8 deg, and clearly more starts of all
+  // rings (to 0.6 m / 16 deg) than the fine climb alone.
+  const OccupancyGrid map = roomMap();
+  const Pose2 truth(0.3, -0.4, 0.35);
+  std::vector<std::pair<double, double>> ends;
+  GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
+  const double deg = M_PI / 180.0;
+  // config/grid_rbpf.yaml's matcher, with and without its coarse level.
+  ScanMatcherConfig fine_only;
+  fine_only.linear_step = fine_only.angular_step = 0.1;
+  fine_only.refinements = 2;
+  ScanMatcherConfig coarse = fine_only;
+  coarse.coarse_kernel = 1;
+  coarse.coarse_sigma = 0.15;
+  coarse.coarse_beam_step = 4;
+  coarse.coarse_refinements = 2;
+  ASSERT_EQ(coarse.validate(), "");
+  const ScanMatcher fine_matcher(fine_only), coarse_matcher(coarse);
+  // Per axis within 4 cm: the likelihood field measures to cell centres, so a match can sit half a cell (2.5 cm)
+  // plus a last step (6 mm) off.
+  const auto recovered = [&](const ScanMatch& m) {
+    return std::abs(m.pose.x - truth.x) < 0.04 && std::abs(m.pose.y - truth.y) < 0.04 &&
+           std::abs(wrapAngle(m.pose.theta - truth.theta)) < 1.0 * deg;
+  };
+  int fine_ok = 0, coarse_ok = 0;
+  for (const double scale : { 0.5, 1.0, 1.5, 2.0 })
+    for (int k = 0; k < 8; ++k)
+    {
+      const double a = k * M_PI / 4.0;
+      const Pose2 start(truth.x + scale * 0.3 * std::cos(a), truth.y + scale * 0.3 * std::sin(a),
+                        truth.theta + (k % 2 ? 1 : -1) * scale * 8 * deg);
+      const ScanMatch cm = coarse_matcher.match(map, start, Pose2(), ends);
+      const bool c = recovered(cm);
+      if (scale <= 1.0)
+      {
+        EXPECT_TRUE(c) << "offset scale " << scale << ", direction " << k;
+      }
+      coarse_ok += c;
+      fine_ok += recovered(fine_matcher.match(map, start, Pose2(), ends));
+    }
+  EXPECT_GE(coarse_ok, fine_ok + 6);  // measured: 29 and 20
+  std::cout << "recovered of 32 starts: coarse-to-fine " << coarse_ok << ", fine only " << fine_ok << std::endl;
+}
+
+TEST(GridRbpf, MotionPriorHoldsTheMatchNearTheOdometry)
+{
+  // The true pose scores best, the prior is centred 0.3 m away with sigma 0.05 m: a strong prior keeps the
+  // match near its centre, none lets it reach the truth.
+  const OccupancyGrid map = roomMap();
+  const Pose2 truth(0.3, -0.4, 0.35);
+  std::vector<std::pair<double, double>> ends;
+  GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
+  MatchPrior prior;
+  prior.centre = Pose2(truth.x + 0.15, truth.y, truth.theta);
+  prior.sigma_xy = 0.01;
+  prior.sigma_theta = 0.01;
+  ScanMatcherConfig c;
+  const ScanMatch free_match = ScanMatcher(c).match(map, prior.centre, Pose2(), ends, &prior);
+  EXPECT_NEAR(free_match.pose.x, truth.x, 0.03);  // prior_weight 0: the prior is ignored
+  c.prior_weight = 100.0;
+  const ScanMatch held = ScanMatcher(c).match(map, prior.centre, Pose2(), ends, &prior);
+  EXPECT_GT(held.pose.x, truth.x + 0.1);
+  EXPECT_NEAR(held.pose.y, truth.y, 0.05);
+  c.prior_weight = -1.0;
+  EXPECT_NE(c.validate(), "");
 }
 
 namespace

@@ -217,3 +217,52 @@ TEST(OccupancyGrid, CopiesShareTilesUntilWritten)
   EXPECT_FLOAT_EQ(b.logOdds(2, 2), 0.9f);
   EXPECT_FLOAT_EQ(b.logOdds(1, 1), 0.9f);
 }
+
+namespace
+{
+/** Every coarse count equals the number of occupied cells it covers, over the grid's tile bounds. */
+void expectCoarseCountsMatch(const OccupancyGrid& g)
+{
+  const int k = OccupancyGrid::kCoarseSize;
+  const int x0 = g.tileX0() * OccupancyGrid::kTileSize / k, y0 = g.tileY0() * OccupancyGrid::kTileSize / k;
+  const int nx = g.tilesX() * OccupancyGrid::kTileSize / k, ny = g.tilesY() * OccupancyGrid::kTileSize / k;
+  int checked = 0, occupied_total = 0;
+  for (int cy = y0; cy < y0 + ny; ++cy)
+    for (int cx = x0; cx < x0 + nx; ++cx)
+    {
+      int n = 0;
+      for (int iy = cy * k; iy < (cy + 1) * k; ++iy)
+        for (int ix = cx * k; ix < (cx + 1) * k; ++ix)
+          n += g.occupied(ix, iy);
+      ASSERT_EQ(g.coarseCount(cx, cy), n) << "coarse cell " << cx << ", " << cy;
+      ++checked;
+      occupied_total += n;
+    }
+  EXPECT_GT(checked, 0);
+  EXPECT_GT(occupied_total, 0);
+}
+}  // namespace
+
+TEST(OccupancyGrid, CoarseCountsFollowEveryWriteAndCopy)
+{
+  // Rays from random poses hit, pass and clear cells (cells flip between occupied and free); a copy then
+  // diverges (copy-on-write); the coarse level of both must count exactly their occupied cells.
+  OccupancyGrid g;
+  std::srand(7);
+  const auto uniform = [](double lo, double hi) { return lo + (hi - lo) * (std::rand() / (RAND_MAX + 1.0)); };
+  for (int i = 0; i < 400; ++i)
+    g.updateRay(uniform(-2, 2), uniform(-2, 2), uniform(-6, 6), uniform(-6, 6), i % 3 != 0);
+  expectCoarseCountsMatch(g);
+  OccupancyGrid copy = g;
+  for (int i = 0; i < 200; ++i)
+  {
+    copy.updateRay(uniform(-2, 2), uniform(-2, 2), uniform(-6, 6), uniform(-6, 6), i % 2 == 0);
+    copy.addLogOdds(static_cast<int>(uniform(-100, 100)), static_cast<int>(uniform(-100, 100)), 0.9f);
+  }
+  expectCoarseCountsMatch(g);
+  expectCoarseCountsMatch(copy);
+  OccupancyGridConfig bad;
+  bad.occupied_log_odds = -0.5f;
+  bad.free_log_odds = -1.0f;
+  EXPECT_NE(bad.validate(), "");
+}

@@ -49,6 +49,13 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.matcher.max_iterations, defaults.matcher.max_iterations);
   EXPECT_EQ(read.matcher.beam_step, defaults.matcher.beam_step);
   EXPECT_EQ(read.matcher.free_check, defaults.matcher.free_check);
+  EXPECT_EQ(read.matcher.coarse_kernel, defaults.matcher.coarse_kernel);
+  EXPECT_EQ(read.matcher.coarse_sigma, defaults.matcher.coarse_sigma);
+  EXPECT_EQ(read.matcher.coarse_beam_step, defaults.matcher.coarse_beam_step);
+  EXPECT_EQ(read.matcher.coarse_refinements, defaults.matcher.coarse_refinements);
+  EXPECT_EQ(read.matcher.prior_weight, defaults.matcher.prior_weight);
+  EXPECT_EQ(read.matcher.prior_floor_xy, defaults.matcher.prior_floor_xy);
+  EXPECT_EQ(read.matcher.prior_floor_theta, defaults.matcher.prior_floor_theta);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||
@@ -77,7 +84,22 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("resampling: stratified\n", "resampling");
   expectError("mode: gmapping\n", "mode");
   expectError("rbpf:\n  kernel: -1\n", "rbpf/kernel");
+  expectError("rbpf:\n  coarse_kernel: 9\n", "rbpf/coarse_kernel");
+  expectError("rbpf:\n  prior_weight: -1\n", "rbpf/prior_weight");
   expectError("likelihood_gain: -1\n", "likelihood_gain");
   expectError("grid:\n  log_odds_free: 0.1\n", "log_odds_free");
   expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
+}
+
+TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
+{
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_rbpf.yaml");
+  core::GridSlamConfig c;
+  io::readGridSlamConfig(params, &c);
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_EQ(c.mode, core::GridSlamMode::kRbpf);
+  EXPECT_EQ(c.particles, 30);
+  EXPECT_GT(c.matcher.coarse_kernel, 0);
+  EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (README)
+  EXPECT_TRUE(params.unusedKeys().empty());
 }

@@ -102,7 +102,7 @@ class GridSlamCheck(unittest.TestCase):
         rospy.wait_for_service('grid_slam/save_map', timeout=30.0)
         time.sleep(1.0)  # let the subscriptions connect before the bag starts
         # The sensor topics only: the truth stays out of the filter's reach (truth firewall).
-        play = subprocess.run(['rosbag', 'play', '--clock', '-q', '--wait-for-subscribers', '-r', '3', cls.bag, '--topics', '/scan', '/tf',
+        play = subprocess.run(['rosbag', 'play', '--clock', '-q', '--wait-for-subscribers', '-r', str(rospy.get_param('~rate', 3.0)), cls.bag, '--topics', '/scan', '/tf',
                                '/tf_static'], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                               universal_newlines=True)
         assert play.returncode == 0, play.stderr

@@ -77,6 +77,7 @@ struct GridSlamStep
   int best_correlation = 0;    ///< its number of end points on occupied cells (rbpf: matched end points)
   int beams_mapped = 0;
   int matches_trusted = 0;     ///< rbpf mode: particles whose scan match was trusted
+  long matcher_evaluations = 0;  ///< rbpf mode: poses scored by the scan matcher, all particles (cost diagnostic)
 };
 
 /**

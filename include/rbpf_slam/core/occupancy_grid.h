@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_OCCUPANCY_GRID_H
 #define RBPF_SLAM_CORE_OCCUPANCY_GRID_H
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -23,7 +24,8 @@ struct OccupancyGridConfig
   // clamp keeps a cell able to change its mind after a few dozen scans.
   float log_odds_hit = 0.9f;    ///< added to the cell a beam ends in
   float log_odds_free = -0.1f;  ///< added to each cell a beam crosses
-  float log_odds_clamp = 20.0f; ///< |log-odds| never exceeds this
+  float log_odds_clamp = 20.0f; ///< |log-odds| never exceeds this (cells store it in 16-bit fixed point:
+                                ///< one unit = log_odds_clamp / 32000; hit and free must be at least one unit)
   // Export: occupied above, free below (log-odds 0 = p 0.5 = never observed, or evidence that cancelled).
   float occupied_log_odds = 0.0f;  ///< cells with log-odds > this are occupied in trinary exports
   float free_log_odds = 0.0f;      ///< cells with log-odds < this are free in trinary exports
@@ -82,7 +84,24 @@ class OccupancyGrid
 public:
   static constexpr int kTileBits = 6;
   static constexpr int kTileSize = 1 << kTileBits;  ///< 64 cells
-  using Tile = std::array<float, kTileSize * kTileSize>;
+  /// A cell's log-odds in fixed point (log-odds = raw / cellScale()): half the memory of a float, which matters
+  /// when 30 particles own maps; hit and free increments are whole units, so sums are exact.
+  using Cell = std::int16_t;
+  static constexpr int kCellMax = 32000;  ///< raw value of +log_odds_clamp
+  /// Coarse level (a pyramid of one step) for coarse-to-fine scan matching: each coarse cell covers
+  /// kCoarseSize x kCoarseSize cells and counts how many of them are occupied (raw > rawOccupiedThreshold()),
+  /// kept current by every write.
+  static constexpr int kCoarseBits = 2;
+  static constexpr int kCoarseSize = 1 << kCoarseBits;  ///< 4 cells
+  static constexpr int kCoarseTileBits = kTileBits - kCoarseBits;
+  static constexpr int kCoarsePerTile = 1 << kCoarseTileBits;  ///< 16 coarse cells per tile side
+  struct Tile
+  {
+    std::array<Cell, kTileSize * kTileSize> cells;
+    std::array<std::uint8_t, kCoarsePerTile * kCoarsePerTile> coarse;  // occupied cells per coarse cell
+    Cell& operator[](std::size_t i) { return cells[i]; }
+    Cell operator[](std::size_t i) const { return cells[i]; }
+  };
 
   explicit OccupancyGrid(const OccupancyGridConfig& config = OccupancyGridConfig());
 
@@ -96,8 +115,28 @@ public:
   float logOdds(int ix, int iy) const
   {
     const Tile* t = tile(ix >> kTileBits, iy >> kTileBits);
-    return t ? (*t)[index(ix, iy)] : 0.0f;
+    return t ? static_cast<float>((*t)[index(ix, iy)]) / scale_ : 0.0f;
   }
+  /** @brief The raw (fixed-point) value of a cell, 0 where nothing was observed. */
+  int rawLogOdds(int ix, int iy) const
+  {
+    const Tile* t = tile(ix >> kTileBits, iy >> kTileBits);
+    return t ? (*t)[index(ix, iy)] : 0;
+  }
+  /** @brief Occupied cells in coarse cell (cx, cy) (cells [cx * kCoarseSize, (cx + 1) * kCoarseSize) x ...). */
+  int coarseCount(int cx, int cy) const
+  {
+    const Tile* t = tile(cx >> kCoarseTileBits, cy >> kCoarseTileBits);
+    return t ? t->coarse[coarseIndex(cx, cy)] : 0;
+  }
+  static int coarseIndex(int cx, int cy)
+  {
+    return ((cy & (kCoarsePerTile - 1)) << kCoarseTileBits) | (cx & (kCoarsePerTile - 1));
+  }
+  /** @brief Raw cell values per unit of log-odds. */
+  float cellScale() const { return scale_; }
+  /** @brief Raw threshold: a cell is occupied (log-odds > occupied_log_odds) iff its raw value is > this. */
+  int rawOccupiedThreshold() const { return raw_occupied_; }
   /** @brief The tile (tx, ty) (cells [tx * kTileSize, (tx + 1) * kTileSize) x ...), null if it does not exist. */
   const Tile* tileAt(int tx, int ty) const { return tile(tx, ty); }
   /** @brief Index of cell (ix, iy) in its tile. */
@@ -107,7 +146,7 @@ public:
   void addLogOdds(int ix, int iy, float delta);
 
   /** @brief Occupied in the sense of the export threshold (log-odds > occupied_log_odds). */
-  bool occupied(int ix, int iy) const { return logOdds(ix, iy) > config_.occupied_log_odds; }
+  bool occupied(int ix, int iy) const { return rawLogOdds(ix, iy) > raw_occupied_; }
 
   /**
    * @brief The cells of the Bresenham line from cell (x0, y0) to cell (x1, y1), both ends included, in
@@ -157,11 +196,28 @@ private:
     return tiles_[static_cast<std::size_t>(j) * ntx_ + i].get();
   }
   Tile& mutableTile(int tx, int ty);
+  int rawDelta(float delta) const;
+  /** @brief Adds raw @p delta to cell (ix, iy) of @p t (clamped), keeping its coarse count current. */
+  void addRaw(Tile* t, int ix, int iy, int delta) const
+  {
+    Cell& v = (*t)[static_cast<std::size_t>(index(ix, iy))];
+    const int old = v;
+    const int now = std::max(-kCellMax, std::min(kCellMax, old + delta));
+    v = static_cast<Cell>(now);
+    const bool was = old > raw_occupied_, is = now > raw_occupied_;
+    if (was != is)
+    {
+      std::uint8_t& c = t->coarse[static_cast<std::size_t>(coarseIndex(ix >> kCoarseBits, iy >> kCoarseBits))];
+      c = static_cast<std::uint8_t>(is ? c + 1 : c - 1);
+    }
+  }
   void exportCells(const std::function<std::int8_t(float)>& convert, std::vector<std::int8_t>* data, int* width,
                    int* height, MapOrigin* origin) const;
   void grow(int tx, int ty);
 
   OccupancyGridConfig config_;
+  float scale_ = 1.0f;         // raw units per log-odds unit
+  int raw_hit_ = 0, raw_free_ = 0, raw_occupied_ = 0;
   int tx0_ = 0, ty0_ = 0, ntx_ = 0, nty_ = 0;
   std::vector<std::shared_ptr<Tile>> tiles_;  // row-major over the tile bounds; null = never touched
   std::vector<std::pair<int, int>> line_;     // scratch for rays

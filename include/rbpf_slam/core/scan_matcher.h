@@ -33,9 +33,35 @@ struct ScanMatcherConfig
   /// GMapping's test: a window cell counts only if the cell at the same offset from the point sqrt(2) cells back
   /// along the beam is not occupied.
   bool free_check = false;
+  /// Coarse-to-fine: before the fine climb above, a climb on the map's coarse level (cells of 4 x 4 cells,
+  /// OccupancyGrid::coarseCount): each end point looks for the nearest occupied coarse cell in a
+  /// (2 coarse_kernel + 1)^2 window of coarse cells and scores exp(-d^2 / 2 coarse_sigma^2) with d to its centre;
+  /// every coarse_beam_step-th end point, the same first steps, coarse_refinements halvings. It brings a start
+  /// whose far end points miss the fine window by decimetres into its reach. 0 = off.
+  int coarse_kernel = 0;
+  double coarse_sigma = 0.15;      ///< [m]
+  int coarse_beam_step = 2;
+  int coarse_refinements = 2;
+
+  /// Motion prior (the proposal's other factor, p(x | x', u)): the climb maximises score - prior_weight *
+  /// (|dxy|^2 / (2 sigma_xy^2) + dtheta^2 / (2 sigma_theta^2)), d measured from the odometry sample it starts at,
+  /// sigmas those of the motion model for this increment (at least the floors). Without it, a scan whose far
+  /// end points fall in unmapped space slides back onto the mapped part (seen on Intel: 1 m per scan in a
+  /// corridor). 0 = off.
+  double prior_weight = 0.0;
+  double prior_floor_xy = 0.05;     ///< [m]
+  double prior_floor_theta = 0.05;  ///< [rad]
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
+};
+
+/** @brief The motion prior of one match: centre and standard deviations (see ScanMatcherConfig::prior_weight). */
+struct MatchPrior
+{
+  Pose2 centre;
+  double sigma_xy = 1.0;     ///< [m]
+  double sigma_theta = 1.0;  ///< [rad]
 };
 
 /** @brief What one match found. */
@@ -67,8 +93,31 @@ public:
    */
   ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                   const std::vector<std::pair<double, double>>& end_points) const;
+  /** @brief As above, the climb penalised by @p prior (used when config().prior_weight > 0). */
+  ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const;
 
 private:
+  /** @brief The window, score sigma and beam stride of one level of the climb. */
+  struct Level
+  {
+    bool coarse;  // on the map's coarse level
+    int kernel;
+    double sigma;
+    int beam_step;
+    int refinements;
+    double linear_step, angular_step;
+  };
+  ScanMatch evaluateAt(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                       const std::vector<std::pair<double, double>>& end_points) const;
+  ScanMatch evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                           const std::vector<std::pair<double, double>>& end_points) const;
+  ScanMatch climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
+                  int* evaluations) const;
+  double penalty(const Pose2& pose, const MatchPrior* prior) const;
+  Level fineLevel() const;
+
   /** @brief exp(-d2 / (2 match_sigma^2)) by linear interpolation in a table (the profile's second item). */
   double matchKernel(double d2) const;
 
