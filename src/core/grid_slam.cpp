@@ -41,6 +41,8 @@ std::string GridSlamConfig::validate() const
     return "proposal_sigma_theta must be >= 0";
   if (!(std::isfinite(min_matched_ratio) && min_matched_ratio >= 0.0 && min_matched_ratio <= 1.0))
     return "min_matched_ratio must be in [0, 1]";
+  if (!(std::isfinite(proposal_motion_weight) && proposal_motion_weight >= 0.0))
+    return "proposal_motion_weight must be >= 0";
   std::string e = motion.validate();
   if (e.empty())
     e = matcher.validate();
@@ -216,6 +218,17 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
     prior.sigma_xy = a.alpha3 * trans + a.alpha4 * rot;
     prior.sigma_theta = a.alpha1 * rot + a.alpha2 * trans;
   }
+  // The odometry's own spread for this increment (rot1 and rot2 noise both turn the heading; rot1 noise also
+  // moves the end point sideways), floored as the matcher's prior.
+  double motion_sxy = 0.0, motion_st = 0.0;
+  {
+    const OdometryMotionNoise& a = config_.motion;
+    const double s1 = a.alpha1 * std::abs(u.rot1) + a.alpha2 * u.trans;
+    const double s2 = a.alpha1 * std::abs(u.rot2) + a.alpha2 * u.trans;
+    const double st = a.alpha3 * u.trans + a.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
+    motion_sxy = std::max(std::hypot(st, u.trans * s1), config_.matcher.prior_floor_xy);
+    motion_st = std::max(std::hypot(s1, s2), config_.matcher.prior_floor_theta);
+  }
   for (std::size_t i = 0; i < n; ++i)
   {
     GridParticle& p = particles_[i];
@@ -238,9 +251,19 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
       pose = predicted;
       m = matcher_.evaluate(maps_[i], predicted, sensor, end_points_);
     }
+    double motion_log = 0.0;
+    if (config_.proposal_motion_weight > 0.0)
+    {
+      const double heading = p.pose.theta + u.rot1;
+      const Pose2 mean(p.pose.x + u.trans * std::cos(heading), p.pose.y + u.trans * std::sin(heading),
+                       wrapAngle(heading + u.rot2));
+      const double dx = pose.x - mean.x, dy = pose.y - mean.y, dt = wrapAngle(pose.theta - mean.theta);
+      motion_log = -config_.proposal_motion_weight * ((dx * dx + dy * dy) / (2.0 * motion_sxy * motion_sxy) +
+                                                      dt * dt / (2.0 * motion_st * motion_st));
+    }
     p.pose = pose;
     matched[i] = m.matched;
-    log_weights_[i] = p.log_weight + config_.likelihood_gain * m.log_likelihood;
+    log_weights_[i] = p.log_weight + config_.likelihood_gain * m.log_likelihood + motion_log;
   }
   normalizeLogWeights(&log_weights_, &weights_);
   for (std::size_t i = 0; i < n; ++i)

@@ -186,7 +186,7 @@ struct RbpfRun
   std::vector<Pose2> history;
 };
 
-RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5)
+RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5, double motion_weight = 0.0)
 {
   GridSlamConfig c;
   c.mode = GridSlamMode::kRbpf;
@@ -194,6 +194,7 @@ RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5)
   c.particles = 10;
   c.resampling = ResamplingMethod::kLowVariance;
   c.resample_neff_ratio = neff_ratio;
+  c.proposal_motion_weight = motion_weight;
   GridSlam slam(c);
   const std::vector<Pose2> path = truePath();
   Random odo_noise(99);
@@ -248,6 +249,24 @@ TEST(GridRbpf, SameSeedSameResultAndFollowsTheTruth)
   EXPECT_LT(a.worst_error, 0.15);
   EXPECT_LT(c.final_error, 0.1);
   EXPECT_LT(c.worst_error, 0.15);
+}
+
+TEST(GridRbpf, MotionWeightedProposalChangesTheWeightsAndFollowsTheTruth)
+{
+  // The motion model in the weight (config/grid_rbpf.yaml) changes the weights, hence the run, and the filter
+  // still holds the drifting-odometry loop.
+  const RbpfRun plain = runRoomRbpf(7);
+  const RbpfRun weighted = runRoomRbpf(7, 0.5, 1.0);
+  bool differs = false;
+  for (std::size_t i = 0; i < plain.neff.size() && !differs; ++i)
+    differs = std::abs(plain.neff[i] - weighted.neff[i]) > 1e-9;
+  EXPECT_TRUE(differs);
+  EXPECT_GT(weighted.odometry_error, 0.5);
+  EXPECT_LT(weighted.final_error, 0.1);
+  EXPECT_LT(weighted.worst_error, 0.15);
+  GridSlamConfig bad;
+  bad.proposal_motion_weight = -1.0;
+  EXPECT_NE(bad.validate(), "");
 }
 
 TEST(GridRbpf, SelectiveResamplingLeavesParticlesAloneAboveTheThreshold)

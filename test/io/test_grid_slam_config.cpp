@@ -39,6 +39,7 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.proposal_sigma_xy, defaults.proposal_sigma_xy);
   EXPECT_EQ(read.proposal_sigma_theta, defaults.proposal_sigma_theta);
   EXPECT_EQ(read.min_matched_ratio, defaults.min_matched_ratio);
+  EXPECT_EQ(read.proposal_motion_weight, defaults.proposal_motion_weight);
   EXPECT_EQ(read.matcher.kernel, defaults.matcher.kernel);
   EXPECT_EQ(read.matcher.match_sigma, defaults.matcher.match_sigma);
   EXPECT_EQ(read.matcher.likelihood_sigma, defaults.matcher.likelihood_sigma);
@@ -86,6 +87,7 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("rbpf:\n  kernel: -1\n", "rbpf/kernel");
   expectError("rbpf:\n  coarse_kernel: 9\n", "rbpf/coarse_kernel");
   expectError("rbpf:\n  prior_weight: -1\n", "rbpf/prior_weight");
+  expectError("proposal_motion_weight: -2\n", "proposal_motion_weight");
   expectError("likelihood_gain: -1\n", "likelihood_gain");
   expectError("grid:\n  log_odds_free: 0.1\n", "log_odds_free");
   expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
@@ -101,5 +103,6 @@ TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
   EXPECT_EQ(c.particles, 30);
   EXPECT_GT(c.matcher.coarse_kernel, 0);
   EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (README)
+  EXPECT_EQ(c.proposal_motion_weight, 1.0);
   EXPECT_TRUE(params.unusedKeys().empty());
 }

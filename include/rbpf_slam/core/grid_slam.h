@@ -55,6 +55,11 @@ struct GridSlamConfig
   /// `rbpf` mode only: a match with fewer than this fraction of the end points matched is not trusted (the
   /// particle keeps its odometry sample, weighted at that pose).
   double min_matched_ratio = 0.3;
+  /// `rbpf` mode only: the proposal's normaliser includes the motion model (Grisetti et al. 2007: the weight is
+  /// the integral of p(z | x) p(x | x', u)): the log-weight also gains w * log N(match; odometry mean, motion
+  /// covariance of the increment), so a match far from where the odometry puts the particle counts less.
+  /// 0 = off (GMapping's code weighs by the likelihood at the match only).
+  double proposal_motion_weight = 0.0;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
