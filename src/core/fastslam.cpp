@@ -108,17 +108,15 @@ void conditionPoseOnLandmark(Pose2* mean, Eigen::Matrix3d* covariance, const Lan
 void propagatePoseGaussian(Pose2* mean, Eigen::Matrix3d* covariance, const OdometryIncrement& u,
                            const OdometryMotionNoise& n)
 {
-  const double s1 = n.alpha1 * std::abs(u.rot1) + n.alpha2 * u.trans;
-  const double st = n.alpha3 * u.trans + n.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
-  const double s2 = n.alpha1 * std::abs(u.rot2) + n.alpha2 * u.trans;
+  const OdometryNoiseSigmas s = odometryNoiseSigmas(u, n);
   const double h = mean->theta + u.rot1, ch = std::cos(h), sh = std::sin(h);
   Eigen::Matrix3d F;
   F << 1, 0, -u.trans * sh, 0, 1, u.trans * ch, 0, 0, 1;
   Eigen::Matrix3d V;  // wrt (rot1, trans, rot2)
   V << -u.trans * sh, ch, 0, u.trans * ch, sh, 0, 1, 0, 1;
-  const Eigen::Vector3d m(s1 * s1, st * st, s2 * s2);
+  const Eigen::Vector3d m(s.rot1 * s.rot1, s.trans * s.trans, s.rot2 * s.rot2);
   *covariance = F * *covariance * F.transpose() + V * m.asDiagonal() * V.transpose();
-  *mean = Pose2(mean->x + u.trans * ch, mean->y + u.trans * sh, wrapAngle(h + u.rot2));
+  *mean = applyOdometry(*mean, u);
 }
 
 LandmarkObservation toLandmarkObservation(const TrunkObservation& t)

@@ -210,24 +210,13 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
   const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
   log_weights_.resize(n);
   std::vector<int> matched(n, 0);
-  // The motion prior of the match: the motion model's standard deviations for this increment.
+  // The odometry's spread for this increment (rot1 and rot2 noise both turn the heading; rot1 noise also moves
+  // the end point sideways), floored: the matcher's motion prior and the motion factor of the weight.
   MatchPrior prior;
   {
-    const OdometryMotionNoise& a = config_.motion;
-    const double rot = std::abs(u.rot1) + std::abs(u.rot2), trans = std::abs(u.trans);
-    prior.sigma_xy = a.alpha3 * trans + a.alpha4 * rot;
-    prior.sigma_theta = a.alpha1 * rot + a.alpha2 * trans;
-  }
-  // The odometry's own spread for this increment (rot1 and rot2 noise both turn the heading; rot1 noise also
-  // moves the end point sideways), floored as the matcher's prior.
-  double motion_sxy = 0.0, motion_st = 0.0;
-  {
-    const OdometryMotionNoise& a = config_.motion;
-    const double s1 = a.alpha1 * std::abs(u.rot1) + a.alpha2 * u.trans;
-    const double s2 = a.alpha1 * std::abs(u.rot2) + a.alpha2 * u.trans;
-    const double st = a.alpha3 * u.trans + a.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
-    motion_sxy = std::max(std::hypot(st, u.trans * s1), config_.matcher.prior_floor_xy);
-    motion_st = std::max(std::hypot(s1, s2), config_.matcher.prior_floor_theta);
+    const OdometryNoiseSigmas s = odometryNoiseSigmas(u, config_.motion);
+    prior.sigma_xy = std::max(std::hypot(s.trans, u.trans * s.rot1), config_.matcher.prior_floor_xy);
+    prior.sigma_theta = std::max(std::hypot(s.rot1, s.rot2), config_.matcher.prior_floor_theta);
   }
   for (std::size_t i = 0; i < n; ++i)
   {
@@ -254,12 +243,11 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
     double motion_log = 0.0;
     if (config_.proposal_motion_weight > 0.0)
     {
-      const double heading = p.pose.theta + u.rot1;
-      const Pose2 mean(p.pose.x + u.trans * std::cos(heading), p.pose.y + u.trans * std::sin(heading),
-                       wrapAngle(heading + u.rot2));
+      const Pose2 mean = applyOdometry(p.pose, u);
       const double dx = pose.x - mean.x, dy = pose.y - mean.y, dt = wrapAngle(pose.theta - mean.theta);
-      motion_log = -config_.proposal_motion_weight * ((dx * dx + dy * dy) / (2.0 * motion_sxy * motion_sxy) +
-                                                      dt * dt / (2.0 * motion_st * motion_st));
+      motion_log = -config_.proposal_motion_weight *
+                   ((dx * dx + dy * dy) / (2.0 * prior.sigma_xy * prior.sigma_xy) +
+                    dt * dt / (2.0 * prior.sigma_theta * prior.sigma_theta));
     }
     p.pose = pose;
     matched[i] = m.matched;

@@ -33,13 +33,29 @@ OdometryIncrement decomposeOdometry(const Pose2& a, const Pose2& b)
   return u;
 }
 
+OdometryNoiseSigmas odometryNoiseSigmas(const OdometryIncrement& u, const OdometryMotionNoise& n)
+{
+  OdometryNoiseSigmas s;
+  s.rot1 = n.alpha1 * std::abs(u.rot1) + n.alpha2 * u.trans;
+  s.trans = n.alpha3 * u.trans + n.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
+  s.rot2 = n.alpha1 * std::abs(u.rot2) + n.alpha2 * u.trans;
+  return s;
+}
+
+Pose2 applyOdometry(const Pose2& pose, const OdometryIncrement& u)
+{
+  const double heading = pose.theta + u.rot1;
+  return Pose2(pose.x + u.trans * std::cos(heading), pose.y + u.trans * std::sin(heading), wrapAngle(heading + u.rot2));
+}
+
 Pose2 sampleOdometryMotion(const Pose2& pose, const OdometryIncrement& u, const OdometryMotionNoise& n, Random& random)
 {
-  const double rot1 = u.rot1 - random.gaussian(n.alpha1 * std::abs(u.rot1) + n.alpha2 * u.trans);
-  const double trans = u.trans - random.gaussian(n.alpha3 * u.trans + n.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2)));
-  const double rot2 = u.rot2 - random.gaussian(n.alpha1 * std::abs(u.rot2) + n.alpha2 * u.trans);
-  const double heading = pose.theta + rot1;
-  return Pose2(pose.x + trans * std::cos(heading), pose.y + trans * std::sin(heading), wrapAngle(heading + rot2));
+  const OdometryNoiseSigmas s = odometryNoiseSigmas(u, n);
+  OdometryIncrement noisy;
+  noisy.rot1 = u.rot1 - random.gaussian(s.rot1);
+  noisy.trans = u.trans - random.gaussian(s.trans);
+  noisy.rot2 = u.rot2 - random.gaussian(s.rot2);
+  return applyOdometry(pose, noisy);
 }
 
 double normalizeLogWeights(std::vector<double>* log_weights, std::vector<double>* weights)

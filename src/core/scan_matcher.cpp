@@ -257,10 +257,10 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
     const Level coarse{ true, config_.coarse_kernel, config_.coarse_sigma, config_.coarse_beam_step,
                         config_.coarse_refinements, config_.linear_step, config_.angular_step };
     from = climb(coarse, map, start, sensor, end_points, prior, &evaluations).pose;
-    // The fine climb starts where the coarse one's last step size left off.
-    const double shrink = std::ldexp(1.0, -(config_.coarse_refinements + 1));
-    fine.linear_step *= shrink * 2.0;
-    fine.angular_step *= shrink * 2.0;
+    // The fine climb starts with the coarse one's last step size.
+    const double last = std::ldexp(1.0, -config_.coarse_refinements);
+    fine.linear_step *= last;
+    fine.angular_step *= last;
   }
   ScanMatch best = climb(fine, map, from, sensor, end_points, prior, &evaluations);
   best.evaluations = evaluations;

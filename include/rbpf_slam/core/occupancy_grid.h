@@ -84,7 +84,7 @@ class OccupancyGrid
 public:
   static constexpr int kTileBits = 6;
   static constexpr int kTileSize = 1 << kTileBits;  ///< 64 cells
-  /// A cell's log-odds in fixed point (log-odds = raw / cellScale()): half the memory of a float, which matters
+  /// A cell's log-odds in fixed point (log-odds = raw * log_odds_clamp / kCellMax): half the memory of a float, which matters
   /// when 30 particles own maps; hit and free increments are whole units, so sums are exact.
   using Cell = std::int16_t;
   static constexpr int kCellMax = 32000;  ///< raw value of +log_odds_clamp
@@ -133,8 +133,6 @@ public:
   {
     return ((cy & (kCoarsePerTile - 1)) << kCoarseTileBits) | (cx & (kCoarsePerTile - 1));
   }
-  /** @brief Raw cell values per unit of log-odds. */
-  float cellScale() const { return scale_; }
   /** @brief Raw threshold: a cell is occupied (log-odds > occupied_log_odds) iff its raw value is > this. */
   int rawOccupiedThreshold() const { return raw_occupied_; }
   /** @brief The tile (tx, ty) (cells [tx * kTileSize, (tx + 1) * kTileSize) x ...), null if it does not exist. */

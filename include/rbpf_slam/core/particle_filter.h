@@ -40,6 +40,16 @@ struct OdometryIncrement
 };
 OdometryIncrement decomposeOdometry(const Pose2& a, const Pose2& b);
 
+/** @brief Standard deviations of the rot1, trans and rot2 noise of increment @p u under @p noise. */
+struct OdometryNoiseSigmas
+{
+  double rot1 = 0.0, trans = 0.0, rot2 = 0.0;
+};
+OdometryNoiseSigmas odometryNoiseSigmas(const OdometryIncrement& u, const OdometryMotionNoise& noise);
+
+/** @brief The noise-free successor of @p pose for increment @p u (the motion model's mean). */
+Pose2 applyOdometry(const Pose2& pose, const OdometryIncrement& u);
+
 /**
  * @brief Samples a successor of @p pose for the odometry increment (a -> b). Small translations (below
  * 1 cm) keep rot1 = 0 so that turning on the spot does not get a random heading for its translation.

@@ -45,7 +45,8 @@ struct ScanMatcherConfig
 
   /// Motion prior (the proposal's other factor, p(x | x', u)): the climb maximises score - prior_weight *
   /// (|dxy|^2 / (2 sigma_xy^2) + dtheta^2 / (2 sigma_theta^2)), d measured from the odometry sample it starts at,
-  /// sigmas those of the motion model for this increment (at least the floors). Without it, a scan whose far
+  /// sigmas those of the motion model for this increment (at least the floors; GridSlam computes them once per
+  /// scan for this prior and for the weight's motion factor). Without it, a scan whose far
   /// end points fall in unmapped space slides back onto the mapped part (seen on Intel: 1 m per scan in a
   /// corridor). 0 = off.
   double prior_weight = 0.0;
