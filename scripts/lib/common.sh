@@ -11,6 +11,33 @@ if [ -z "${ROS_HOSTNAME:-}" ] && [ -z "${ROS_IP:-}" ] && ! getent hosts "$(hostn
 fi
 export ROS_LOG_DIR="${ROS_LOG_DIR:-$RBPF_WS/log}"
 
+# Configure flags of every workspace of this package (Debian's python3, tests on).
+RBPF_CMAKE_COMMON=(-DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON)
+
+# Whether $1 is a catkin workspace (scripts/bootstrap's, scripts/test --sanitize's), made or being made.
+rbpf_is_workspace() {
+  [ -f "$1/.catkin_workspace" ] || [ -d "$1/src/rbpf_slam" ]
+}
+
+# Makes the catkin workspace $1 (a directory right under the repository root): $1/src/rbpf_slam mirrors the
+# repository root with one link per top-level entry, the workspaces excepted. A single link to the root would
+# put the workspace inside its own package, and every recursive search of the package (rosrun, roslaunch,
+# catkin's package search) would loop through it or find the package again in another workspace.
+rbpf_make_ws() {
+  local ws="$1" pkg="$1/src/rbpf_slam" entry name
+  [ ! -L "$pkg" ] || rm -f "$pkg"
+  mkdir -p "$pkg"
+  find "$pkg" -maxdepth 1 -type l ! -exec test -e {} \; -delete  # entries removed from the repo
+  for entry in "$RBPF_ROOT"/*; do
+    name=$(basename "$entry")
+    if [ "$entry" -ef "$ws" ] || rbpf_is_workspace "$entry"; then
+      [ ! -L "$pkg/$name" ] || rm -f "$pkg/$name"
+    else
+      ln -sfn "../../../$name" "$pkg/$name"
+    fi
+  done
+}
+
 rbpf_source_ws() {
   # shellcheck disable=SC1091
   set +u

@@ -137,8 +137,8 @@ LandmarkObservation toLandmarkObservation(const TrunkObservation& t)
 
 std::string FastSlamConfig::validate() const
 {
-  if (particles < 1)
-    return "particles must be >= 1";
+  if (particles < 1 || particles > kMaxParticles)
+    return "particles must be in 1.." + std::to_string(kMaxParticles) + ", not " + std::to_string(particles);
   const std::string m = motion.validate();
   if (!m.empty())
     return "motion: " + m;

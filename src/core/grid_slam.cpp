@@ -3,11 +3,25 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace rbpf_slam
 {
 namespace core
 {
+namespace
+{
+/** Throws std::invalid_argument naming @p what unless @p pose is finite. */
+void requireFinite(const Pose2& pose, const char* what)
+{
+  if (std::isfinite(pose.x) && std::isfinite(pose.y) && std::isfinite(pose.theta))
+    return;
+  throw std::invalid_argument(std::string("grid SLAM: the ") + what + " pose is not finite (x " +
+                              std::to_string(pose.x) + ", y " + std::to_string(pose.y) + ", theta " +
+                              std::to_string(pose.theta) + "): scan not used");
+}
+}  // namespace
+
 bool parseGridSlamMode(const std::string& name, GridSlamMode* mode)
 {
   if (name == "course")
@@ -25,8 +39,11 @@ bool parseGridSlamMode(const std::string& name, GridSlamMode* mode)
 
 std::string GridSlamConfig::validate() const
 {
-  if (particles <= 0)
-    return "particles must be > 0";
+  if (!(std::isfinite(linear_update) && linear_update >= 0.0) || !(std::isfinite(angular_update) && angular_update >= 0.0) ||
+      !std::isfinite(temporal_update))
+    return "linear_update and angular_update must be >= 0, temporal_update finite (<= 0: off)";
+  if (particles < 1 || particles > kMaxParticles)
+    return "particles must be in 1.." + std::to_string(kMaxParticles) + ", not " + std::to_string(particles);
   if (!(std::isfinite(resample_neff_ratio) && resample_neff_ratio >= 0.0 && resample_neff_ratio <= 1.0))
     return "resample_neff_ratio must be in [0, 1]";
   if (!(std::isfinite(correlation_gain) && correlation_gain >= 0.0))
@@ -83,6 +100,7 @@ void GridSlam::reset()
   best_index_ = 0;
   initialised_ = false;
   last_odometry_ = Pose2();
+  last_stamp_ = 0.0;
   mapping_pose_ = Pose2();
 }
 
@@ -121,9 +139,29 @@ int GridSlam::correlation(const OccupancyGrid& map, const Pose2& pose, const Pos
   return count;
 }
 
-GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const Pose2& sensor)
+GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const Pose2& sensor, double stamp)
 {
+  // Checked before anything changes: a non-finite pose would spread to every particle and turn into cell
+  // indices far outside any map.
+  requireFinite(odometry, "odometry");
+  requireFinite(sensor, "sensor");
+  if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_increment))
+    throw std::invalid_argument("grid SLAM: the scan's angle_min or angle_increment is not finite: scan not used");
   GridSlamStep step;
+  if (initialised_)
+  {
+    const OdometryIncrement moved = decomposeOdometry(last_odometry_, odometry);
+    const double turned = std::fabs(wrapAngle(odometry.theta - last_odometry_.theta));
+    const bool travelled = moved.trans >= config_.linear_update || turned >= config_.angular_update;
+    const bool waited = config_.temporal_update > 0.0 && stamp - last_stamp_ >= config_.temporal_update;
+    if (!travelled && !waited && (config_.linear_update > 0.0 || config_.angular_update > 0.0))
+    {
+      step.skipped = true;
+      step.neff = weights_.empty() ? static_cast<double>(particles_.size()) : effectiveSampleSize(weights_);
+      return step;
+    }
+  }
+  last_stamp_ = stamp;
   if (!initialised_)
   {
     // The map frame coincides with the odometry frame at the first scan (map -> odom starts as the identity,
@@ -139,7 +177,7 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
     {
       // One map for all: the others share its tiles until they write.
       step.beams_mapped = maps_[0].insertScan(odometry * sensor, scan, config_.limits);
-      const auto root = std::make_shared<const TrajectoryNode>(TrajectoryNode{ odometry, nullptr });
+      const auto root = config_.keep_trajectory ? std::make_shared<const TrajectoryNode>(odometry, nullptr) : nullptr;
       for (std::size_t i = 0; i < maps_.size(); ++i)
       {
         if (i > 0)
@@ -270,7 +308,8 @@ GridSlamStep GridSlam::updateRbpf(const OdometryIncrement& u, const ScanData& sc
     const int b = maps_[i].insertScan(particles_[i].pose * sensor, scan, config_.limits);
     if (i == best_index_)
       step.beams_mapped = b;
-    histories_[i] = std::make_shared<const TrajectoryNode>(TrajectoryNode{ particles_[i].pose, histories_[i] });
+    if (config_.keep_trajectory)
+      histories_[i] = std::make_shared<const TrajectoryNode>(particles_[i].pose, std::move(histories_[i]));
   }
 
   step.neff = effectiveSampleSize(weights_);
@@ -311,7 +350,7 @@ std::vector<Pose2> GridSlam::bestTrajectory() const
   if (config_.mode != GridSlamMode::kRbpf || histories_.empty())
     return poses;
   for (const TrajectoryNode* node = histories_[best_index_].get(); node; node = node->parent.get())
-    poses.push_back(node->pose);
+    poses.push_back(node->value);
   std::reverse(poses.begin(), poses.end());
   return poses;
 }

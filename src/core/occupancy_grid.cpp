@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <functional>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace rbpf_slam
 {
@@ -17,8 +19,19 @@ namespace
 int cellIndex(double v, double resolution)
 {
   const double g = v / resolution;
+  // Beyond the cells a grid may hold (or NaN): the nearest such cell outside, which reads unknown and which
+  // grow() refuses to create; casting an out-of-range double to int would be undefined.
+  const double far = static_cast<double>(OccupancyGrid::kMaxTileIndex) * OccupancyGrid::kTileSize;
+  if (!(std::abs(g) < far))
+    return static_cast<int>(g > 0.0 ? far : -far);
   const double r = std::round(g);
   return static_cast<int>(std::abs(g - r) < 1e-9 ? r : std::floor(g));
+}
+
+/** Whether tiles with index @p t (on either axis) may exist. */
+bool tileIndexInRange(int t)
+{
+  return t > -OccupancyGrid::kMaxTileIndex && t < OccupancyGrid::kMaxTileIndex;
 }
 }  // namespace
 
@@ -105,6 +118,13 @@ void OccupancyGrid::cellOf(double x, double y, int* ix, int* iy) const
 
 void OccupancyGrid::grow(int tx, int ty)
 {
+  const auto refuse = [&](const std::string& why) {
+    const double tile_m = kTileSize * config_.resolution;
+    throw std::out_of_range("occupancy grid: refusing to grow to the tile at (" + std::to_string(tx * tile_m) + ", " +
+                            std::to_string(ty * tile_m) + ") m: " + why);
+  };
+  if (!tileIndexInRange(tx) || !tileIndexInRange(ty))
+    refuse("it is further from the origin than any map's cells (" + std::to_string(kMaxTileIndex) + " tiles)");
   if (ntx_ == 0)
   {
     // Start with some room around the first tile, so the first metres of travel do not reallocate.
@@ -124,7 +144,11 @@ void OccupancyGrid::grow(int tx, int ty)
     ny0 = std::min(ty, ny0 - std::max(2, nty_ / 2));
   if (ty >= ny1)
     ny1 = std::max(ty + 1, ny1 + std::max(2, nty_ / 2));
-  std::vector<std::shared_ptr<Tile>> grown(static_cast<std::size_t>(nx1 - nx0) * (ny1 - ny0));
+  const std::int64_t slots = static_cast<std::int64_t>(nx1 - nx0) * (ny1 - ny0);
+  if (slots > kMaxTileSlots)
+    refuse("the grid would span " + std::to_string(nx1 - nx0) + " x " + std::to_string(ny1 - ny0) +
+           " tiles, more than " + std::to_string(kMaxTileSlots));
+  std::vector<std::shared_ptr<Tile>> grown(static_cast<std::size_t>(slots));
   for (int j = 0; j < nty_; ++j)
     for (int i = 0; i < ntx_; ++i)
       grown[static_cast<std::size_t>(j + ty0_ - ny0) * (nx1 - nx0) + (i + tx0_ - nx0)] =
@@ -201,6 +225,14 @@ void OccupancyGrid::updateRay(double sx, double sy, double ex, double ey, bool h
   int x0, y0, x1, y1;
   cellOf(sx, sy, &x0, &y0);
   cellOf(ex, ey, &x1, &y1);
+  // The line's cells are listed before any is written: refuse a ray no grid could hold before listing them.
+  const bool ends_in_range = tileIndexInRange(x0 >> kTileBits) && tileIndexInRange(y0 >> kTileBits) &&
+                             tileIndexInRange(x1 >> kTileBits) && tileIndexInRange(y1 >> kTileBits);
+  if (!ends_in_range || std::max(std::abs(x1 - x0), std::abs(y1 - y0)) > kMaxRayCells)
+    throw std::out_of_range("occupancy grid: refusing the ray from (" + std::to_string(sx) + ", " + std::to_string(sy) +
+                            ") to (" + std::to_string(ex) + ", " + std::to_string(ey) + ") m: " +
+                            (ends_in_range ? "longer than " + std::to_string(kMaxRayCells) + " cells"
+                                           : std::string("an end is further from the origin than any map's cells")));
   bresenham(x0, y0, x1, y1, &line_);
   // Cache the tile of the previous cell: a ray stays in one tile for up to 64 cells.
   int ctx = std::numeric_limits<int>::min(), cty = 0;

@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 #include <chrono>
+#include <cstdint>
 #include <unordered_map>
 
 #include <Eigen/Dense>
@@ -454,6 +455,16 @@ int* rejectReason(const Fit& fit, int num_points, const TrunkDetectorConfig& cfg
     return &st->rejected_shape;
   return nullptr;
 }
+
+/**
+ * One hash key for a 2D cell: ix in the high word, iy's low 32 bits in the low word. Shifted as unsigned, since
+ * cells left of or behind the sensor have negative indices and a left shift of a negative value is undefined.
+ */
+std::int64_t packCell(std::int64_t ix, std::int64_t iy)
+{
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^
+                                   (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+}
 }  // namespace
 
 std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vector3f>& points,
@@ -489,9 +500,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   //    allows from the ground under the sensor when its height is known.
   const double cell = cfg.ground_cell;
   const auto key = [cell](double x, double y) {
-    const auto ix = static_cast<std::int64_t>(std::floor(x / cell));
-    const auto iy = static_cast<std::int64_t>(std::floor(y / cell));
-    return (ix << 32) ^ (iy & 0xffffffffLL);
+    return packCell(static_cast<std::int64_t>(std::floor(x / cell)), static_cast<std::int64_t>(std::floor(y / cell)));
   };
   std::unordered_map<std::int64_t, float> lowest;
   lowest.reserve(pts.size() / 4 + 16);
@@ -565,9 +574,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   //    belongs to the cluster of its cell.
   const double leaf = cfg.cluster_tolerance / 3.0;
   const auto cellKey = [leaf](float x, float y) {
-    const auto ix = static_cast<std::int64_t>(std::floor(x / leaf));
-    const auto iy = static_cast<std::int64_t>(std::floor(y / leaf));
-    return (ix << 32) ^ (iy & 0xffffffffLL);
+    return packCell(static_cast<std::int64_t>(std::floor(x / leaf)), static_cast<std::int64_t>(std::floor(y / leaf)));
   };
   std::unordered_map<std::int64_t, int> cell_of;
   cell_of.reserve(band->points.size());
@@ -803,13 +810,19 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   std::vector<TrunkObservation> out;
   st->input_points = static_cast<int>(scan.ranges.size());
 
+  // REP-117: NaN (an erroneous reading), -Inf (too close to measure), 0 and readings below range_min tell
+  // nothing about what is there; +Inf and readings beyond range_max say that nothing is there (no return). A
+  // beam that tells nothing neither ends an arc nor bounds one: arcs run across it (their points stay closer
+  // than the cluster tolerance or they split), and the neighbour tests look past it. Otherwise every dropout in a
+  // wall would cut it into short arcs that look like trunks.
+  const auto uninformative = [&](double raw) { return std::isnan(raw) || raw <= 0.0 || raw < scan.range_min; };
   // Arcs: runs of valid beams whose neighbours are closer than the cluster tolerance.
   std::vector<std::vector<Eigen::Vector2d>> arcs;
   std::vector<std::pair<int, int>> spans;  // first and last beam of each arc
   std::vector<Eigen::Vector2d> current;
-  int first = -1;
+  int first = -1, last = -1;  // beams of the current arc's first and last point
   Eigen::Vector2d prev(0.0, 0.0);
-  const auto close = [&](int last) {
+  const auto close = [&]() {
     if (!current.empty())
     {
       arcs.push_back(current);
@@ -820,24 +833,29 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   for (std::size_t i = 0; i < scan.ranges.size(); ++i)
   {
     const double raw = scan.ranges[i];
-    const bool valid = std::isfinite(raw) && raw >= scan.range_min && raw <= scan.range_max && raw > 0.0;
+    if (uninformative(raw))
+      continue;
+    const bool valid = std::isfinite(raw) && raw <= scan.range_max;
     if (!valid)
     {
-      close(static_cast<int>(i) - 1);
+      close();
       continue;
     }
     const double r = raw + cfg.range_offset;
     ++st->finite_points;
     const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
     const Eigen::Vector2d p(r * std::cos(a), r * std::sin(a));
-    if (!current.empty() && (p - prev).norm() > cfg.cluster_tolerance)
-      close(static_cast<int>(i) - 1);
+    // Beams that told nothing in between widen the gap the surface leaves between two of its points: the
+    // tolerance grows with the beams between them, so a dropout does not split a wall.
+    if (!current.empty() && (p - prev).norm() > cfg.cluster_tolerance * static_cast<double>(static_cast<int>(i) - last))
+      close();
     if (current.empty())
       first = static_cast<int>(i);
+    last = static_cast<int>(i);
     current.push_back(p);
     prev = p;
   }
-  close(static_cast<int>(scan.ranges.size()) - 1);
+  close();
   st->clusters = static_cast<int>(arcs.size());
   st->band_points = st->finite_points;
 
@@ -854,13 +872,16 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
     }
     // An arc partly hidden behind a nearer object is not a whole trunk side: the beams just outside it
     // must be further away (or no return).
-    const auto nearer = [&](int beam, double r) {
-      if (beam < 0 || beam >= static_cast<int>(scan.ranges.size()))
+    const auto nearer = [&](int beam, int step, double r) {
+      const int count = static_cast<int>(scan.ranges.size());
+      while (beam >= 0 && beam < count && uninformative(scan.ranges[static_cast<std::size_t>(beam)]))
+        beam += step;
+      if (beam < 0 || beam >= count)
         return false;
       const double rb = scan.ranges[static_cast<std::size_t>(beam)];
-      return std::isfinite(rb) && rb >= scan.range_min && rb < r - cfg.cluster_tolerance;
+      return std::isfinite(rb) && rb < r - cfg.cluster_tolerance;
     };
-    if (nearer(spans[k].first - 1, arc.front().norm()) || nearer(spans[k].second + 1, arc.back().norm()))
+    if (nearer(spans[k].first - 1, -1, arc.front().norm()) || nearer(spans[k].second + 1, 1, arc.back().norm()))
     {
       ++st->rejected_shape;
       continue;

@@ -62,6 +62,9 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   p.get("rbpf/prior_weight", &c->matcher.prior_weight);
   p.get("rbpf/prior_floor_xy", &c->matcher.prior_floor_xy);
   p.get("rbpf/prior_floor_theta", &c->matcher.prior_floor_theta);
+  p.get("linear_update", &c->linear_update);
+  p.get("angular_update", &c->angular_update);
+  p.get("temporal_update", &c->temporal_update);
   p.get("range_min", &c->limits.range_min);
   p.get("range_max", &c->limits.range_max);
   p.get("no_return_free_range", &c->limits.no_return_free_range);

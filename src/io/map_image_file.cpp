@@ -1,5 +1,7 @@
 #include "rbpf_slam/io/map_image_file.h"
 
+#include "rbpf_slam/io/files.h"
+
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -83,30 +85,6 @@ std::string readFile(const std::string& path)
   if (in.bad())
     throw fileError(path, "read error");
   return data.str();
-}
-
-/** Writes beside @p path and renames, so that readers never see a half-written file. */
-void writeFileAtomic(const std::string& path, const std::string& content)
-{
-  const std::string tmp = path + ".partial";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw fileError(path, std::string("cannot open for writing (") + std::strerror(errno) + ")");
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.close();
-    if (!out)
-    {
-      std::remove(tmp.c_str());
-      throw fileError(path, "write error");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-  {
-    const std::string reason = std::strerror(errno);
-    std::remove(tmp.c_str());
-    throw fileError(path, "cannot rename the written file into place (" + reason + ")");
-  }
 }
 
 /** The shortest decimal that reads back as @p v, always with a '.' so that YAML sees a float. */
@@ -432,7 +410,7 @@ core::OccupancyImage loadMapImage(const std::string& yaml_path)
   return core::OccupancyImage(pgm.width, pgm.height, yaml.resolution, yaml.origin, std::move(cells));
 }
 
-void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
+std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
 {
   if (map.empty())
     throw fileError(yaml_path, "cannot save an empty map");
@@ -475,8 +453,12 @@ void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
   yaml += "free_thresh: " + formatDouble(kSavedFreeThresh) + "\n";
 
   // The image first: a YAML on disk always names an image that is complete.
-  writeFileAtomic(image_path, pgm);
-  writeFileAtomic(yaml_path, yaml);
+  return { { image_path, pgm }, { yaml_path, yaml } };
+}
+
+void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
+{
+  writeFilesAtomic(encodeMapImage(map, yaml_path));
 }
 
 }  // namespace io

@@ -1,5 +1,7 @@
 #include "rbpf_slam/io/run_output.h"
 
+#include "rbpf_slam/io/files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -18,12 +20,11 @@ void writeTumLine(std::ostream& out, double stamp, const core::Pose2& p)
 
 void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses)
 {
-  std::ofstream out(path);
+  std::ostringstream out;
   out.precision(12);
   for (std::size_t i = 0; i < poses.size() && i < stamps.size(); ++i)
     writeTumLine(out, stamps[i], poses[i]);
-  if (!out)
-    throw std::runtime_error(path + ": cannot write");
+  writeFileAtomic(path, out.str());
 }
 
 void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses)
@@ -51,15 +52,19 @@ void readTum(const std::string& path, std::vector<double>* stamps, std::vector<c
 
 void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)
 {
-  std::ofstream out(path);
+  writeFileAtomic(path, landmarksCsv(landmarks));
+}
+
+std::string landmarksCsv(const std::vector<core::Landmark>& landmarks)
+{
+  std::ostringstream out;
   out.precision(9);
   out << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
   for (const auto& l : landmarks)
     out << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
         << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
         << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
-  if (!out)
-    throw std::runtime_error(path + ": cannot write");
+  return out.str();
 }
 
 }  // namespace io

@@ -1,30 +1,13 @@
-#include <exception>
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/fastslam_node.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around FastSlamRos. */
-class FastSlamNodelet : public nodelet::Nodelet
+/** @brief The nodelet of FastSlamRos (FastSLAM over trunk observations). */
+class FastSlamNodelet : public NodeletShell<FastSlamRos>
 {
-private:
-  void onInit() override
-  {
-    try
-    {
-      slam_.reset(new FastSlamRos(getNodeHandle(), getPrivateNodeHandle()));
-    }
-    catch (const std::exception& e)  // never take the manager down
-    {
-      NODELET_ERROR("FastSLAM could not start: %s", e.what());
-    }
-  }
-
-  std::unique_ptr<FastSlamRos> slam_;
 };
 
 }  // namespace rbpf_slam

@@ -1,19 +1,13 @@
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/forest_sim.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around ForestSim. */
-class ForestSimNodelet : public nodelet::Nodelet
+/** @brief The nodelet of ForestSim (the forest simulator). */
+class ForestSimNodelet : public NodeletShell<ForestSim, true>
 {
-private:
-  void onInit() override { sim_.reset(new ForestSim(getMTNodeHandle(), getMTPrivateNodeHandle())); }
-
-  std::unique_ptr<ForestSim> sim_;
 };
 
 }  // namespace rbpf_slam

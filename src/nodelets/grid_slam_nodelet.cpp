@@ -1,30 +1,13 @@
-#include <exception>
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/grid_slam_node.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around GridSlamRos. */
-class GridSlamNodelet : public nodelet::Nodelet
+/** @brief The nodelet of GridSlamRos (occupancy-grid SLAM). */
+class GridSlamNodelet : public NodeletShell<GridSlamRos>
 {
-private:
-  void onInit() override
-  {
-    try
-    {
-      slam_.reset(new GridSlamRos(getNodeHandle(), getPrivateNodeHandle()));
-    }
-    catch (const std::exception& e)  // never take the manager down
-    {
-      NODELET_ERROR("grid SLAM could not start: %s", e.what());
-    }
-  }
-
-  std::unique_ptr<GridSlamRos> slam_;
 };
 
 }  // namespace rbpf_slam

@@ -1,19 +1,13 @@
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/noise_relay.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around NoiseRelay. */
-class NoiseRelayNodelet : public nodelet::Nodelet
+/** @brief The nodelet of NoiseRelay (Gaussian noise on velocity commands). */
+class NoiseRelayNodelet : public NodeletShell<NoiseRelay>
 {
-private:
-  void onInit() override { relay_.reset(new NoiseRelay(getNodeHandle(), getPrivateNodeHandle())); }
-
-  std::unique_ptr<NoiseRelay> relay_;
 };
 
 }  // namespace rbpf_slam

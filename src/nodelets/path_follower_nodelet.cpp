@@ -1,19 +1,13 @@
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/path_follower_node.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around PathFollowerNode. */
-class PathFollowerNodelet : public nodelet::Nodelet
+/** @brief The nodelet of PathFollowerNode (the path follower). */
+class PathFollowerNodelet : public NodeletShell<PathFollowerNode>
 {
-private:
-  void onInit() override { follower_.reset(new PathFollowerNode(getNodeHandle(), getPrivateNodeHandle())); }
-
-  std::unique_ptr<PathFollowerNode> follower_;
 };
 
 }  // namespace rbpf_slam

@@ -1,19 +1,13 @@
-#include <memory>
-
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "rbpf_slam/ros/trunk_extraction.h"
+#include "rbpf_slam/ros/nodelet_shell.h"
 
 namespace rbpf_slam
 {
-/** @brief Nodelet shell around TrunkExtraction. */
-class TrunkExtractionNodelet : public nodelet::Nodelet
+/** @brief The nodelet of TrunkExtraction (trunk extraction from clouds and scans). */
+class TrunkExtractionNodelet : public NodeletShell<TrunkExtraction>
 {
-private:
-  void onInit() override { extraction_.reset(new TrunkExtraction(getNodeHandle(), getPrivateNodeHandle())); }
-
-  std::unique_ptr<TrunkExtraction> extraction_;
 };
 
 }  // namespace rbpf_slam

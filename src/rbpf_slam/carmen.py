@@ -128,8 +128,10 @@ def parse_log(path, bad=None, limit=None, laser_fov=math.pi):
     if n_lines == 0:
         raise cc.ConversionError(path, None, 'CARMEN log lines (ODOM, FLASER, ...)', got='an empty file')
     if not log.records:
+        other = ('none (%d lines of other types, e.g. %r)' % (sum(log.other.values()), next(iter(log.other)))
+                 if log.other else 'none')
         raise cc.ConversionError(path, None, 'at least one ODOM, FLASER, RLASER, ROBOTLASER1 or TRUEPOS line',
-                                 got='none')
+                                 got=other)
     return log
 
 

@@ -7,25 +7,25 @@ they can be tested (and reused) without a ROS environment. ROS messages are buil
 """
 import argparse
 import collections
+import errno
 import gzip
 import heapq
 import math
 import os
-import sys
 import time
 import zlib
 
 import numpy as np
 
-from rbpf_slam.atomic import atomic_output
+from rbpf_slam.atomic import UserError, atomic_output, check_output, run_tool
 
 #: A stamp this much earlier than the latest one before it is not a late clock but garbage (e.g. the
 #: uninitialised time stamps of some CARMEN lines): it is replaced, not pooled (see fix_stamps).
 MAX_BACKWARD_STEP = 5.0  # [s]
 
 
-class ConversionError(Exception):
-    """A malformed input. Its text is ``file:line: expected <what>, got <what was there>``.
+class ConversionError(UserError):
+    """A malformed input. Its text is ``file:line: expected <what>, got <what was there>`` (one line).
 
     ``line`` is None for whole-file problems (empty file, wrong .mat layout): ``file: expected ...``.
     """
@@ -38,7 +38,7 @@ class ConversionError(Exception):
         where = '%s:%d' % (self.path, line) if line else self.path
         text = '%s: expected %s' % (where, expected)
         if got is not None:
-            got = str(got)
+            got = ' '.join(str(got).split())
             text += ', got %s' % (got if len(got) <= 80 else got[:77] + '...')
         super().__init__(text)
 
@@ -63,15 +63,33 @@ class BadLines:
             self.examples.append(str(error))
 
 
-# --- Text logs ---------------------------------------------------------------------------------------
+# --- Input files and text logs ---------------------------------------------------------------------
+
+
+def input_file(path):
+    """``path`` if it is a file; else an OSError naming what is wrong: a directory, or the file or its folder
+    missing (reported by run as ``tool: PATH: reason``)."""
+    if os.path.isfile(path):
+        return path
+    if os.path.isdir(path):
+        raise IsADirectoryError(errno.EISDIR, 'is a directory, expected a file', path)
+    directory = os.path.dirname(path)
+    if directory and os.path.exists(directory) and not os.path.isdir(directory):
+        raise NotADirectoryError(errno.ENOTDIR, 'not a directory', directory)
+    if directory and not os.path.exists(directory):
+        path = directory
+    raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), path)
 
 
 def open_text(path):
-    """Open a text log for reading, plain or gzip-compressed (recognised by its magic bytes)."""
-    with open(path, 'rb') as f:
-        magic = f.read(2)
-    if magic == b'\x1f\x8b':
+    """Open a text log for reading, plain or gzip-compressed (recognised by its magic bytes). A plain file
+    with NUL bytes near its start is binary, not a log: ConversionError."""
+    with open(input_file(path), 'rb') as f:
+        head = f.read(4096)
+    if head[:2] == b'\x1f\x8b':
         return gzip.open(path, 'rt', encoding='latin-1', newline=None)
+    if b'\x00' in head:
+        raise ConversionError(path, None, 'a text log', got='binary data (NUL bytes)')
     return open(path, 'r', encoding='latin-1', newline=None)
 
 
@@ -99,12 +117,16 @@ def read_tokens(path, limit=None):
 
 
 def parse_floats(tokens, path, line, what):
-    """tokens as float64; a token that is not a number raises ConversionError naming ``what``."""
+    """tokens as float64; a token that is not a finite number (text, nan, inf) raises ConversionError
+    naming ``what``."""
     try:
         values = np.array(tokens, dtype=float)
     except ValueError:
         bad = next(t for t in tokens if not _is_float(t))
         raise ConversionError(path, line, what, got='%r' % bad)
+    finite = np.isfinite(values)
+    if not finite.all():
+        raise ConversionError(path, line, what, got='%r (not a finite number)' % tokens[int(np.argmin(finite))])
     return values
 
 
@@ -430,10 +452,17 @@ def run(parser, convert, argv=None, expected_messages=None):
     """Parse the command line, convert into a bag atomically and print the summary.
 
     ``convert(args, out, bad, summary)`` writes through ``out`` (a BagOutput). Returns the exit code:
-    0 done, 1 malformed input (``file:line: expected ...`` on stderr, no bag written), 130 interrupted.
+    0 done; 1 a user error, in one line on stderr (``tool: file:line: expected ...`` for a malformed
+    input, ``tool: PATH: reason`` for a missing input or an output that cannot be written), no bag
+    written; 130 interrupted, 128 + N after signal N (SIGTERM, SIGHUP): see atomic.run_tool.
     """
+    return run_tool(parser.prog, _run, parser, convert, argv, nothing='no bag written')
+
+
+def _run(parser, convert, argv):
     args = parser.parse_args(argv)
     prog = parser.prog
+    check_output(args.output)
     if not args.output.endswith('.bag'):
         parser.error('the output must be a .bag file: %s' % args.output)
     if args.limit is not None and args.limit <= 0:
@@ -441,18 +470,7 @@ def run(parser, convert, argv=None, expected_messages=None):
     summary = Summary(prog)
     bad = BadLines(args.skip_bad)
     summary.bad = bad
-    try:
-        summary = convert_to_bag(convert, args, summary, bad, progress=not args.quiet)
-    except ConversionError as e:
-        print('%s: error: %s' % (prog, e), file=sys.stderr)
-        print('%s: no bag written' % prog, file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print('\n%s: interrupted, no bag written' % prog, file=sys.stderr)
-        return 130
-    except FileNotFoundError as e:
-        print('%s: error: %s' % (prog, e), file=sys.stderr)
-        return 1
+    summary = convert_to_bag(convert, args, summary, bad, progress=not args.quiet)
     print(summary.text())
     return 0
 
@@ -471,11 +489,19 @@ def convert_to_bag(convert, args, summary=None, bad=None, progress=False):
         bar = tqdm(unit=' msg', desc=os.path.basename(args.output), disable=None, leave=False, mininterval=0.5)
     try:
         with atomic_output(args.output) as tmp:
-            with rosbag.Bag(tmp, 'w', compression=args.compression) as bag:
+            bag = rosbag.Bag(tmp, 'w', compression=args.compression)
+            try:
                 out = BagOutput(bag, summary, time_offset=args.time_offset, progress=bar)
                 convert(args, out, bad, summary)
                 if not summary.counts:
                     raise ConversionError(args.output, None, 'at least one message to write', got='none')
+            except BaseException:
+                try:  # the bag is thrown away: an error closing it (it may be cut in a record) must not hide
+                    bag.close()  # the first one, e.g. the signal that stopped the conversion
+                except Exception:
+                    pass
+                raise
+            bag.close()
     finally:
         if bar is not None:
             bar.close()

@@ -66,6 +66,7 @@ Example:
 
 def _loadmat(path):
     import scipy.io
+    cc.input_file(path)
     try:
         return scipy.io.loadmat(path, squeeze_me=False, struct_as_record=True)
     except Exception as e:  # scipy raises ValueError, TypeError, ... for what is not a .mat file
@@ -208,8 +209,6 @@ def _run_file(args, explicit, stem):
 def convert(args, out, bad, summary):
     from rbpf_slam import convert_msgs as m
     enc_path = _run_file(args, args.encoders, 'Encoders')
-    if not os.path.isfile(enc_path):
-        raise FileNotFoundError('no such file: %s' % enc_path)
     ts, counts = load_encoders(enc_path)
     if args.limit is not None:
         ts, counts = ts[:args.limit], counts[:, :args.limit]
@@ -226,18 +225,16 @@ def convert(args, out, bad, summary):
 
     imu_path = _run_file(args, args.imu, 'imu')
     imu_ts = imu_vals = None
-    if os.path.isfile(imu_path):
+    if args.imu or os.path.exists(imu_path):
         imu_ts, imu_vals = load_imu(imu_path)
         keep = imu_ts <= t_end if args.limit is not None else slice(None)
         imu_ts, imu_vals = imu_ts[keep], imu_vals[:, keep]
-    elif args.imu:
-        raise FileNotFoundError('no such file: %s' % imu_path)
     else:
         summary.note('no IMU file (%s)' % imu_path)
 
     hok_path = _run_file(args, args.hokuyo, 'Hokuyo')
     scans = None
-    if os.path.isfile(hok_path):
+    if args.hokuyo or os.path.exists(hok_path):
         s_ts, s_ranges, s_angles = load_hokuyo(hok_path)
         if args.limit is not None:
             keep = s_ts <= t_end
@@ -246,8 +243,6 @@ def convert(args, out, bad, summary):
         summary.note('Hokuyo: %d scans of %d beams; %d readings above %.0f m written as +Inf, %d below %.1f m as NaN'
                      % (len(s_ts), s_ranges.shape[1], int(np.sum(s_ranges > HOKUYO_RANGE_MAX)), HOKUYO_RANGE_MAX,
                         int(np.sum(s_ranges < HOKUYO_RANGE_MIN)), HOKUYO_RANGE_MIN))
-    elif args.hokuyo:
-        raise FileNotFoundError('no such file: %s' % hok_path)
     else:
         summary.note('no Hokuyo file (%s): odometry and IMU only' % hok_path)
 

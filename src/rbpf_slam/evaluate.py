@@ -172,7 +172,11 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic):
     """(t, xy, yaw or None) of the reference and the true landmarks (m, 3) or None, from a bag."""
     import rosbag
     ts, xy, yaw, has_orientation, marks = [], [], [], False, None
-    with rosbag.Bag(bag_path) as bag:
+    try:
+        bag = rosbag.Bag(bag_path)
+    except (rosbag.ROSBagException, ValueError) as e:  # ValueError: e.g. a binary file that is no bag
+        raise ValueError('%s: not a readable bag (%s)' % (bag_path, e))
+    with bag:
         for topic, msg, _ in bag.read_messages(topics=[odom_topic, landmarks_topic]):
             if topic == odom_topic:
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation

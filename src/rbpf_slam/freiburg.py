@@ -151,13 +151,11 @@ def convert(args, out, bad, summary):
     from rbpf_slam import convert_msgs as m
     data_path = args.sensor_data or os.path.join(args.directory, 'sensor_data.dat')
     world_path = args.world or os.path.join(args.directory, 'world.dat')
-    if not os.path.isfile(data_path):
-        raise FileNotFoundError('no such file: %s' % data_path)
     steps, initial = read_sensor_data(data_path, bad, args.limit)
     x, y, th = integrate_odometry(steps)
     dt = 1.0 / args.rate
     stamps = args.start_time + dt * np.arange(len(steps) + 1)
-    world = read_world(world_path, bad) if os.path.isfile(world_path) else None
+    world = read_world(world_path, bad) if args.world or os.path.exists(world_path) else None
     n_obs = sum(len(s.observations) for s in steps) + len(initial)
     summary.note('%d steps, %d observations; ids %s' % (
         len(steps), n_obs, 'kept (--keep-ids: true data association)' if args.keep_ids else

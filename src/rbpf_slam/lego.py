@@ -220,9 +220,8 @@ def convert(args, out, bad, summary):
     scan_path = _path_of(args, args.scan, 'scan.txt')
     ref_path = _path_of(args, args.reference, 'reference.txt')
     lm_path = _path_of(args, args.landmarks, 'robot_arena_landmarks.txt', shared=True)
-    for path in (motors_path, scan_path):
-        if not os.path.isfile(path):
-            raise FileNotFoundError('no such file: %s' % path)
+    for path in (motors_path, scan_path):  # both before reading either
+        cc.input_file(path)
 
     t_m, left, right = read_motors(motors_path, bad, args.limit)
     n_read = len(t_m)
@@ -248,7 +247,7 @@ def convert(args, out, bad, summary):
     to_map = (lambda px, py: arena_to_start(px, py, truth_start)) if args.truth_frame == 'start' else \
         (lambda px, py: (np.asarray(px), np.asarray(py)))
     ref = None
-    if os.path.isfile(ref_path):
+    if args.reference or os.path.exists(ref_path):
         t_r, rx, ry = read_reference(ref_path, bad, args.limit)
         n_read = len(t_r)
         keep_r, t_r, rx, ry = merge_repeated_stamps(t_r, rx, ry)
@@ -258,7 +257,7 @@ def convert(args, out, bad, summary):
     else:
         summary.note('no reference file (%s): no ground_truth/odom, ground_truth/path' % ref_path)
     landmarks = None
-    if os.path.isfile(lm_path):
+    if args.landmarks or os.path.exists(lm_path):
         landmarks = read_landmarks(lm_path, bad)
         lx, ly = to_map(landmarks[:, 0], landmarks[:, 1])
         landmarks = np.column_stack([lx, ly, landmarks[:, 2]])

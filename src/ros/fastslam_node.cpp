@@ -34,10 +34,10 @@ namespace rbpf_slam
 {
 namespace
 {
-FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
+FastSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   FastSlamRosConfig c;
-  const RosParamSource params(pnh);
+  const ros::NodeHandle& pnh = params.nodeHandle();
   readKey(params, "map_frame", &c.map_frame);
   readKey(params, "odom_frame", &c.odom_frame);
   readKey(params, "base_frame", &c.base_frame);
@@ -46,25 +46,15 @@ FastSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
   readKey(params, "publish_tf", &c.publish_tf);
   readKey(params, "inventory_path", &c.inventory_path);
   readKey(params, "max_path_poses", &c.max_path_poses);
-  const FastSlamRosConfig d;
-  if (!(c.odom_timeout >= 0.0))
-  {
-    ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName("odom_timeout").c_str(), d.odom_timeout);
-    c.odom_timeout = d.odom_timeout;
-  }
-  if (!(c.transform_tolerance >= 0.0))
-  {
-    ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName("transform_tolerance").c_str(), d.transform_tolerance);
-    c.transform_tolerance = d.transform_tolerance;
-  }
+  readKey(params, "time_jump_threshold", &c.time_jump_threshold);
+  requireNonNegative(pnh, "odom_timeout", c.odom_timeout);
+  requireNonNegative(pnh, "transform_tolerance", c.transform_tolerance);
+  requirePositive(pnh, "time_jump_threshold", c.time_jump_threshold);
   if (c.max_path_poses < 1)
-  {
-    ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
-    c.max_path_poses = d.max_path_poses;
-  }
-  requireFrame(pnh, "map_frame", &c.map_frame, d.map_frame);
-  requireFrame(pnh, "odom_frame", &c.odom_frame, d.odom_frame);
-  requireFrame(pnh, "base_frame", &c.base_frame, d.base_frame);
+    throw invalidParameter(pnh, "max_path_poses", "must be >= 1");
+  requireFrame(pnh, "map_frame", c.map_frame);
+  requireFrame(pnh, "odom_frame", c.odom_frame);
+  requireFrame(pnh, "base_frame", c.base_frame);
   return c;
 }
 
@@ -101,10 +91,13 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
 
 FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
-  config_ = readRosConfig(pnh_);
-  const core::FastSlamConfig filter_config =
-      readCoreConfig<core::FastSlamConfig>(pnh_, &io::readFastSlamConfig, "filter");
+  const RosParamSource params(pnh_);
+  config_ = readRosConfig(params);
+  const core::FastSlamConfig filter_config = readCoreConfig<core::FastSlamConfig>(params, &io::readFastSlamConfig);
+  warnUnknownKeys(params);
   filter_.reset(new core::FastSlam(filter_config));
+  trunks_gate_ = core::StampGate(config_.time_jump_threshold);
+  odometry_gate_ = core::StampGate(config_.time_jump_threshold);
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -140,22 +133,17 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
     ROS_WARN_THROTTLE(5.0, "%s: odometry with non-finite pose dropped", name_.c_str());
     return;
   }
-  const auto r = odometry_.add(msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)));
-  if (r == core::OdometryBuffer::AddResult::kBackwards)
-    ROS_WARN_THROTTLE(5.0, "%s: odometry stamp %.3f is older than the newest (%.3f): dropped (time went backwards?)",
-                      name_.c_str(), msg->header.stamp.toSec(), odometry_.latest());
+  if (!admit(&odometry_gate_, "odometry", msg->header.stamp))
+    return;
+  odometry_.add(msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)));
   processPending();
 }
 
 void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!last_trunks_stamp_.isZero() && msg->header.stamp <= last_trunks_stamp_)
-  {
-    ROS_WARN_THROTTLE(5.0, "%s: trunks stamped %.3f, not after the previous %.3f: dropped (time went backwards?)",
-                      name_.c_str(), msg->header.stamp.toSec(), last_trunks_stamp_.toSec());
+  if (!admit(&trunks_gate_, "trunks", msg->header.stamp))
     return;
-  }
   last_trunks_stamp_ = msg->header.stamp;
   pending_.push_back({ msg, ros::WallTime::now() });
   if (pending_.size() > kMaxPending)  // no odometry at all: do not grow without bound
@@ -165,6 +153,45 @@ void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
     pending_.pop_front();
   }
   processPending();
+}
+
+bool FastSlamRos::admit(core::StampGate* gate, const char* stream, const ros::Time& stamp)
+{
+  const double previous = gate->last();
+  const core::StampVerdict verdict = gate->check(stamp.toSec(), ros::Time::now().toSec());
+  if (verdict == core::StampVerdict::kReset)
+  {
+    restart(stream, stamp.toSec(), previous);
+    return true;
+  }
+  if (verdict == core::StampVerdict::kAccept)
+    return true;
+  ++dropped_;
+  if (warned_verdicts_.insert(static_cast<int>(verdict)).second)  // the first of each kind always, then every 5 s
+    ROS_WARN("%s: %s stamped %.3f (previous %.3f): %s; dropped (%zu messages dropped so far)", name_.c_str(), stream,
+             stamp.toSec(), previous, core::stampVerdictName(verdict), dropped_);
+  else
+    ROS_WARN_THROTTLE(5.0, "%s: %s stamped %.3f (previous %.3f): %s; dropped (%zu messages dropped so far)",
+                      name_.c_str(), stream, stamp.toSec(), previous, core::stampVerdictName(verdict), dropped_);
+  return false;
+}
+
+void FastSlamRos::restart(const char* stream, double stamp, double previous)
+{
+  ++resets_;
+  ROS_WARN("%s: %s stamped %.3f, %.3f s before the previous one (more than ~time_jump_threshold %.2f s): time "
+           "jumped back; the filter restarts with a new map (reset %zu, after %zu updates; the old map is gone unless "
+           "saved)",
+           name_.c_str(), stream, stamp, previous - stamp, config_.time_jump_threshold, resets_, updates_);
+  odometry_ = core::OdometryBuffer();
+  pending_.clear();
+  initialized_ = false;
+  path_.poses.clear();
+  odom_path_.poses.clear();
+  // Both streams start their new timeline here: the other one's next message must not look like another jump.
+  trunks_gate_.reset();
+  odometry_gate_.reset();
+  (std::strcmp(stream, "odometry") == 0 ? odometry_gate_ : trunks_gate_).check(stamp);
 }
 
 void FastSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
@@ -450,43 +477,30 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
     *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
     return false;
   }
-  const std::string temp = target + ".tmp." + std::to_string(static_cast<long>(::getpid()));
   std::size_t trees = 0;
+  std::string csv = "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations\n";
+  char line[256];
+  if (initialized_)
   {
-    std::ofstream out(temp);
-    if (!out)
+    const core::Particle& best = filter_->best();
+    for (std::size_t i = 0; i < best.map.size(); ++i)
     {
-      *message = "cannot write " + temp + ": " + std::strerror(errno);
-      return false;
-    }
-    out << "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations\n";
-    char line[256];
-    if (initialized_)
-    {
-      const core::Particle& best = filter_->best();
-      for (std::size_t i = 0; i < best.map.size(); ++i)
-      {
-        const core::Landmark& l = best.map[i];
-        std::snprintf(line, sizeof(line), "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", l.id, l.mean.x(), l.mean.y(),
-                      2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
-                      std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
-                      l.observations);
-        out << line;
-        ++trees;
-      }
-    }
-    out.close();
-    if (!out)
-    {
-      *message = "writing " + temp + " failed";
-      std::remove(temp.c_str());
-      return false;
+      const core::Landmark& l = best.map[i];
+      std::snprintf(line, sizeof(line), "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", l.id, l.mean.x(), l.mean.y(),
+                    2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
+                    std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
+                    l.observations);
+      csv += line;
+      ++trees;
     }
   }
-  if (std::rename(temp.c_str(), target.c_str()) != 0)
+  try
   {
-    *message = "cannot rename " + temp + " to " + target + ": " + std::strerror(errno);
-    std::remove(temp.c_str());
+    io::writeFileAtomic(target, csv);
+  }
+  catch (const std::exception& e)
+  {
+    *message = e.what();
     return false;
   }
   *message = std::to_string(trees) + " trees written to " + target;

@@ -12,6 +12,7 @@
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/sim_config.h"
 #include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
 namespace rbpf_slam
@@ -40,7 +41,8 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
     params.get("frames/truth_base", &frames_.truth_base);
     params.get("frames/lidar3d", &frames_.lidar3d);
     params.get("frames/lidar2d", &frames_.lidar2d);
-    pnh_.getParam("lockstep_topics", lockstep_topics);
+    params.get("lockstep_topics", &lockstep_topics);
+    warnUnknownKeys(params);
     if (world_path.empty() && indoor_map.empty())
       throw std::runtime_error("set ~world (a forest world file) or ~indoor_map (a map_server YAML)");
     if (!(real_time_factor_ >= 0.0))
@@ -60,8 +62,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   }
   catch (const std::exception& e)
   {
-    ROS_ERROR("%s: %s; the simulator does not start", pnh_.getNamespace().c_str(), e.what());
-    return;
+    throw std::runtime_error(std::string(e.what()) + "; the simulator does not start");
   }
 
   clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);

@@ -1,6 +1,6 @@
 #include "rbpf_slam/io/files.h"
-#include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/grid_slam_node.h"
+#include "rbpf_slam/ros/pose_msgs.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -30,10 +30,10 @@ namespace
 {
 constexpr std::size_t kMaxPending = 50;  ///< scans waiting for their odometry TF
 
-GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
+GridSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   GridSlamRosConfig c;
-  const RosParamSource params(pnh);
+  const ros::NodeHandle& pnh = params.nodeHandle();
   readKey(params, "map_frame", &c.map_frame);
   readKey(params, "odom_frame", &c.odom_frame);
   readKey(params, "base_frame", &c.base_frame);
@@ -43,24 +43,16 @@ GridSlamRosConfig readRosConfig(const ros::NodeHandle& pnh)
   readKey(params, "publish_tf", &c.publish_tf);
   readKey(params, "map_path", &c.map_path);
   readKey(params, "max_path_poses", &c.max_path_poses);
-  const GridSlamRosConfig d;
-  const char* dkeys[3] = { "tf_timeout", "transform_tolerance", "map_update_interval" };
-  double* dvalues[3] = { &c.tf_timeout, &c.transform_tolerance, &c.map_update_interval };
-  const double ddefaults[3] = { d.tf_timeout, d.transform_tolerance, d.map_update_interval };
-  for (int i = 0; i < 3; ++i)
-    if (!(std::isfinite(*dvalues[i]) && *dvalues[i] >= 0.0))
-    {
-      ROS_ERROR("%s must be >= 0; using %.2f", pnh.resolveName(dkeys[i]).c_str(), ddefaults[i]);
-      *dvalues[i] = ddefaults[i];
-    }
+  readKey(params, "time_jump_threshold", &c.time_jump_threshold);
+  requireNonNegative(pnh, "tf_timeout", c.tf_timeout);
+  requireNonNegative(pnh, "transform_tolerance", c.transform_tolerance);
+  requireNonNegative(pnh, "map_update_interval", c.map_update_interval);
+  requirePositive(pnh, "time_jump_threshold", c.time_jump_threshold);
   if (c.max_path_poses < 1)
-  {
-    ROS_ERROR("%s must be >= 1; using %d", pnh.resolveName("max_path_poses").c_str(), d.max_path_poses);
-    c.max_path_poses = d.max_path_poses;
-  }
-  requireFrame(pnh, "map_frame", &c.map_frame, d.map_frame);
-  requireFrame(pnh, "odom_frame", &c.odom_frame, d.odom_frame);
-  requireFrame(pnh, "base_frame", &c.base_frame, d.base_frame);
+    throw std::runtime_error(pnh.resolveName("max_path_poses") + " must be >= 1");
+  requireFrame(pnh, "map_frame", c.map_frame);
+  requireFrame(pnh, "odom_frame", c.odom_frame);
+  requireFrame(pnh, "base_frame", c.base_frame);
   return c;
 }
 
@@ -81,9 +73,13 @@ void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg)
 
 GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
-  config_ = readRosConfig(pnh_);
-  filter_config_ = readCoreConfig<core::GridSlamConfig>(pnh_, &io::readGridSlamConfig, "filter");
+  const RosParamSource params(pnh_);
+  config_ = readRosConfig(params);
+  filter_config_ = readCoreConfig<core::GridSlamConfig>(params, &io::readGridSlamConfig);
+  filter_config_.keep_trajectory = false;  // the node never asks for it: memory stays flat on long runs
+  warnUnknownKeys(params);
   filter_.reset(new core::GridSlam(filter_config_));
+  stamp_gate_ = core::StampGate(config_.time_jump_threshold);
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -99,7 +95,7 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &GridSlamRos::onTimer, this);
 
   ROS_INFO("%s: grid SLAM (%s mode, %d particles, %s resampling, seed %llu, %.3f m cells) on %s; frames %s -> %s -> %s",
-           name_.c_str(), "course", filter_config_.particles, core::resamplingMethodName(filter_config_.resampling),
+           name_.c_str(), filter_config_.mode == core::GridSlamMode::kRbpf ? "rbpf" : "course", filter_config_.particles, core::resamplingMethodName(filter_config_.resampling),
            static_cast<unsigned long long>(filter_config_.seed), filter_config_.grid.resolution,
            scan_sub_.getTopic().c_str(), config_.map_frame.c_str(), config_.odom_frame.c_str(),
            config_.base_frame.c_str());
@@ -110,24 +106,34 @@ GridSlamRos::~GridSlamRos() = default;
 void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!last_scan_stamp_.isZero() && msg->header.stamp < last_scan_stamp_)
+  const core::StampVerdict verdict = stamp_gate_.check(msg->header.stamp.toSec(), ros::Time::now().toSec());
+  if (verdict == core::StampVerdict::kReset)
   {
     // A looped bag or a restarted simulation: start a new map rather than mixing two timelines.
     // The TF listener clears its own buffer when the clock jumps back; clearing it here as well could drop
     // the bag's /tf_static, which is published only once.
-    if (!warned_backwards_)
-      ROS_WARN("%s: scan stamp %.3f is before the previous %.3f: time went backwards; resetting the filter (said "
-               "once)",
-               name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec());
-    warned_backwards_ = true;
+    ++resets_;
+    ROS_WARN("%s: scan stamped %.3f, %.3f s before the previous one (more than ~time_jump_threshold %.2f s): time "
+             "jumped back; the map is restarted (reset %zu, after %zu scans)",
+             name_.c_str(), msg->header.stamp.toSec(), (last_scan_stamp_ - msg->header.stamp).toSec(),
+             config_.time_jump_threshold, resets_, updates_);
     filter_->reset();
     pending_.clear();
     path_.poses.clear();
     last_map_stamp_ = ros::Time();
   }
-  else if (msg->header.stamp == last_scan_stamp_)
+  else if (verdict != core::StampVerdict::kAccept)
   {
-    ROS_WARN_THROTTLE(5.0, "%s: two scans stamped %.3f: the second dropped", name_.c_str(), msg->header.stamp.toSec());
+    ++dropped_;
+    // The first drop of each kind is always said; repeats at most every 5 s.
+    if (warned_verdicts_.insert(static_cast<int>(verdict)).second)
+      ROS_WARN("%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
+               msg->header.stamp.toSec(), last_scan_stamp_.toSec(), ros::Time::now().toSec(),
+               core::stampVerdictName(verdict), dropped_);
+    else
+      ROS_WARN_THROTTLE(5.0, "%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)",
+                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), ros::Time::now().toSec(),
+                        core::stampVerdictName(verdict), dropped_);
     return;
   }
   last_scan_stamp_ = msg->header.stamp;
@@ -212,10 +218,20 @@ void GridSlamRos::processScan(const sensor_msgs::LaserScan& msg, const core::Pos
   const std::string why = toScanData(msg, &scan);
   if (!why.empty())
   {
-    ROS_WARN_THROTTLE(5.0, "%s: %s: dropped", name_.c_str(), why.c_str());
+    ++dropped_;
+    if (warned_reasons_.insert(why).second)  // the first of each reason always, repeats at most every 5 s
+      ROS_WARN("%s: %s: dropped (%zu dropped so far)", name_.c_str(), why.c_str(), dropped_);
+    else
+      ROS_WARN_THROTTLE(5.0, "%s: %s: dropped (%zu dropped so far)", name_.c_str(), why.c_str(), dropped_);
     return;
   }
-  const core::GridSlamStep step = filter_->update(odom_pose, scan, sensor);
+  const core::GridSlamStep step = filter_->update(odom_pose, scan, sensor, msg.header.stamp.toSec());
+  if (step.skipped)
+  {
+    ++skipped_;  // below the travel thresholds: only the pose moves on with the odometry
+    publishPoses(msg.header.stamp, odom_pose);
+    return;
+  }
   ++updates_;
   ROS_DEBUG("%s: scan %zu: Neff %.1f%s, best correlation %d", name_.c_str(), updates_, step.neff,
             step.resampled ? ", resampled" : "", step.best_correlation);
@@ -240,10 +256,11 @@ void GridSlamRos::publishMap(const ros::Time& stamp)
 
 void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_pose)
 {
-  const core::Pose2 best = filter_->mappingPose();
+  // The map pose at this scan's odometry: the last processed scan's estimate carried by the odometry since.
+  const core::Pose2 best = filter_->poseAt(odom_pose);
   if (config_.publish_tf)
   {
-    const core::Pose2 map_to_odom = best * odom_pose.inverse();
+    const core::Pose2 map_to_odom = filter_->mappingPose() * filter_->lastOdometry().inverse();
     geometry_msgs::TransformStamped tf;
     tf.header.stamp = stamp + ros::Duration(config_.transform_tolerance);
     tf.header.frame_id = config_.map_frame;
@@ -256,9 +273,10 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_p
 
   std::vector<core::Pose2> poses;
   std::vector<double> weights;
+  const core::Pose2 since = filter_->lastOdometry().inverse() * odom_pose;
   for (const auto& p : filter_->particles())
   {
-    poses.push_back(p.pose);
+    poses.push_back(p.pose * since);
     weights.push_back(p.weight);
   }
   const core::PoseMoments moments = core::poseMoments(poses, weights);

@@ -12,22 +12,21 @@ namespace rbpf_slam
 NoiseRelay::NoiseRelay(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh)
 {
   core::VelocityNoiseConfig config;
-  pnh.param("linear_sigma_abs", config.linear_sigma_abs, config.linear_sigma_abs);
-  pnh.param("linear_sigma_rel", config.linear_sigma_rel, config.linear_sigma_rel);
-  pnh.param("angular_sigma_abs", config.angular_sigma_abs, config.angular_sigma_abs);
-  pnh.param("angular_sigma_rel", config.angular_sigma_rel, config.angular_sigma_rel);
-  pnh.param("max_linear", config.max_linear, config.max_linear);
-  pnh.param("max_angular", config.max_angular, config.max_angular);
+  const RosParamSource params(pnh);
+  readKey(params, "linear_sigma_abs", &config.linear_sigma_abs);
+  readKey(params, "linear_sigma_rel", &config.linear_sigma_rel);
+  readKey(params, "angular_sigma_abs", &config.angular_sigma_abs);
+  readKey(params, "angular_sigma_rel", &config.angular_sigma_rel);
+  readKey(params, "max_linear", &config.max_linear);
+  readKey(params, "max_angular", &config.max_angular);
   bool stamped = false;
-  pnh.param("stamped", stamped, stamped);
-  const std::uint64_t seed = readSeed(pnh);
+  readKey(params, "stamped", &stamped);
+  const std::uint64_t seed = readSeed(params);
+  warnUnknownKeys(params);
 
   std::string error;
   if (!config.validate(&error))
-  {
-    ROS_ERROR("%s: invalid parameter: %s; the relay stays idle", pnh.getNamespace().c_str(), error.c_str());
-    return;
-  }
+    throw std::runtime_error("invalid parameter: " + error);
   model_.reset(new core::VelocityNoiseModel(config, seed));
 
   if (stamped)

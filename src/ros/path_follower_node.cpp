@@ -8,30 +8,28 @@
 #include <nav_msgs/Path.h>
 #include <std_msgs/Bool.h>
 
+#include "rbpf_slam/ros/params.h"
+
 namespace rbpf_slam
 {
 PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 {
   core::PathFollowerConfig config;
   std::string drive = "straight", frame = "odom";
-  pnh.param("drive", drive, drive);
-  pnh.param("speed", config.speed, config.speed);
-  pnh.param("lookahead", config.lookahead, config.lookahead);
-  pnh.param("max_angular", config.max_angular, config.max_angular);
-  pnh.param("goal_tolerance", config.goal_tolerance, config.goal_tolerance);
-  pnh.param("frame", frame, frame);
+  const RosParamSource params(pnh);
+  readKey(params, "drive", &drive);
+  readKey(params, "speed", &config.speed);
+  readKey(params, "lookahead", &config.lookahead);
+  readKey(params, "max_angular", &config.max_angular);
+  readKey(params, "goal_tolerance", &config.goal_tolerance);
+  readKey(params, "frame", &frame);
+  warnUnknownKeys(params);
   std::string error;
   std::vector<Eigen::Vector2d> path = core::namedDrive(drive, &error);
   if (path.empty())
-  {
-    ROS_ERROR("%s: %s; the follower stays idle", pnh.getNamespace().c_str(), error.c_str());
-    return;
-  }
-  if (!(config.speed > 0.0) || !(config.lookahead > 0.0))
-  {
-    ROS_ERROR("%s: ~speed and ~lookahead must be > 0; the follower stays idle", pnh.getNamespace().c_str());
-    return;
-  }
+    throw invalidParameter(pnh, "drive", error);
+  requirePositive(pnh, "speed", config.speed);
+  requirePositive(pnh, "lookahead", config.lookahead);
   follower_.reset(new core::PathFollower(path, config));
   cmd_pub_ = nh.advertise<geometry_msgs::Twist>("cmd_vel", 10);
   done_pub_ = pnh.advertise<std_msgs::Bool>("done", 1, true);

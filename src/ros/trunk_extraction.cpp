@@ -8,15 +8,16 @@
 #include <sstream>
 
 #include <boost/make_shared.hpp>
-#include <sensor_msgs/point_cloud2_iterator.h>
 #include <std_msgs/String.h>
 #include <std_msgs/UInt64.h>
 #include <tf2/exceptions.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "rbpf_slam/io/trunk_detector_config.h"
+#include "rbpf_slam/ros/cloud_conversions.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
+#include "rbpf_slam/ros/scan_conversions.h"
 
 namespace rbpf_slam
 {
@@ -62,70 +63,6 @@ std::string fromDynamic(const rbpf_slam::TrunkExtractionConfig& d, core::TrunkDe
   c->level_by_trunks = d.level_by_trunks;
   c->voxel_size = d.voxel_size;
   return c->validate();
-}
-
-bool isFloat32Field(const sensor_msgs::PointCloud2& cloud, const std::string& name, std::string* why)
-{
-  for (const auto& f : cloud.fields)
-  {
-    if (f.name != name)
-      continue;
-    if (f.datatype != sensor_msgs::PointField::FLOAT32 || f.count != 1)
-    {
-      *why = "field " + name + " is not a single float32";
-      return false;
-    }
-    if (static_cast<std::uint64_t>(f.offset) + 4 > cloud.point_step)
-    {
-      *why = "field " + name + " lies outside point_step";
-      return false;
-    }
-    return true;
-  }
-  *why = "no field " + name;
-  return false;
-}
-
-/**
- * @brief The finite points of @p cloud (fields x, y, z, float32). False with the reason when the cloud is
- * empty or malformed (missing or non-float32 fields, foreign byte order, padded rows, short data).
- */
-bool toPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vector3f>* points, std::string* why)
-{
-  points->clear();
-  const std::uint64_t n = static_cast<std::uint64_t>(cloud.width) * cloud.height;
-  if (n == 0)
-  {
-    *why = "empty cloud";
-    return false;
-  }
-  if (!isFloat32Field(cloud, "x", why) || !isFloat32Field(cloud, "y", why) || !isFloat32Field(cloud, "z", why))
-    return false;
-  const std::uint16_t one = 1;
-  const bool host_big_endian = *reinterpret_cast<const std::uint8_t*>(&one) == 0;
-  if (static_cast<bool>(cloud.is_bigendian) != host_big_endian)
-  {
-    *why = "byte order differs from this machine's";
-    return false;
-  }
-  if (static_cast<std::uint64_t>(cloud.row_step) != static_cast<std::uint64_t>(cloud.width) * cloud.point_step)
-  {
-    *why = "row_step != width * point_step (padded rows are not supported)";
-    return false;
-  }
-  if (cloud.data.size() < n * cloud.point_step)
-  {
-    *why = "data holds fewer bytes than width * height * point_step";
-    return false;
-  }
-  points->reserve(n);
-  sensor_msgs::PointCloud2ConstIterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
-  for (std::uint64_t i = 0; i < n; ++i, ++x, ++y, ++z)
-  {
-    if (std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z))
-      points->emplace_back(*x, *y, *z);
-  }
-  return true;
 }
 
 std::uint8_t toMsgMethod(core::TrunkMethod method)
@@ -232,18 +169,14 @@ visualization_msgs::MarkerArray::Ptr toMarkers(const rbpf_slam::TrunkArray& trun
 TrunkExtraction::TrunkExtraction(ros::NodeHandle nh, ros::NodeHandle pnh)
   : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
-  core::TrunkDetectorConfig config =
-      readCoreConfig<core::TrunkDetectorConfig>(pnh_, &io::readTrunkDetectorConfig, "detector");
+  const RosParamSource params(pnh_);
+  core::TrunkDetectorConfig config = readCoreConfig<core::TrunkDetectorConfig>(params, &io::readTrunkDetectorConfig);
+  readKey(params, "level_frame", &level_frame_);
+  readKey(params, "tf_timeout", &tf_timeout_);
+  readKey(params, "debug_report_address", &debug_report_address_);
+  requireNonNegative(pnh_, "tf_timeout", tf_timeout_);
+  warnUnknownKeys(params);
   detector_.reset(new core::TrunkDetector(config));
-
-  pnh_.param("level_frame", level_frame_, level_frame_);
-  pnh_.param("tf_timeout", tf_timeout_, tf_timeout_);
-  pnh_.param("debug_report_address", debug_report_address_, debug_report_address_);
-  if (!(tf_timeout_ >= 0.0))
-  {
-    ROS_ERROR("%s: invalid parameter: tf_timeout must be >= 0; using 0.05", name_.c_str());
-    tf_timeout_ = 0.05;
-  }
   if (!level_frame_.empty())
   {
     tf_buffer_.reset(new tf2_ros::Buffer());
@@ -340,50 +273,41 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   if (!anyOutputSubscribed())
     return;
 
-  std::vector<Eigen::Vector3f> points;
-  std::string why;
+  CloudPoints cloud;
+  const std::string why = readCloud(*msg, &cloud);
+  if (!why.empty())
+  {
+    // Dropped: no TrunkArray, so that no consumer takes an unreadable cloud for a look that saw no tree.
+    ++dropped_;
+    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s (frame '%s', stamp %.3f): %s; dropped (%zu dropped so far)",
+                      name_.c_str(), cloud_sub_.getTopic().c_str(), msg->header.frame_id.c_str(),
+                      msg->header.stamp.toSec(), why.c_str(), dropped_);
+    publishDropped(msg->header, "cloud", why);
+    return;
+  }
   std::vector<core::TrunkObservation> trunks;
   core::TrunkDetectorStats stats;
-  stats.input_points = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(msg->width) * msg->height,
-                                                                 static_cast<std::uint64_t>(std::numeric_limits<int>::max())));
+  stats.input_points = static_cast<int>(std::min<std::uint64_t>(cloud.total, std::numeric_limits<int>::max()));
+  const Eigen::Matrix3d level = levelRotation(msg->header.frame_id, msg->header.stamp);
   double band_height = 1.0;
-  if (!toPoints(*msg, &points, &why))
   {
-    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s (frame '%s'): %s; publishing no trunks", name_.c_str(),
-                      cloud_sub_.getTopic().c_str(), msg->header.frame_id.c_str(), why.c_str());
-  }
-  else if (points.empty())
-  {
-    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s has no finite point; publishing no trunks", name_.c_str(),
-                      cloud_sub_.getTopic().c_str());
-  }
-  else
-  {
-    const Eigen::Matrix3d level = levelRotation(msg->header.frame_id, msg->header.stamp);
     std::lock_guard<std::mutex> lock(detector_mutex_);
     band_height = detector_->config().max_height - detector_->config().min_height;
     try
     {
-      trunks = detector_->detect(points, level, &stats);
+      trunks = detector_->detect(cloud.points, level, &stats);
     }
     catch (const std::exception& e)
     {
-      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; publishing no trunks", name_.c_str(), e.what());
-      trunks.clear();
+      ++dropped_;
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; cloud dropped", name_.c_str(), e.what());
+      publishDropped(msg->header, "cloud", std::string("detection failed: ") + e.what());
+      return;
     }
   }
   // The sweep's duration from the per-point times (VLP-16 drivers and the simulator give a float32 "time"
   // after the stamp), so that consumers can carry each trunk to one instant.
-  double sweep_period = 0.0;
-  for (const auto& f : msg->fields)
-    if (f.name == "time" && f.datatype == sensor_msgs::PointField::FLOAT32 && !points.empty())
-    {
-      for (sensor_msgs::PointCloud2ConstIterator<float> t(*msg, "time"); t != t.end(); ++t)
-        if (std::isfinite(*t))
-          sweep_period = std::max(sweep_period, static_cast<double>(*t));
-      break;
-    }
-  publish(msg->header, trunks, stats, band_height, "cloud", sweep_period);
+  publish(msg->header, trunks, stats, band_height, "cloud", cloud.sweep_period);
 }
 
 void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
@@ -392,26 +316,22 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
   if (!anyOutputSubscribed())
     return;
 
+  core::PlanarScan scan;
+  const std::string why = toPlanarScan(*msg, &scan);
+  if (!why.empty())
+  {
+    ++dropped_;
+    ROS_WARN_THROTTLE(5.0, "%s: scan on %s (frame '%s', stamp %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
+                      scan_sub_.getTopic().c_str(), msg->header.frame_id.c_str(), msg->header.stamp.toSec(),
+                      why.c_str(), dropped_);
+    publishDropped(msg->header, "scan", why);
+    return;
+  }
   std::vector<core::TrunkObservation> trunks;
   core::TrunkDetectorStats stats;
   stats.input_points = static_cast<int>(msg->ranges.size());
   double band_height = 1.0;
-  if (msg->ranges.empty() || !std::isfinite(msg->angle_min) || !std::isfinite(msg->angle_increment) ||
-      msg->angle_increment == 0.0f)
   {
-    ROS_WARN_THROTTLE(5.0, "%s: scan on %s (frame '%s') is empty or has no valid angles; publishing no trunks",
-                      name_.c_str(), scan_sub_.getTopic().c_str(), msg->header.frame_id.c_str());
-  }
-  else
-  {
-    // The core projects the scan itself (REP-117: NaN, +-Inf and out-of-limit ranges are no returns), so
-    // laser_geometry is not needed.
-    core::PlanarScan scan;
-    scan.ranges = msg->ranges;
-    scan.angle_min = msg->angle_min;
-    scan.angle_increment = msg->angle_increment;
-    scan.range_min = msg->range_min;
-    scan.range_max = msg->range_max;
     std::lock_guard<std::mutex> lock(detector_mutex_);
     band_height = detector_->config().max_height - detector_->config().min_height;
     try
@@ -420,11 +340,25 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     }
     catch (const std::exception& e)
     {
-      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; publishing no trunks", name_.c_str(), e.what());
-      trunks.clear();
+      ++dropped_;
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; scan dropped", name_.c_str(), e.what());
+      publishDropped(msg->header, "scan", std::string("detection failed: ") + e.what());
+      return;
     }
   }
   publish(msg->header, trunks, stats, band_height, "scan");
+}
+
+void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char* input, const std::string& why)
+{
+  if (stats_pub_.getNumSubscribers() == 0)
+    return;
+  std::ostringstream s;
+  s << "input=" << input << " stamp=" << header.stamp << " dropped=" << dropped_ << " inputs=" << inputs_
+    << " reason=" << why;
+  auto text = boost::make_shared<std_msgs::String>();
+  text->data = s.str();
+  stats_pub_.publish(std_msgs::String::ConstPtr(text));
 }
 
 void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
@@ -454,7 +388,7 @@ void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<
       << " rejected_radius=" << stats.rejected_radius << " rejected_inliers=" << stats.rejected_inliers
       << " rejected_shape=" << stats.rejected_shape << " trunks=" << out->trunks.size()
       << " tilt_roll=" << stats.tilt_roll << " tilt_pitch=" << stats.tilt_pitch << " inputs=" << inputs_
-      << " markers_published=" << markers_published_;
+      << " markers_published=" << markers_published_ << " dropped=" << dropped_;
     auto text = boost::make_shared<std_msgs::String>();
     text->data = s.str();
     stats_pub_.publish(std_msgs::String::ConstPtr(text));

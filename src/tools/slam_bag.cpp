@@ -14,21 +14,34 @@
 // trunk extraction's (config/trunk_extraction.yaml layout); one pair per sensor type, e.g. config/lego/;
 // --particles, --seed and --method override them. FastSLAM reads point clouds, or 2D scans when --scan is given.
 //
+// Every output file is written at the end, atomically (to a temporary, then renamed): a run that fails or is
+// interrupted (SIGINT, SIGTERM, SIGHUP) leaves no output behind. Messages whose stamps go back by more than a second
+// restart the filter (a looped bag), as the nodes do; unreadable messages are dropped and counted.
+//
 // Both write DIR/timing.json (processing seconds; evaluate_bag_run reads it). fastslam writes DIR/estimate.tum,
 // DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them) and DIR/map.csv; grid writes DIR/estimate.tum and DIR/odometry.tum (one pose per scan), DIR/odometry_all.tum
 // (every odometry pose), DIR/map.yaml + DIR/map.pgm (map_server layout) and DIR/timing.txt.
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include <csignal>
+#include <limits>
+#include <map>
+#include <memory>
+#include <sstream>
+
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -37,12 +50,12 @@
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "rbpf_slam/core/grid_slam.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/skid_steer_odometry.h"
+#include "rbpf_slam/core/stamp_gate.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 #include "rbpf_slam/io/grid_slam_config.h"
 #include "rbpf_slam/io/map_image_file.h"
@@ -51,6 +64,7 @@
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
+#include "rbpf_slam/ros/cloud_conversions.h"
 #include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/scan_conversions.h"
 
@@ -69,6 +83,7 @@ struct Options
   int particles = -1;  // the filter's default
   long seed = -1;  // the configuration's (0 by default)
   bool quiet = false;
+  bool odometry_only = false;  // grid: a bag without scans (wheel odometry, with and without the gyro)
   double wheel_radius = 0.127, track = 0.7283, imu_weight = 0.0;
 };
 
@@ -81,6 +96,7 @@ void usage(const char* argv0)
                "  fastslam: [--points TOPIC | --scan TOPIC] [--extraction-config YAML] [--method circle|centroid]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--wheels TOPIC [--wheel-radius M] [--track M] [--imu TOPIC] [--imu-weight W]]\n"
+               "            [--odometry-only (a bag without scans: the odometry outputs only)]\n"
                "Runs a SLAM filter on a bag offline (fastslam: trunk extraction + FastSLAM on point clouds; grid:\n"
                "occupancy-grid SLAM on laser scans); writes DIR/estimate.tum, DIR/odometry.tum and the map.\n"
                "examples: %s --bag paper1.bag --out results/paper1\n"
@@ -113,23 +129,172 @@ bool staticMount(rosbag::Bag& bag, const std::string& base_frame, const std::str
   return found;
 }
 
-/** @brief mkdir -p; throws naming the folder when it cannot be made. */
-void makeDirectories(const std::string& dir)
+volatile std::sig_atomic_t g_signal = 0;
+void onSignal(int signum) { g_signal = signum; }
+
+/** @brief Throws when SIGINT, SIGTERM or SIGHUP arrived: nothing has been written yet, and nothing will be. */
+void checkInterrupted()
 {
-  if (!io::makeDirectories(dir))
-    throw std::runtime_error(dir + ": cannot create the folder");
+  if (g_signal != 0)
+    throw std::runtime_error("interrupted by signal " + std::to_string(static_cast<int>(g_signal)) +
+                             "; no output written");
 }
 
-std::string openOut(const std::string& dir, const std::string& name, std::ofstream* f)
+/** @brief Fails early (before a long run) when the output folder cannot be made or written. */
+void checkOutputDir(const std::string& dir)
 {
-  f->open(dir + "/" + name);
-  f->precision(12);
-  if (!*f)
-    throw std::runtime_error(dir + "/" + name + ": cannot write");
-  return dir + "/" + name;
+  if (dir.empty())
+    return;
+  struct stat st;
+  std::string probe = dir;
+  while (::stat(probe.c_str(), &st) != 0)
+  {
+    const std::size_t slash = probe.find_last_of('/');
+    probe = slash == std::string::npos ? "." : slash == 0 ? "/" : probe.substr(0, slash);
+  }
+  if (!S_ISDIR(st.st_mode))
+    throw std::runtime_error(probe + ": not a folder (--out " + dir + ")");
+  if (::access(probe.c_str(), W_OK | X_OK) != 0)
+    throw std::runtime_error(probe + ": cannot write in this folder (--out " + dir + ")");
 }
 
-/** @brief Reads a YAML file with @p reader (if a path is given); errors name the file, unused keys are warned. */
+/** @brief The run's output files, held until the run completes, then written at once, atomically. */
+class Outputs
+{
+public:
+  explicit Outputs(std::string dir) : dir_(std::move(dir)) {}
+  bool enabled() const { return !dir_.empty(); }
+  std::ostringstream& stream(const std::string& name)
+  {
+    auto& s = streams_[name];
+    if (!s)
+    {
+      s.reset(new std::ostringstream);
+      s->precision(12);
+      order_.push_back(name);
+    }
+    return *s;
+  }
+  void add(const std::string& path, const std::string& content) { extra_.emplace_back(path, content); }
+  const std::string& dir() const { return dir_; }
+  void commit()
+  {
+    if (!enabled())
+      return;
+    checkInterrupted();
+    if (!io::makeDirectories(dir_))
+      throw std::runtime_error(dir_ + ": cannot create the folder (" + std::strerror(errno) + ")");
+    std::vector<io::FileContent> files = extra_;
+    for (const auto& name : order_)
+      files.emplace_back(dir_ + "/" + name, streams_[name]->str());
+    io::writeFilesAtomic(files);
+  }
+
+private:
+  std::string dir_;
+  std::map<std::string, std::unique_ptr<std::ostringstream>> streams_;
+  std::vector<std::string> order_;
+  std::vector<io::FileContent> extra_;
+};
+
+/** @brief Opens a bag for reading; the error names the file. */
+void openBag(const std::string& path, rosbag::Bag* bag)
+{
+  try
+  {
+    bag->open(path, rosbag::bagmode::Read);
+  }
+  catch (const rosbag::BagException& e)
+  {
+    throw std::runtime_error(path + ": not a readable bag (" + e.what() + ")");
+  }
+}
+
+/** @brief The topics of the bag with their types. */
+std::map<std::string, std::string> bagTopics(rosbag::Bag& bag)
+{
+  std::map<std::string, std::string> topics;
+  rosbag::View all(bag);
+  for (const rosbag::ConnectionInfo* c : all.getConnections())
+    topics[c->topic] = c->datatype;
+  return topics;
+}
+
+/** @brief Throws, listing what the bag holds, unless @p topic is in it with type @p type. */
+void requireTopic(const std::map<std::string, std::string>& topics, const std::string& bag, const std::string& topic,
+                  const std::string& type, const char* option)
+{
+  const auto it = topics.find(topic);
+  if (it != topics.end() && it->second == type)
+    return;
+  std::string list;
+  for (const auto& t : topics)
+    list += (list.empty() ? "" : ", ") + t.first + " [" + t.second + "]";
+  throw std::runtime_error(bag + ": " +
+                           (it == topics.end() ? "no topic " + topic : topic + " is " + it->second + ", not " + type) +
+                           " (" + option + "); the bag holds: " + (list.empty() ? "nothing" : list));
+}
+
+/** @brief Counts dropped messages; the first few are explained on stderr, all of them in the summary. */
+class DropLog
+{
+public:
+  void drop(const std::string& topic, double stamp, const std::string& why)
+  {
+    ++count_;
+    ++per_topic_[topic];
+    if (count_ <= 5)
+      std::fprintf(stderr, "slam_bag: warning: %s at %.3f: %s; dropped%s\n", topic.c_str(), stamp, why.c_str(),
+                   count_ == 5 ? " (further drops are only counted)" : "");
+  }
+  int count() const { return count_; }
+  int count(const std::string& topic) const
+  {
+    const auto it = per_topic_.find(topic);
+    return it == per_topic_.end() ? 0 : it->second;
+  }
+
+private:
+  int count_ = 0;
+  std::map<std::string, int> per_topic_;
+};
+
+/** @brief The restart rule of the nodes (core::StampGate) for one stream; false when the message is dropped. */
+bool gate(core::StampGate* g, double stamp, double clock, const std::string& topic, DropLog* drops, bool* reset)
+{
+  const double previous = g->last();
+  const core::StampVerdict v = g->check(stamp, clock);
+  if (v == core::StampVerdict::kReset)
+  {
+    std::fprintf(stderr, "slam_bag: warning: %s at %.3f: %.3f s before the previous message: time jumped back; the "
+                         "filter restarts (as the node does)\n",
+                 topic.c_str(), stamp, previous - stamp);
+    *reset = true;
+    return true;
+  }
+  if (v != core::StampVerdict::kAccept)
+  {
+    drops->drop(topic, stamp, core::stampVerdictName(v));
+    return false;
+  }
+  return true;
+}
+
+std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, std::uint64_t seed)
+{
+  std::ostringstream timing;
+  timing << "{\"sweeps\": " << sweeps << ", \"updates\": " << updates << ", \"seconds_extraction\": " << extraction
+         << ", \"seconds_filter\": " << filter << ", \"particles\": " << particles << ", \"seed\": " << seed << "}\n";
+  return timing.str();
+}
+
+/// Keys of the filters' YAML files that only the nodes read (frames, waits, files): known here, not used.
+const std::vector<std::string> kNodeKeys = { "map_frame",          "odom_frame",     "base_frame",   "tf_timeout",
+                                             "transform_tolerance", "map_update_interval", "publish_tf", "map_path",
+                                             "max_path_poses",     "odom_timeout",   "inventory_path",
+                                             "time_jump_threshold", "level_frame",  "debug_report_address" };
+
+/** @brief Reads a YAML file with @p reader (if a path is given); errors name the file, unknown keys are warned. */
 template <typename Reader>
 void loadYaml(const std::string& path, const Reader& reader)
 {
@@ -145,24 +310,21 @@ void loadYaml(const std::string& path, const Reader& reader)
     throw std::runtime_error(path + ": " + e.what());
   }
   for (const auto& key : yaml.unusedKeys())
-    std::fprintf(stderr, "slam_bag: warning: %s: key '%s' is not used by this filter\n", path.c_str(), key.c_str());
-}
-
-void writeTimingJson(const std::string& dir, int sweeps, int updates, double extraction, double filter, int particles,
-                     std::uint64_t seed)
-{
-  std::ofstream timing(dir + "/timing.json");
-  timing << "{\"sweeps\": " << sweeps << ", \"updates\": " << updates << ", \"seconds_extraction\": " << extraction
-         << ", \"seconds_filter\": " << filter << ", \"particles\": " << particles << ", \"seed\": " << seed << "}\n";
-  if (!timing)
-    throw std::runtime_error(dir + "/timing.json: cannot write");
+    if (std::find(kNodeKeys.begin(), kNodeKeys.end(), key) == kNodeKeys.end())
+      std::fprintf(stderr, "slam_bag: warning: %s: key '%s' is not one of this filter's (misspelt?); ignored\n",
+                   path.c_str(), key.c_str());
 }
 
 int runFastSlam(const Options& o)
 {
-  rosbag::Bag bag(o.bag_path, rosbag::bagmode::Read);
-  // The lidar's mount on base_link from /tf_static (the first message names the lidar frame).
+  rosbag::Bag bag;
+  openBag(o.bag_path, &bag);
+  const auto topics = bagTopics(bag);
   const std::string sensor_topic = o.scan_given ? o.scan_topic : o.points_topic;
+  requireTopic(topics, o.bag_path, sensor_topic,
+               o.scan_given ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2", o.scan_given ? "--scan" : "--points");
+  requireTopic(topics, o.bag_path, o.odom_topic, "nav_msgs/Odometry", "--odom");
+  // The lidar's mount on base_link from /tf_static (the first message names the lidar frame).
   std::string lidar_frame;
   {
     rosbag::View first(bag, rosbag::TopicQuery(sensor_topic));
@@ -177,9 +339,7 @@ int runFastSlam(const Options& o)
     }
   }
   if (lidar_frame.empty())
-    throw std::runtime_error(o.bag_path + ": no " +
-                             (o.scan_given ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2") + " on " +
-                             sensor_topic);
+    throw std::runtime_error(o.bag_path + ": the messages on " + sensor_topic + " name no frame");
   core::SensorMount mount;
   if (!staticMount(bag, o.base_frame, lidar_frame, &mount))
     throw std::runtime_error(o.bag_path + ": no " + o.base_frame + " -> " + lidar_frame + " transform on /tf_static");
@@ -190,7 +350,7 @@ int runFastSlam(const Options& o)
   loadYaml(o.extraction_config_path, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, &dc); });
   loadYaml(o.config_path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });
   if (!o.method.empty() && !core::parseTrunkMethod(o.method, &dc.method))
-    throw std::runtime_error("--method must be circle or centroid");
+    throw std::runtime_error("--method must be circle or centroid, not '" + o.method + "'");
   if (o.particles > 0)
     fc.particles = o.particles;
   if (o.seed >= 0)
@@ -198,131 +358,163 @@ int runFastSlam(const Options& o)
     fc.seed = static_cast<std::uint64_t>(o.seed);
     dc.seed = static_cast<std::uint64_t>(o.seed);
   }
-  core::TrunkSlamPipeline pipeline(dc, fc, mount);
+  auto pipeline = std::make_unique<core::TrunkSlamPipeline>(dc, fc, mount);
 
-  std::ofstream est, odo;
-  if (!o.out_dir.empty())
-  {
-    makeDirectories(o.out_dir);
-    openOut(o.out_dir, "estimate.tum", &est);
-    openOut(o.out_dir, "odometry.tum", &odo);
-  }
-  std::vector<Eigen::Vector3f> pts;
-  int clouds = 0, updates = 0, dropped = 0;
-  double last_cloud = -1e300;
-  const auto consume = [&](const std::vector<core::PipelineUpdate>& ups) {
-    for (const auto& u : ups)
+  Outputs out(o.out_dir);
+  std::vector<core::PipelineUpdate> ups;
+  int clouds = 0, updates = 0, resets = 0;
+  DropLog drops;
+  const auto consume = [&](const std::vector<core::PipelineUpdate>& done) {
+    for (const auto& u : done)
     {
       ++updates;
-      if (est.is_open())
+      if (out.enabled())
       {
-        io::writeTumLine(est, u.stamp, pipeline.filter().best().pose);
-        io::writeTumLine(odo, u.stamp, u.odometry);
+        io::writeTumLine(out.stream("estimate.tum"), u.stamp, pipeline->filter().best().pose);
+        io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
       }
     }
   };
+  core::StampGate sensor_gate, odom_gate;
+  const auto restart = [&]() {
+    consume(pipeline->process(true));
+    pipeline = std::make_unique<core::TrunkSlamPipeline>(dc, fc, mount);
+    sensor_gate.reset();
+    odom_gate.reset();
+    ++resets;
+  };
   core::PlanarScan planar;
+  CloudPoints cloud_points;
   rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{ sensor_topic, o.odom_topic }));
   for (const auto& m : view)
   {
+    checkInterrupted();
+    const double clock = m.getTime().toSec();
+    bool reset = false;
     if (const auto od = m.instantiate<nav_msgs::Odometry>())
     {
+      const double stamp = od->header.stamp.toSec();
       const core::Pose2 p(od->pose.pose.position.x, od->pose.pose.position.y, yawOf(od->pose.pose.orientation));
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta) ||
-          !pipeline.addOdometry(od->header.stamp.toSec(), p))
-        ++dropped;
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta))
+      {
+        drops.drop(m.getTopic(), stamp, "odometry pose not finite");
+        continue;
+      }
+      if (!gate(&odom_gate, stamp, clock, m.getTopic(), &drops, &reset))
+        continue;
+      if (reset)
+      {
+        restart();
+        odom_gate.check(stamp);
+      }
+      pipeline->addOdometry(stamp, p);
     }
     else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
     {
       const double stamp = scan->header.stamp.toSec();
-      if (stamp <= last_cloud || !(scan->angle_increment != 0.0f) || !std::isfinite(scan->angle_min))
+      const std::string why = toPlanarScan(*scan, &planar);
+      if (!why.empty())
       {
-        ++dropped;
+        drops.drop(m.getTopic(), stamp, why);
         continue;
       }
-      last_cloud = stamp;
-      planar.ranges = scan->ranges;  // NaN / Inf / out-of-range beams are skipped by the detector (REP-117)
-      planar.angle_min = scan->angle_min;
-      planar.angle_increment = scan->angle_increment;
-      planar.range_min = scan->range_min;
-      planar.range_max = scan->range_max;
+      if (!gate(&sensor_gate, stamp, clock, m.getTopic(), &drops, &reset))
+        continue;
+      if (reset)
+      {
+        restart();
+        sensor_gate.check(stamp);
+      }
       // The beams' own times: time_increment apart (0 when the driver does not say: one instant).
       const double period = scan->time_increment > 0.0f && scan->ranges.size() > 1
                                 ? static_cast<double>(scan->time_increment) * static_cast<double>(scan->ranges.size() - 1)
                                 : 0.0;
-      pipeline.addScan(stamp, std::max(period, 1e-3), planar);
+      pipeline->addScan(stamp, std::max(period, 1e-3), planar);
       ++clouds;
     }
     else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
     {
       const double stamp = cloud->header.stamp.toSec();
-      if (stamp <= last_cloud)
+      const std::string why = readCloud(*cloud, &cloud_points);
+      if (!why.empty())
       {
-        ++dropped;
+        drops.drop(m.getTopic(), stamp, why);
         continue;
       }
-      last_cloud = stamp;
-      pts.clear();
-      double period = 0.0;
-      bool has_time = false;
-      for (const auto& f : cloud->fields)
-        has_time = has_time || (f.name == "time" && f.datatype == sensor_msgs::PointField::FLOAT32);
-      sensor_msgs::PointCloud2ConstIterator<float> x(*cloud, "x"), y(*cloud, "y"), z(*cloud, "z");
-      for (; x != x.end(); ++x, ++y, ++z)
-        pts.emplace_back(*x, *y, *z);
-      if (has_time)
-        for (sensor_msgs::PointCloud2ConstIterator<float> t(*cloud, "time"); t != t.end(); ++t)
-          period = std::max(period, static_cast<double>(*t));
-      pipeline.addSweep(stamp, std::max(period, 1e-3), pts);
+      if (!gate(&sensor_gate, stamp, clock, m.getTopic(), &drops, &reset))
+        continue;
+      if (reset)
+      {
+        restart();
+        sensor_gate.check(stamp);
+      }
+      pipeline->addSweep(stamp, std::max(cloud_points.sweep_period, 1e-3), cloud_points.points);
       ++clouds;
     }
-    consume(pipeline.process(false));
+    consume(pipeline->process(false));
   }
-  consume(pipeline.process(true));
+  consume(pipeline->process(true));
+  if (clouds == 0)
+    throw std::runtime_error(o.bag_path + ": no usable message on " + sensor_topic + " (" +
+                             std::to_string(drops.count()) + " dropped); nothing written");
+  if (updates == 0)
+    throw std::runtime_error(o.bag_path + ": no filter update (no odometry on " + o.odom_topic +
+                             " covers the sensor's messages?); nothing written");
 
-  const core::Particle& best = pipeline.filter().best();
-  if (!o.out_dir.empty())
+  const core::Particle& best = pipeline->filter().best();
+  if (out.enabled())
   {
     std::vector<core::Landmark> landmarks;
     for (std::size_t i = 0; i < best.map.size(); ++i)
       landmarks.push_back(best.map[i]);
-    io::writeLandmarksCsv(o.out_dir + "/map.csv", landmarks);
-    writeTimingJson(o.out_dir, clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(), fc.particles,
-                    fc.seed);
+    out.stream("map.csv") << io::landmarksCsv(landmarks);
+    out.stream("timing.json") << timingJson(clouds, updates, pipeline->secondsExtraction(), pipeline->secondsFilter(),
+                                            fc.particles, fc.seed);
+    out.commit();
   }
   if (!o.quiet)
   {
-    std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (time going backwards or "
-                "not finite)\n",
-                o.bag_path.c_str(), clouds, updates, dropped);
+    std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
+                "backwards or not finite), %d restarts (time jumped back)\n",
+                o.bag_path.c_str(), clouds, updates, drops.count(), resets);
     std::printf("  final pose (map frame = first odometry pose): %.3f %.3f %.1f deg; %zu landmarks\n", best.pose.x,
                 best.pose.y, best.pose.theta * 180.0 / M_PI, best.map.size());
-    std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
-                pipeline.secondsFilter(), clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
+    std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline->secondsExtraction(),
+                pipeline->secondsFilter(),
+                clouds / std::max(1e-9, pipeline->secondsExtraction() + pipeline->secondsFilter()));
   }
   return 0;
 }
 
 int runGrid(const Options& o)
 {
-  rosbag::Bag bag(o.bag_path, rosbag::bagmode::Read);
-  core::GridSlamConfig gc;
-  if (!o.config_path.empty())
+  rosbag::Bag bag;
+  openBag(o.bag_path, &bag);
+  const auto topics = bagTopics(bag);
+  const bool use_wheels = !o.wheels_topic.empty();
+  if (!o.odometry_only)
+    requireTopic(topics, o.bag_path, o.scan_topic, "sensor_msgs/LaserScan", "--scan");
+  if (use_wheels)
   {
-    io::YamlParamSource yaml(o.config_path);
-    io::readGridSlamConfig(yaml, &gc);
+    requireTopic(topics, o.bag_path, o.wheels_topic, "sensor_msgs/JointState", "--wheels");
+    if (o.imu_weight > 0.0)
+      requireTopic(topics, o.bag_path, o.imu_topic, "sensor_msgs/Imu", "--imu");
   }
+  else
+    requireTopic(topics, o.bag_path, o.odom_topic, "nav_msgs/Odometry", "--odom");
+  core::GridSlamConfig gc;
+  loadYaml(o.config_path, [&](const io::ParamSource& p) { io::readGridSlamConfig(p, &gc); });
   if (o.particles > 0)
     gc.particles = o.particles;
   if (o.seed >= 0)
     gc.seed = static_cast<std::uint64_t>(o.seed);
   if (!o.resampling.empty() && !core::parseResamplingMethod(o.resampling, &gc.resampling))
-    throw std::runtime_error("--resampling must be low_variance or multinomial");
+    throw std::runtime_error("--resampling must be low_variance or multinomial, not '" + o.resampling + "'");
   core::GridSlam slam(gc);
 
-  // The scanner's mount from /tf_static (the first scan names its frame). A bag without scans is allowed:
-  // it gives odometry only (e.g. wheel odometry with and without IMU fusion).
+  // The scanner's mount from /tf_static (the first scan names its frame).
   std::string laser_frame;
+  if (!o.odometry_only)
   {
     rosbag::View first(bag, rosbag::TopicQuery(o.scan_topic));
     for (const auto& m : first)
@@ -337,37 +529,42 @@ int runGrid(const Options& o)
     throw std::runtime_error(o.bag_path + ": no " + o.base_frame + " -> " + laser_frame + " transform on /tf_static");
   const core::Pose2 sensor(mount.x, mount.y, mount.yaw);
 
-  std::ofstream est, odo, odo_all;
-  if (!o.out_dir.empty())
-  {
-    makeDirectories(o.out_dir);
-    openOut(o.out_dir, "estimate.tum", &est);
-    openOut(o.out_dir, "odometry.tum", &odo);
-    openOut(o.out_dir, "odometry_all.tum", &odo_all);
-  }
-
+  Outputs out(o.out_dir);
   core::SkidSteerConfig sc;
   sc.effective_track = o.track;
   sc.imu_weight = o.imu_weight;
   core::SkidSteerOdometry wheels(sc);
   std::vector<double> last_wheel_angles;
-  const bool use_wheels = !o.wheels_topic.empty();
 
   core::OdometryBuffer odometry;
   std::deque<std::pair<double, core::ScanData>> pending;
-  int scans = 0, dropped = 0, bad_scans = 0, resamples = 0;
+  int scans = 0, processed = 0, resamples = 0, resets = 0;
+  DropLog drops;
   long evaluations = 0;
-  double last_scan = -1e300, seconds = 0.0, worst = 0.0;
-  std::vector<double> scan_stamps;
-  const auto addOdometry = [&](double t, const core::Pose2& p) {
-    if (!std::isfinite(t) || !std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta) ||
-        odometry.add(t, p) == core::OdometryBuffer::AddResult::kBackwards)
+  double seconds = 0.0, worst = 0.0;
+  std::vector<double> processed_stamps;
+  core::StampGate scan_gate, odom_gate;
+  const auto addOdometry = [&](double t, const core::Pose2& p, const std::string& topic, double clock) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta))
     {
-      ++dropped;
-      return;
+      drops.drop(topic, t, "odometry pose not finite");
+      return false;
     }
-    if (odo_all.is_open())
-      io::writeTumLine(odo_all, t, p);
+    bool reset = false;
+    if (!gate(&odom_gate, t, clock, topic, &drops, &reset))
+      return false;
+    if (reset)
+    {
+      slam.reset();
+      odometry = core::OdometryBuffer();
+      pending.clear();
+      scan_gate.reset();
+      ++resets;
+    }
+    odometry.add(t, p);
+    if (out.enabled())
+      io::writeTumLine(out.stream("odometry_all.tum"), t, p);
+    return true;
   };
   const auto process = [&](bool flush) {
     while (!pending.empty() && !odometry.empty() && (flush || odometry.covers(pending.front().first)))
@@ -375,188 +572,275 @@ int runGrid(const Options& o)
       const double t = pending.front().first;
       const core::Pose2 od = odometry.at(t);
       const auto t0 = std::chrono::steady_clock::now();
-      const core::GridSlamStep step = slam.update(od, pending.front().second, sensor);
+      core::GridSlamStep step;
+      try
+      {
+        step = slam.update(od, pending.front().second, sensor, t);
+      }
+      catch (const std::invalid_argument& e)
+      {
+        drops.drop(o.scan_topic, t, e.what());
+        pending.pop_front();
+        continue;
+      }
       const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       seconds += dt;
       worst = std::max(worst, dt);
-      resamples += step.resampled ? 1 : 0;
-      evaluations += step.matcher_evaluations;
       ++scans;
-      scan_stamps.push_back(t);
-      if (est.is_open())
+      if (!step.skipped)
       {
-        io::writeTumLine(est, t, slam.mappingPose());
-        io::writeTumLine(odo, t, od);
+        ++processed;
+        resamples += step.resampled ? 1 : 0;
+        evaluations += step.matcher_evaluations;
+        processed_stamps.push_back(t);
+      }
+      if (out.enabled())
+      {
+        io::writeTumLine(out.stream("estimate.tum"), t, slam.poseAt(od));
+        io::writeTumLine(out.stream("odometry.tum"), t, od);
       }
       odometry.dropBefore(t);
       pending.pop_front();
     }
   };
 
-  std::vector<std::string> topics{ o.scan_topic };
+  std::vector<std::string> read_topics;
+  if (!o.odometry_only)
+    read_topics.push_back(o.scan_topic);
   if (use_wheels)
   {
-    topics.push_back(o.wheels_topic);
+    read_topics.push_back(o.wheels_topic);
     if (o.imu_weight > 0.0)
-      topics.push_back(o.imu_topic);
+      read_topics.push_back(o.imu_topic);
   }
   else
-    topics.push_back(o.odom_topic);
-  rosbag::View view(bag, rosbag::TopicQuery(topics));
+    read_topics.push_back(o.odom_topic);
+  rosbag::View view(bag, rosbag::TopicQuery(read_topics));
   for (const auto& m : view)
   {
+    checkInterrupted();
+    const double clock = m.getTime().toSec();
     if (const auto s = m.instantiate<sensor_msgs::LaserScan>())
     {
       const double t = s->header.stamp.toSec();
       core::ScanData scan;
       const std::string why = toScanData(*s, &scan);
-      if (!why.empty() || t <= last_scan)
+      if (!why.empty())
       {
-        ++bad_scans;
+        drops.drop(m.getTopic(), t, why);
         continue;
       }
-      last_scan = t;
+      bool reset = false;
+      if (!gate(&scan_gate, t, clock, m.getTopic(), &drops, &reset))
+        continue;
+      if (reset)
+      {
+        process(true);  // the old timeline's scans, with the old odometry
+        slam.reset();
+        odometry = core::OdometryBuffer();
+        odom_gate.reset();
+        ++resets;
+      }
       pending.emplace_back(t, std::move(scan));
     }
     else if (const auto od = m.instantiate<nav_msgs::Odometry>())
       addOdometry(od->header.stamp.toSec(),
-                  core::Pose2(od->pose.pose.position.x, od->pose.pose.position.y, yawOf(od->pose.pose.orientation)));
+                  core::Pose2(od->pose.pose.position.x, od->pose.pose.position.y, yawOf(od->pose.pose.orientation)),
+                  m.getTopic(), clock);
     else if (const auto js = m.instantiate<sensor_msgs::JointState>())
     {
       // ESE 650 layout: FR FL RR RL cumulative wheel angles [rad]; left = mean(FL, RL), right = mean(FR, RR).
+      const double t = js->header.stamp.toSec();
       if (js->position.size() < 4)
       {
-        ++dropped;
+        drops.drop(m.getTopic(), t, "fewer than 4 wheel positions");
         continue;
       }
-      const double t = js->header.stamp.toSec();
       if (!last_wheel_angles.empty())
       {
         const auto d = [&](int i) { return (js->position[i] - last_wheel_angles[i]) * o.wheel_radius; };
         if (!wheels.addEncoders(t, 0.5 * (d(1) + d(3)), 0.5 * (d(0) + d(2))))
         {
-          ++dropped;
+          drops.drop(m.getTopic(), t, "wheel angles not finite or stamp not after the previous");
           continue;
         }
       }
       last_wheel_angles.assign(js->position.begin(), js->position.begin() + 4);
-      addOdometry(t, wheels.pose());
+      addOdometry(t, wheels.pose(), m.getTopic(), clock);
     }
     else if (const auto imu = m.instantiate<sensor_msgs::Imu>())
     {
       if (!wheels.addGyro(imu->header.stamp.toSec(), imu->angular_velocity.z))
-        ++dropped;
+        drops.drop(m.getTopic(), imu->header.stamp.toSec(), "gyro rate not finite or stamp not after the previous");
     }
     process(false);
   }
   process(true);
+  if (!o.odometry_only && scans == 0)
+    throw std::runtime_error(o.bag_path + ": no scan of " + o.scan_topic + " was used (" +
+                             std::to_string(drops.count()) + " messages dropped; is there odometry on " +
+                             (use_wheels ? o.wheels_topic : o.odom_topic) + "?); nothing written");
+  if (odometry.empty() && scans == 0)
+    throw std::runtime_error(o.bag_path + ": no usable odometry; nothing written");
 
-  if (!o.out_dir.empty())
+  if (out.enabled())
   {
     if (slam.initialised())
-      io::saveMapImage(slam.map().toImage(), o.out_dir + "/map.yaml");
-    // rbpf mode: the best particle's whole history (its poses as its lineage saw them), one per scan - the
-    // smoothed trajectory that matches the final map; estimate.tum is the online estimate.
+      for (auto& f : io::encodeMapImage(slam.map().toImage(), o.out_dir + "/map.yaml"))
+        out.add(f.first, f.second);
+    // rbpf mode: the best particle's whole history (its poses as its lineage saw them), one per processed scan -
+    // the smoothed trajectory that matches the final map; estimate.tum is the online estimate.
     const std::vector<core::Pose2> history = slam.bestTrajectory();
-    if (!history.empty() && history.size() == scan_stamps.size())
-    {
-      std::ofstream best;
-      openOut(o.out_dir, "estimate_best_history.tum", &best);
+    if (!history.empty() && resets == 0 && history.size() == processed_stamps.size())
       for (std::size_t i = 0; i < history.size(); ++i)
-        io::writeTumLine(best, scan_stamps[i], history[i]);
-    }
-    std::ofstream timing(o.out_dir + "/timing.txt");
-    timing << "scans " << scans << "\nfilter_seconds " << seconds << "\nms_per_scan "
-           << 1e3 * seconds / std::max(1, scans) << "\nworst_ms " << 1e3 * worst << "\nresamples " << resamples
-           << "\nparticles " << gc.particles << "\nseed " << gc.seed << "\n";
-    writeTimingJson(o.out_dir, scans, scans, 0.0, seconds, gc.particles, gc.seed);
+        io::writeTumLine(out.stream("estimate_best_history.tum"), processed_stamps[i], history[i]);
+    out.stream("timing.txt") << "scans " << scans << "\nprocessed " << processed << "\nfilter_seconds " << seconds
+                             << "\nms_per_scan " << 1e3 * seconds / std::max(1, scans) << "\nworst_ms " << 1e3 * worst
+                             << "\nresamples " << resamples << "\nparticles " << gc.particles << "\nseed " << gc.seed
+                             << "\n";
+    out.stream("timing.json") << timingJson(scans, processed, 0.0, seconds, gc.particles, gc.seed);
+    out.commit();
   }
   if (!o.quiet)
   {
-    std::printf("slam_bag grid: %s: %d scans, %d scans dropped (malformed or time going backwards), %d odometry "
-                "messages dropped, %d resamplings\n",
-                o.bag_path.c_str(), scans, bad_scans, dropped, resamples);
+    std::printf("slam_bag grid: %s: %d scans, %d scans dropped (unreadable, stamps going backwards or not finite), "
+                "%d messages dropped in all, %d processed (the others below the travel thresholds), %d resamplings, "
+                "%d restarts (time jumped back)\n",
+                o.bag_path.c_str(), scans, drops.count(o.scan_topic), drops.count(), processed, resamples, resets);
     const core::Pose2& p = slam.mappingPose();
     std::printf("  final pose (map frame = first scan's odometry pose): %.3f %.3f %.1f deg; %zu map tiles\n", p.x, p.y,
                 p.theta * 180.0 / M_PI, slam.map().tileCount());
     std::printf("  filter time %.2f s, %.3f ms per scan (worst %.1f ms), %d particles\n", seconds,
                 1e3 * seconds / std::max(1, scans), 1e3 * worst, gc.particles);
     if (gc.mode == core::GridSlamMode::kRbpf)
-      std::printf("  scan matcher: %.1f poses scored per particle and scan\n",
-                  static_cast<double>(evaluations) / std::max(1, scans) / std::max(1, gc.particles));
+      std::printf("  scan matcher: %.1f poses scored per particle and processed scan\n",
+                  static_cast<double>(evaluations) / std::max(1, processed) / std::max(1, gc.particles));
     if (use_wheels && o.imu_weight > 0.0)
       std::printf("  gyro bias (from standing still) %.5f rad/s\n", wheels.gyroBias());
   }
   return 0;
+}
+/** @brief The value of option @p name as an integer in [lo, hi]; throws naming the option otherwise. */
+long parseInteger(const std::string& name, const char* text, long lo, long hi)
+{
+  errno = 0;
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (errno != 0 || end == text || *end != '\0')
+    throw std::invalid_argument(name + " must be an integer, not '" + text + "'");
+  if (v < lo || v > hi)
+    throw std::invalid_argument(name + " must be in " + std::to_string(lo) + ".." + std::to_string(hi) + ", not " +
+                                text);
+  return v;
+}
+
+/** @brief The value of option @p name as a finite number in [lo, hi]; throws naming the option otherwise. */
+double parseNumber(const std::string& name, const char* text, double lo, double hi)
+{
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (errno != 0 || end == text || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(name + " must be a number, not '" + text + "'");
+  if (v < lo || v > hi)
+    throw std::invalid_argument(name + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], not " +
+                                text);
+  return v;
 }
 }  // namespace
 
 int main(int argc, char** argv)
 {
   Options o;
-  for (int i = 1; i < argc; ++i)
-  {
-    const std::string a = argv[i];
-    const bool has = i + 1 < argc;
-    if (a == "--filter" && has)
-      o.filter = argv[++i];
-    else if (a == "--bag" && has)
-      o.bag_path = argv[++i];
-    else if (a == "--points" && has)
-      o.points_topic = argv[++i];
-    else if (a == "--scan" && has)
-    {
-      o.scan_topic = argv[++i];
-      o.scan_given = true;
-    }
-    else if (a == "--extraction-config" && has)
-      o.extraction_config_path = argv[++i];
-    else if (a == "--odom" && has)
-      o.odom_topic = argv[++i];
-    else if (a == "--base-frame" && has)
-      o.base_frame = argv[++i];
-    else if (a == "--particles" && has)
-      o.particles = std::atoi(argv[++i]);
-    else if (a == "--seed" && has)
-      o.seed = std::atol(argv[++i]);
-    else if (a == "--method" && has)
-      o.method = argv[++i];
-    else if (a == "--config" && has)
-      o.config_path = argv[++i];
-    else if (a == "--resampling" && has)
-      o.resampling = argv[++i];
-    else if (a == "--wheels" && has)
-      o.wheels_topic = argv[++i];
-    else if (a == "--wheel-radius" && has)
-      o.wheel_radius = std::atof(argv[++i]);
-    else if (a == "--track" && has)
-      o.track = std::atof(argv[++i]);
-    else if (a == "--imu" && has)
-      o.imu_topic = argv[++i];
-    else if (a == "--imu-weight" && has)
-      o.imu_weight = std::atof(argv[++i]);
-    else if (a == "--out" && has)
-      o.out_dir = argv[++i];
-    else if (a == "--quiet")
-      o.quiet = true;
-    else
-    {
-      usage(argv[0]);
-      return a == "--help" || a == "-h" ? 0 : 2;
-    }
-  }
-  if (o.bag_path.empty() || (o.filter != "fastslam" && o.filter != "grid"))
-  {
-    usage(argv[0]);
-    return 2;
-  }
   try
   {
+    for (int i = 1; i < argc; ++i)
+    {
+      const std::string a = argv[i];
+      const bool has = i + 1 < argc;
+      if (a == "--help" || a == "-h")
+      {
+        usage(argv[0]);
+        return 0;
+      }
+      if (a == "--quiet")
+        o.quiet = true;
+      else if (a == "--odometry-only")
+        o.odometry_only = true;
+      else if (a.compare(0, 2, "--") == 0 && !has)
+        throw std::invalid_argument(a + " needs a value");
+      else if (a == "--filter")
+        o.filter = argv[++i];
+      else if (a == "--bag")
+        o.bag_path = argv[++i];
+      else if (a == "--points")
+        o.points_topic = argv[++i];
+      else if (a == "--scan")
+      {
+        o.scan_topic = argv[++i];
+        o.scan_given = true;
+      }
+      else if (a == "--extraction-config")
+        o.extraction_config_path = argv[++i];
+      else if (a == "--odom")
+        o.odom_topic = argv[++i];
+      else if (a == "--base-frame")
+        o.base_frame = argv[++i];
+      else if (a == "--particles")
+        o.particles = static_cast<int>(parseInteger(a, argv[++i], 1, core::FastSlamConfig::kMaxParticles));
+      else if (a == "--seed")
+        o.seed = parseInteger(a, argv[++i], 0, std::numeric_limits<long>::max());
+      else if (a == "--method")
+        o.method = argv[++i];
+      else if (a == "--config")
+        o.config_path = argv[++i];
+      else if (a == "--resampling")
+        o.resampling = argv[++i];
+      else if (a == "--wheels")
+        o.wheels_topic = argv[++i];
+      else if (a == "--wheel-radius")
+        o.wheel_radius = parseNumber(a, argv[++i], 1e-3, 10.0);
+      else if (a == "--track")
+        o.track = parseNumber(a, argv[++i], 1e-3, 100.0);
+      else if (a == "--imu")
+        o.imu_topic = argv[++i];
+      else if (a == "--imu-weight")
+        o.imu_weight = parseNumber(a, argv[++i], 0.0, 1.0);
+      else if (a == "--out")
+        o.out_dir = argv[++i];
+      else
+        throw std::invalid_argument("unknown argument '" + a + "' (--help lists the options)");
+    }
+    if (o.bag_path.empty())
+      throw std::invalid_argument("--bag FILE is required (--help lists the options)");
+    if (o.filter != "fastslam" && o.filter != "grid")
+      throw std::invalid_argument("--filter must be fastslam or grid, not '" + o.filter + "'");
+    if (o.filter == "fastslam" && o.odometry_only)
+      throw std::invalid_argument("--odometry-only goes with --filter grid");
+  }
+  catch (const std::invalid_argument& e)
+  {
+    std::fprintf(stderr, "slam_bag: %s (usage: %s --help)\n", e.what(), argv[0]);
+    return 2;
+  }
+  struct sigaction action;
+  std::memset(&action, 0, sizeof(action));
+  action.sa_handler = onSignal;
+  for (const int signum : { SIGINT, SIGTERM, SIGHUP })
+    sigaction(signum, &action, nullptr);
+  try
+  {
+    struct stat st;
+    if (::stat(o.bag_path.c_str(), &st) != 0)
+      throw std::runtime_error(o.bag_path + ": " + std::strerror(errno));
+    if (S_ISDIR(st.st_mode))
+      throw std::runtime_error(o.bag_path + ": a folder, not a bag file");
+    checkOutputDir(o.out_dir);
     return o.filter == "grid" ? runGrid(o) : runFastSlam(o);
   }
   catch (const std::exception& e)
   {
     std::fprintf(stderr, "slam_bag: %s\n", e.what());
-    return 1;
+    return g_signal != 0 ? 128 + static_cast<int>(g_signal) : 1;
   }
 }

@@ -195,6 +195,7 @@ RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5, double motion_w
   c.resampling = ResamplingMethod::kLowVariance;
   c.resample_neff_ratio = neff_ratio;
   c.proposal_motion_weight = motion_weight;
+  c.linear_update = c.angular_update = 0.0;  // every scan: the algorithm itself (thresholds: test_faults.cpp)
   GridSlam slam(c);
   const std::vector<Pose2> path = truePath();
   Random odo_noise(99);

@@ -1,5 +1,7 @@
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -129,6 +131,51 @@ TEST(GridSlam, ValidatesItsConfiguration)
   GridSlamMode m;
   EXPECT_TRUE(parseGridSlamMode("course", &m));
   EXPECT_FALSE(parseGridSlamMode("gmapping", &m));
+}
+
+TEST(GridSlam, RefusesNonFinitePosesAndKeepsItsState)
+{
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const GridSlamMode mode : { GridSlamMode::kCourse, GridSlamMode::kRbpf })
+  {
+    GridSlamConfig c;
+    c.mode = mode;
+    c.particles = 5;
+    GridSlam slam(c);
+    const std::vector<Pose2> path = truePath();
+    const ScanData scan = simulateScan(path[0]);
+    // Before the first scan: nothing starts.
+    EXPECT_THROW(slam.update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_FALSE(slam.initialised());
+    slam.update(path[0], scan, Pose2());
+    ASSERT_TRUE(slam.initialised());
+    const std::size_t tiles = slam.map().tileCount();
+    // After it: every non-finite pose or angle is refused and changes nothing.
+    const Pose2 moved(path[0].x + 0.5, path[0].y, path[0].theta);
+    EXPECT_THROW(slam.update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam.update(Pose2(0.0, -inf, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam.update(Pose2(0.0, 0.0, nan), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam.update(moved, scan, Pose2(0.1, nan, 0.0)), std::invalid_argument);
+    ScanData bad_angles = scan;
+    bad_angles.angle_increment = nan;
+    EXPECT_THROW(slam.update(moved, bad_angles, Pose2()), std::invalid_argument);
+    try
+    {
+      slam.update(Pose2(nan, 1.0, 2.0), scan, Pose2());
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("odometry pose is not finite"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(slam.lastOdometry().x, path[0].x);
+    EXPECT_EQ(slam.map().tileCount(), tiles);
+    for (const auto& p : slam.particles())
+      EXPECT_TRUE(std::isfinite(p.pose.x) && std::isfinite(p.pose.y) && std::isfinite(p.pose.theta));
+    // And the next good scan is processed as usual.
+    EXPECT_NO_THROW(slam.update(moved, simulateScan(moved), Pose2()));
+    EXPECT_EQ(slam.lastOdometry().x, moved.x);
+  }
 }
 
 TEST(Resampling, MultinomialDrawsInProportionToTheWeights)

@@ -1,6 +1,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -200,6 +201,46 @@ TEST(OccupancyGrid, GrowsByTilesInEveryDirectionAndExports)
   EXPECT_EQ(img.cells()[2 * w + 64 + 3], OccupancyImage::kOccupied);
   EXPECT_EQ(img.cells()[1 * w + 64 - 2], OccupancyImage::kFree);
   EXPECT_EQ(img.cells()[5 * w + 70], OccupancyImage::kUnknown);
+}
+
+TEST(OccupancyGrid, RefusesToGrowToAbsurdSizes)
+{
+  OccupancyGrid g;
+  g.addLogOdds(0, 0, 0.9f);
+  const int x0 = g.tileX0(), nx = g.tilesX(), ny = g.tilesY();
+  // Far from the map: a bounding box of millions of tile pointers is refused, and the grid stays as it was.
+  EXPECT_THROW(g.addLogOdds(1 << 28, 0, 0.9f), std::out_of_range);
+  EXPECT_THROW(g.addLogOdds(0, -(1 << 28), 0.9f), std::out_of_range);
+  // Beyond the cells any grid holds, even as its first tile.
+  OccupancyGrid fresh;
+  EXPECT_THROW(fresh.addLogOdds(OccupancyGrid::kMaxTileIndex * OccupancyGrid::kTileSize, 0, 0.9f), std::out_of_range);
+  EXPECT_THROW(fresh.addLogOdds(0, std::numeric_limits<int>::min(), 0.9f), std::out_of_range);
+  EXPECT_EQ(fresh.tileCount(), 0u);
+  EXPECT_EQ(g.tileCount(), 1u);
+  EXPECT_EQ(g.tileX0(), x0);
+  EXPECT_EQ(g.tilesX(), nx);
+  EXPECT_EQ(g.tilesY(), ny);
+  EXPECT_FLOAT_EQ(g.logOdds(0, 0), 0.9f);
+  // A far but sane write still grows the grid.
+  EXPECT_NO_THROW(g.addLogOdds(20000, -20000, 0.9f));
+  EXPECT_EQ(g.tileCount(), 2u);
+
+  // Points that are not finite or too far for an int index are a cell outside every grid: it reads unknown,
+  // and a scan from there is refused rather than allocated.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const double v : { nan, 1e300, -1e300, std::numeric_limits<double>::infinity() })
+  {
+    int ix = 0, iy = 0;
+    g.cellOf(v, 0.0, &ix, &iy);
+    EXPECT_EQ(g.logOdds(ix, iy), 0.0f) << v;
+    EXPECT_GE(std::abs(ix), OccupancyGrid::kMaxTileIndex * OccupancyGrid::kTileSize) << v;
+  }
+  ScanData scan;
+  scan.ranges.assign(10, 2.0f);
+  scan.angle_increment = 0.1;
+  EXPECT_THROW(g.insertScan(Pose2(nan, 0.0, 0.0), scan, ScanLimits()), std::out_of_range);
+  EXPECT_THROW(g.insertScan(Pose2(0.0, 1e12, 0.0), scan, ScanLimits()), std::out_of_range);
+  EXPECT_EQ(g.tileCount(), 2u);
 }
 
 TEST(OccupancyGrid, CopiesShareTilesUntilWritten)

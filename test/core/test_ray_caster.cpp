@@ -1,5 +1,7 @@
 #include <cmath>
 #include <limits>
+#include <type_traits>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -24,7 +26,26 @@ TrunkSpec trunk(double x, double y, double r)
   t.radius = r;
   return t;
 }
+
+template <typename T, typename = void>
+struct GroundReadable : std::false_type
+{
+};
+template <typename T>
+struct GroundReadable<T, std::void_t<decltype(std::declval<T>().ground()), decltype(std::declval<T>().world())>>
+  : std::true_type
+{
+};
 }  // namespace
+
+TEST(RayCaster, GroundAndWorldAreNotReadFromATemporary)
+{
+  // The accessors return references into the caster: on a temporary they would dangle.
+  EXPECT_TRUE((GroundReadable<const ForestRayCaster&>::value));
+  EXPECT_TRUE((GroundReadable<ForestRayCaster&>::value));
+  EXPECT_FALSE((GroundReadable<ForestRayCaster>::value));
+  EXPECT_FALSE((GroundReadable<const ForestRayCaster>::value));
+}
 
 TEST(RayCaster, RangeToATrunkAtAKnownPose)
 {

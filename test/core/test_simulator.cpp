@@ -234,7 +234,8 @@ TEST(Simulator, BodyFollowsTheGround)
   ForestWorld w;
   w.ground.amplitude = 0.3;
   ForestSimulator sim(w, SimulatorConfig());
-  const Ground& g = ForestRayCaster(w).ground();
+  const ForestRayCaster caster(w);
+  const Ground& g = caster.ground();
   for (double x = 0.0; x < 30.0; x += 3.7)
   {
     const Eigen::Isometry3d body = sim.bodyPose(Pose2(x, 15.0, 0.4));

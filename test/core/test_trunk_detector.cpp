@@ -202,6 +202,28 @@ TEST(TrunkDetector, TiltedSensorIsLevelledByTheTrunks)
     EXPECT_NEAR(o.radius, 0.2, 0.02);
 }
 
+TEST(TrunkDetector, TrunksInEveryQuadrantAreFound)
+{
+  // Ground and band cells left of and behind the sensor have negative indices (their hash keys too).
+  Random rnd(12);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  const std::vector<Eigen::Vector2d> centres{ { 6.0, 3.0 }, { -5.0, 4.0 }, { -7.0, -2.5 }, { 4.5, -6.0 } };
+  for (const auto& c : centres)
+    addTrunk(&pts, c.x(), c.y(), 0.2, 100.0, rnd);
+  TrunkDetector det(config());
+  const auto obs = det.detect(pts);
+  ASSERT_EQ(obs.size(), centres.size());
+  for (const auto& c : centres)
+  {
+    const TrunkObservation* o = nearest(obs, c.x(), c.y());
+    ASSERT_NE(o, nullptr);
+    EXPECT_NEAR(o->center.x(), c.x(), 0.03);
+    EXPECT_NEAR(o->center.y(), c.y(), 0.03);
+    EXPECT_NEAR(o->radius, 0.2, 0.02);
+  }
+}
+
 TEST(TrunkDetector, EmptyAndNonFiniteInputGiveNothing)
 {
   TrunkDetector det(config());

@@ -46,7 +46,8 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
-                k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses")
+                k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
+                k == "time_jump_threshold")
         << "unexpected key " << k;
 }
 

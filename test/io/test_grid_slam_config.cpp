@@ -40,6 +40,9 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.proposal_sigma_theta, defaults.proposal_sigma_theta);
   EXPECT_EQ(read.min_matched_ratio, defaults.min_matched_ratio);
   EXPECT_EQ(read.proposal_motion_weight, defaults.proposal_motion_weight);
+  EXPECT_EQ(read.linear_update, defaults.linear_update);
+  EXPECT_EQ(read.angular_update, defaults.angular_update);
+  EXPECT_EQ(read.temporal_update, defaults.temporal_update);
   EXPECT_EQ(read.matcher.kernel, defaults.matcher.kernel);
   EXPECT_EQ(read.matcher.match_sigma, defaults.matcher.match_sigma);
   EXPECT_EQ(read.matcher.likelihood_sigma, defaults.matcher.likelihood_sigma);
@@ -61,7 +64,7 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||
                 k == "transform_tolerance" || k == "map_update_interval" || k == "publish_tf" || k == "map_path" ||
-                k == "max_path_poses")
+                k == "max_path_poses" || k == "time_jump_threshold")
         << "unexpected key " << k;
 }
 

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -95,7 +96,7 @@ TEST(MapImageFile, SaveThenLoadGivesSameCells)
   EXPECT_NEAR(back.origin().y, 2.0, 1e-9);
   EXPECT_NEAR(back.resolution(), 0.1, 1e-12);
   // No partial file is left behind.
-  std::ifstream partial(dir + "/saved.pgm.partial");
+  std::ifstream partial(dir + "/saved.pgm.partial-" + std::to_string(::getpid()));
   EXPECT_FALSE(partial.good());
 }
 
@@ -123,4 +124,30 @@ TEST(MapImageFile, PackagedIndoorWorldLoads)
   const double r = map.castRay(0.0, 0.0, 0.0, 40.0);
   EXPECT_GT(r, 5.0);
   EXPECT_LT(r, 40.0);
+}
+
+TEST(AtomicFiles, AFailedWriteLeavesNoFileAndNoTemporary)
+{
+  const std::string dir = tempDir();
+  // The YAML's folder does not exist: its write fails, so the image written before it must not appear either.
+  EXPECT_THROW(rbpf_slam::io::writeFilesAtomic({ { dir + "/map.pgm", "P5 image" }, { dir + "/missing/map.yaml", "x" } }),
+               std::runtime_error);
+  std::ifstream image(dir + "/map.pgm");
+  EXPECT_FALSE(image.good());
+  const std::string listing = dir + "/listing.txt";
+  ASSERT_EQ(std::system(("ls -A " + dir + " > " + listing).c_str()), 0);
+  std::ifstream names(listing);
+  std::string name, others;
+  while (std::getline(names, name))
+    if (name != "listing.txt")
+      others += name + " ";
+  EXPECT_EQ(others, "") << "left behind in " << dir;
+  // And a successful pair is there whole.
+  rbpf_slam::io::writeFilesAtomic({ { dir + "/a.txt", "first" }, { dir + "/b.txt", "second" } });
+  std::ifstream a(dir + "/a.txt"), b(dir + "/b.txt");
+  std::string sa, sb;
+  std::getline(a, sa);
+  std::getline(b, sb);
+  EXPECT_EQ(sa, "first");
+  EXPECT_EQ(sb, "second");
 }

@@ -127,4 +127,4 @@ def test_a_missing_scan_topic_is_a_clear_error(tmp_path):
     subprocess.run([_tool('lego_to_bag'), data, '-o', bag, '-q', '--limit', '5'], check=True)
     proc = subprocess.run([_tool('slam_bag'), '--bag', bag, '--scan', '/nothing'], stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE, universal_newlines=True)
-    assert proc.returncode == 1 and 'no sensor_msgs/LaserScan on /nothing' in proc.stderr
+    assert proc.returncode == 1 and 'no topic /nothing (--scan)' in proc.stderr, proc.stderr

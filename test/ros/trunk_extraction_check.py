@@ -7,8 +7,9 @@ carries a unique stamp, so every TrunkArray can be traced to the input it answer
 levels clouds by TF with ~level_frame base_link; this node publishes base_link -> velodyne on
 /tf_static with only a heading (yaw), which the nodelet must strip (the trunks stay in the sensor frame).
 
-Checks: a TrunkArray with the input's header for every cloud and scan; empty, malformed and NaN
-clouds and clouds of an unknown frame neither crash the manager nor block the answer to the next cloud;
+Checks: a TrunkArray with the input's header for every usable cloud and scan; every malformed kind of cloud
+(and unusable scans) is dropped - no TrunkArray, a report on ~stats - without crashing the manager or blocking
+the answer to the next cloud; clouds of an unknown frame are answered unlevelled;
 markers are made only while someone subscribes; dynamic_reconfigure starts from the parameters (not
 the .cfg defaults), applies a valid change and refuses an invalid one.
 """
@@ -136,11 +137,11 @@ class TrunkExtractionCheck(unittest.TestCase):
 
     def stats_for(self, header):
         def match(m):
-            fields = dict(kv.split('=', 1) for kv in m.data.split())
+            fields = dict(kv.split('=', 1) for kv in m.data.split() if '=' in kv)
             return abs(float(fields['stamp']) - header.stamp.to_sec()) < 1e-6
         msg = self.wait_for(self.stats, match)
         self.assertIsNotNone(msg, 'no ~stats for the input stamped %.3f' % header.stamp.to_sec())
-        return dict(kv.split('=', 1) for kv in msg.data.split())
+        return dict(kv.split('=', 1) for kv in msg.data.split() if '=' in kv)
 
     def assert_the_trunk(self, array):
         self.assertEqual(len(array.trunks), 1, 'expected exactly the one synthetic trunk: %s' % array.trunks)
@@ -174,26 +175,69 @@ class TrunkExtractionCheck(unittest.TestCase):
         self.scan_pub.publish(msg)
         self.assert_the_trunk(self.answer(msg.header))
 
-    def test_bad_clouds_answered_empty_and_the_nodelet_survives(self):
-        empty = PointCloud2(header=self.header('velodyne'), height=1, width=0, point_step=12, row_step=0,
-                            fields=[PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in enumerate('xyz')])
-        short = self.cloud()
-        short.data = short.data[:len(short.data) // 2]  # claims more points than it holds
-        no_z = self.cloud()
-        no_z.fields = [f for f in no_z.fields if f.name != 'z']
-        all_nan = self.cloud(points=[(NAN, NAN, NAN)] * 100)
+    def malformed_clouds(self):
+        """Every malformed kind of cloud: each must be dropped (no TrunkArray), reported, and survived."""
+        def spoiled(change):
+            msg = self.cloud()
+            change(msg)
+            return msg
+        xyz = [PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in enumerate('xyz')]
+        def timed_cloud(offset):
+            timed = [PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in enumerate('xyz')] + \
+                [PointField('time', 12, PointField.FLOAT32, 1)]
+            msg = point_cloud2.create_cloud(self.header('velodyne'), timed,
+                                            [(x, y, z, 0.0) for x, y, z in self.points])
+            msg.fields[3].offset = offset
+            return msg
+        kinds = {
+            'empty': PointCloud2(header=self.header('velodyne'), height=1, width=0, point_step=12, row_step=0,
+                                 fields=xyz),
+            'data short': spoiled(lambda m: setattr(m, 'data', m.data[:len(m.data) // 2])),
+            'data 5 bytes long': spoiled(lambda m: setattr(m, 'data', m.data + b'\0' * 5)),
+            'no z': spoiled(lambda m: setattr(m, 'fields', [f for f in m.fields if f.name != 'z'])),
+            'x int8': spoiled(lambda m: setattr(m.fields[0], 'datatype', PointField.INT8)),
+            'z beyond the point': spoiled(lambda m: setattr(m.fields[2], 'offset', 10)),
+            'time beyond the point': timed_cloud(1000000),
+            'time straddling the point': timed_cloud(14),
+            'row_step short': spoiled(lambda m: setattr(m, 'row_step', 4)),
+            'height lies': spoiled(lambda m: setattr(m, 'height', 1000)),
+            'big endian': spoiled(lambda m: setattr(m, 'is_bigendian', True)),
+            'all NaN': self.cloud(points=[(NAN, NAN, NAN)] * 100),
+        }
+        return kinds
+
+    def test_bad_clouds_are_dropped_reported_and_survived(self):
+        for name, msg in self.malformed_clouds().items():
+            self.cloud_pub.publish(msg)
+            stats = self.stats_for(msg.header)
+            self.assertIn('reason', stats, '%s: ~stats must say why the cloud was dropped: %s' % (name, stats))
+            # A dropped cloud is no look that saw no tree: no TrunkArray is published for it.
+            valid = self.cloud()
+            self.cloud_pub.publish(valid)
+            self.assert_the_trunk(self.answer(valid.header))
+            with self.lock:
+                answered = [a for a in self.trunks if a.header.stamp == msg.header.stamp]
+            self.assertEqual(answered, [], '%s: a malformed cloud must publish no TrunkArray' % name)
         some_nan = self.cloud(points=self.points + [(NAN, 1.0, 2.0), (float('inf'), 0.0, 0.0)] * 50)
         unknown_frame = self.cloud(frame='nowhere')  # no TF to level_frame: a warning, no levelling
-        for msg in (empty, short, no_z, all_nan):
-            self.cloud_pub.publish(msg)
-            rospy.sleep(0.05)
-            self.assertEqual(self.answer(msg.header).trunks, [], 'a bad cloud must give an empty TrunkArray')
         for msg in (some_nan, unknown_frame):
             self.cloud_pub.publish(msg)
             self.assert_the_trunk(self.answer(msg.header))
-        valid = self.cloud()
-        self.cloud_pub.publish(valid)
-        self.assert_the_trunk(self.answer(valid.header))
+
+    def test_bad_scans_are_dropped_and_dropouts_make_no_trunk(self):
+        all_nan = self.scan()
+        all_nan.ranges = [NAN] * len(all_nan.ranges)
+        no_increment = self.scan()
+        no_increment.angle_increment = 0.0
+        for msg in (all_nan, no_increment):
+            self.scan_pub.publish(msg)
+            self.assertIn('reason', self.stats_for(msg.header))
+        # Dropouts inside the trunk's arc (every 3rd beam NaN, -Inf or 0) still give the one trunk.
+        for bad in (NAN, float('-inf'), 0.0):
+            msg = self.scan()
+            msg.ranges = [bad if i % 3 == 0 else r for i, r in enumerate(msg.ranges)]
+            self.scan_pub.publish(msg)
+            self.assert_the_trunk(self.answer(msg.header))
 
     def test_markers_only_while_subscribed(self):
         first = self.cloud()

@@ -44,6 +44,8 @@ LandmarkObservation toLandmarkObservation(const TrunkObservation& trunk);
 
 struct FastSlamConfig
 {
+  /// Upper bound of `particles`: 100000 particles hold ~100 MB per 1000 landmarks, beyond any robot's use.
+  static constexpr int kMaxParticles = 100000;
   int particles = 100;
   OdometryMotionNoise motion;
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "rbpf_slam/core/history_chain.h"
 #include "rbpf_slam/core/occupancy_grid.h"
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/pose2.h"
@@ -31,6 +32,8 @@ bool parseGridSlamMode(const std::string& name, GridSlamMode* mode);
 struct GridSlamConfig
 {
   GridSlamMode mode = GridSlamMode::kCourse;
+  /// Upper bound of `particles`: each particle owns a map (tens of MB apiece on a building in rbpf mode).
+  static constexpr int kMaxParticles = 5000;
   int particles = 30;
   std::uint64_t seed = 0;
   /// Noise of each odometry increment (one per scan). An accuracy class for indoor wheel odometry on a
@@ -60,6 +63,16 @@ struct GridSlamConfig
   /// covariance of the increment), so a match far from where the odometry puts the particle counts less.
   /// 0 = off (GMapping's code weighs by the likelihood at the match only).
   double proposal_motion_weight = 0.0;
+  /// Travel thresholds (GMapping's linearUpdate / angularUpdate / temporalUpdate): a scan is processed only
+  /// after the odometry has moved this far [m] or turned this much [rad] since the last processed scan, or
+  /// (temporal_update > 0) this much time [s] has passed; the first scan is always processed. A standing robot
+  /// then adds nothing to the map or the particles, and a fast scanner costs less. 0 / 0 / 0: every scan.
+  double linear_update = 0.1;
+  double angular_update = 0.05;
+  double temporal_update = 0.0;
+  /// `rbpf` mode: keep every particle's history (bestTrajectory(), the smoothed path); memory grows with the
+  /// scans processed. A node that never asks for it turns it off.
+  bool keep_trajectory = true;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
@@ -76,6 +89,7 @@ struct GridParticle
 struct GridSlamStep
 {
   bool initialised = false;  ///< the first scan: the map was started, nothing else
+  bool skipped = false;      ///< below the travel thresholds: nothing changed (mappingPose() is still the last one)
   double neff = 0.0;         ///< before resampling
   bool resampled = false;
   int best = 0;                ///< index of the particle whose pose updated the map (before resampling)
@@ -106,10 +120,19 @@ public:
   explicit GridSlam(const GridSlamConfig& config);
 
   /**
-   * @brief One scan: @p odometry is the robot's odometry pose at the scan's stamp, @p sensor the scanner's
-   * pose on the robot (base frame).
+   * @brief One scan: @p odometry is the robot's odometry pose at the scan's stamp [s] @p stamp (used by
+   * temporal_update only), @p sensor the scanner's pose on the robot (base frame). Below the travel thresholds
+   * nothing changes (step.skipped). @throws std::invalid_argument on a non-finite pose.
+   * Non-finite scan angles throw std::invalid_argument too (nothing changes then). @throws std::out_of_range
+   * (OccupancyGrid) when the scan reaches cells too far away for any map.
    */
-  GridSlamStep update(const Pose2& odometry, const ScanData& scan, const Pose2& sensor);
+  GridSlamStep update(const Pose2& odometry, const ScanData& scan, const Pose2& sensor, double stamp = 0.0);
+
+  /**
+   * @brief The robot's pose in the map at odometry pose @p odometry: the mapping pose carried by the odometry
+   * travelled since the last processed scan (that pose itself when @p odometry is the last processed one).
+   */
+  Pose2 poseAt(const Pose2& odometry) const { return mapping_pose_ * (last_odometry_.inverse() * odometry); }
 
   /** @brief Forgets everything (map, particles); the next scan starts a new map. Same seed as built. */
   void reset();
@@ -154,12 +177,8 @@ public:
 
 private:
   GridSlamStep updateRbpf(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor);
-  /** @brief A pose of a particle's history; ancestors shared between particles. */
-  struct TrajectoryNode
-  {
-    Pose2 pose;
-    std::shared_ptr<const TrajectoryNode> parent;
-  };
+  /** @brief A pose of a particle's history; ancestors shared between particles, released iteratively. */
+  using TrajectoryNode = HistoryNode<Pose2>;
 
   GridSlamConfig config_;
   Random random_;
@@ -167,7 +186,8 @@ private:
   std::vector<double> log_weights_, weights_;
   OccupancyGrid map_;
   bool initialised_ = false;
-  Pose2 last_odometry_;
+  Pose2 last_odometry_;  ///< of the last processed scan
+  double last_stamp_ = 0.0;
   Pose2 mapping_pose_;
   std::vector<std::pair<double, double>> end_points_;
   // rbpf mode

@@ -95,6 +95,14 @@ public:
   static constexpr int kCoarseSize = 1 << kCoarseBits;  ///< 4 cells
   static constexpr int kCoarseTileBits = kTileBits - kCoarseBits;
   static constexpr int kCoarsePerTile = 1 << kCoarseTileBits;  ///< 16 coarse cells per tile side
+  /// Tiles exist only within (-kMaxTileIndex, kMaxTileIndex) on each axis: cells within 2^30 of the origin
+  /// (53 000 km at 0.05 m/cell), so cell indices and their sums stay far from int's limits.
+  static constexpr int kMaxTileIndex = 1 << (30 - kTileBits);
+  /// At most this many tile slots (pointers, null or not) in the grid's bounding box: 64 MiB of them, a
+  /// 6.5 km square at 0.05 m/cell. A write that would grow the grid beyond it throws std::out_of_range.
+  static constexpr std::int64_t kMaxTileSlots = std::int64_t{ 1 } << 22;
+  /// updateRay() refuses (std::out_of_range) a ray across more cells than this (52 km at 0.05 m/cell).
+  static constexpr int kMaxRayCells = 1 << 20;
   struct Tile
   {
     std::array<Cell, kTileSize * kTileSize> cells;
@@ -140,7 +148,10 @@ public:
   /** @brief Index of cell (ix, iy) in its tile. */
   static int cellIndexInTile(int ix, int iy) { return index(ix, iy); }
 
-  /** @brief Adds @p delta to a cell (clamped), creating its tile if needed. */
+  /**
+   * @brief Adds @p delta to a cell (clamped), creating its tile if needed.
+   * @throws std::out_of_range when the tile is out of bounds (kMaxTileIndex, kMaxTileSlots); the grid is unchanged.
+   */
   void addLogOdds(int ix, int iy, float delta);
 
   /** @brief Occupied in the sense of the export threshold (log-odds > occupied_log_odds). */
@@ -155,12 +166,15 @@ public:
   /**
    * @brief Traces one ray from the map point (sx, sy) to (ex, ey): every cell but the last gets
    * log_odds_free; the last gets log_odds_hit when @p hit, else log_odds_free too.
+   * @throws std::out_of_range (nothing written) when an end is beyond the cells a grid holds (kMaxTileIndex;
+   * NaN too) or the ray crosses more than kMaxRayCells cells; from addLogOdds' bounds too (cells before stay).
    */
   void updateRay(double sx, double sy, double ex, double ey, bool hit);
 
   /**
    * @brief Integrates a scan taken by a sensor at @p sensor_pose (map frame): each beam per classifyBeam().
    * @return the number of beams used.
+   * @throws std::out_of_range when a beam reaches a tile out of bounds (see addLogOdds; the beams before it stay).
    */
   int insertScan(const Pose2& sensor_pose, const ScanData& scan, const ScanLimits& limits);
 

@@ -54,8 +54,11 @@ public:
    */
   RayHit cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range, Random& random);
 
-  const Ground& ground() const { return ground_; }
-  const ForestWorld& world() const { return world_; }
+  const Ground& ground() const& { return ground_; }
+  const ForestWorld& world() const& { return world_; }
+  // Not on a temporary caster: the reference would dangle as soon as the full expression ends.
+  const Ground& ground() const&& = delete;
+  const ForestWorld& world() const&& = delete;
 
   /** @brief Exact entry distance of a ray into a trunk, +inf if missed (exposed for tests). */
   static double intersectTrunk(const TrunkSpec& trunk, double ground_z, const Eigen::Vector3d& origin,

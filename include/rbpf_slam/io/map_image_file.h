@@ -2,6 +2,9 @@
 #define RBPF_SLAM_IO_MAP_IMAGE_FILE_H
 
 #include <string>
+#include <vector>
+
+#include "rbpf_slam/io/files.h"
 
 #include "rbpf_slam/core/occupancy_image.h"
 
@@ -36,6 +39,8 @@ core::OccupancyImage loadMapImage(const std::string& yaml_path);
  * @throws std::runtime_error if the map is empty or a file cannot be written.
  */
 void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path);
+/** @brief What saveMapImage writes, image first: for callers that write it with other files at once. */
+std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const std::string& yaml_path);
 
 }  // namespace io
 }  // namespace rbpf_slam

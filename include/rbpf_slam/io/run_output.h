@@ -29,6 +29,8 @@ void readTum(const std::string& path, std::vector<double>* stamps, std::vector<c
  * @throws std::runtime_error naming the file.
  */
 void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks);
+/** @brief What writeLandmarksCsv writes. */
+std::string landmarksCsv(const std::vector<core::Landmark>& landmarks);
 
 }  // namespace io
 }  // namespace rbpf_slam

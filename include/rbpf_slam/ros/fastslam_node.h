@@ -4,6 +4,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/stamp_gate.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/trunk_detector.h"
 
@@ -34,6 +36,7 @@ struct FastSlamRosConfig
   bool publish_tf = true;
   std::string inventory_path = "~/.ros/tree_inventory.csv";
   int max_path_poses = 100000;        ///< oldest poses of `path` are dropped beyond this
+  double time_jump_threshold = 1.0;   ///< [s] see core::StampGate: a larger jump back restarts the filter
 };
 
 /** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */
@@ -79,6 +82,11 @@ private:
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
   bool writeInventory(const std::string& path, std::string* message);
+  /** @brief The stamp rule (core::StampGate) for one stream: false (warned) when the message is dropped; a real
+   * jump back restarts the filter first. Lock held. */
+  bool admit(core::StampGate* gate, const char* stream, const ros::Time& stamp);
+  /** @brief Time jumped back (looped bag, restarted simulation): forgets the map, odometry and waiting arrays. */
+  void restart(const char* stream, double stamp, double previous);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;
@@ -96,6 +104,9 @@ private:
   bool initialized_ = false;
   core::Pose2 last_odom_pose_;
   ros::Time last_trunks_stamp_;
+  core::StampGate trunks_gate_, odometry_gate_;
+  std::size_t resets_ = 0, dropped_ = 0;
+  std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
   ros::Time last_processed_stamp_;
   std::string sensor_frame_;
   core::Pose2 sensor_pose_;

@@ -4,6 +4,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 
 #include <nav_msgs/OccupancyGrid.h>
@@ -16,6 +17,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "rbpf_slam/core/grid_slam.h"
+#include "rbpf_slam/core/stamp_gate.h"
 
 namespace rbpf_slam
 {
@@ -31,6 +33,7 @@ struct GridSlamRosConfig
   bool publish_tf = true;
   std::string map_path = "~/.ros/grid_map.yaml";  ///< ~save_map writes here (and the .pgm beside it)
   int max_path_poses = 100000;
+  double time_jump_threshold = 1.0;  ///< [s] see core::StampGate
 };
 
 /** @brief The core's grid as a nav_msgs/OccupancyGrid (-1 unknown, 0..100), header left to the caller. */
@@ -83,8 +86,10 @@ private:
   std::deque<Pending> pending_;
   ros::Time last_scan_stamp_;
   ros::Time last_map_stamp_;
-  bool warned_backwards_ = false;
-  std::size_t updates_ = 0;
+  core::StampGate stamp_gate_;
+  std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
+  std::set<std::string> warned_reasons_;  ///< reasons for dropped scans said once already
+  std::size_t updates_ = 0, skipped_ = 0, dropped_ = 0, resets_ = 0;
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -1,10 +1,12 @@
 #ifndef RBPF_SLAM_ROS_PARAMS_H
 #define RBPF_SLAM_ROS_PARAMS_H
 
+#include <cmath>
 #include <cstdint>
-#include <string>
-
 #include <exception>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <ros/ros.h>
 
@@ -12,57 +14,95 @@
 
 namespace rbpf_slam
 {
+// Every node reads its parameters through one RosParamSource and refuses to start (throws from its
+// constructor, so the nodelet fails to load and a node exits non-zero) on a value of the wrong type or out of
+// range, naming the key; keys that nothing read are warned by name (warnUnknownKeys).
+
 /** @brief Reads `~seed` (an int; negative values are reinterpreted as unsigned). */
-inline std::uint64_t readSeed(const ros::NodeHandle& pnh, int default_seed = 0)
+inline std::uint64_t readSeed(const RosParamSource& params, int default_seed = 0)
 {
   int seed = default_seed;
-  pnh.param("seed", seed, default_seed);
+  params.get("seed", &seed);
   return static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
 }
 
-/** @brief Reads one key; a value of the wrong type is reported (naming the key) and @p value kept. */
+/** @brief Reads one key if present; a value of the wrong type throws naming the key. */
 template <typename T>
 void readKey(const RosParamSource& params, const std::string& key, T* value)
 {
-  try
-  {
-    params.get(key, value);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s; keeping %s at its default", e.what(), key.c_str());
-  }
+  params.get(key, value);
 }
 
-/** @brief Frame names must not be empty: an empty one is reported (naming the key) and @p fallback used. */
-inline void requireFrame(const ros::NodeHandle& pnh, const char* key, std::string* frame, const std::string& fallback)
+inline std::runtime_error invalidParameter(const ros::NodeHandle& pnh, const std::string& key, const std::string& what)
 {
-  if (!frame->empty())
-    return;
-  ROS_ERROR("%s must not be empty; using %s", pnh.resolveName(key).c_str(), fallback.c_str());
-  *frame = fallback;
+  return std::runtime_error("invalid parameter " + pnh.resolveName(key) + ": " + what);
+}
+
+/** @brief Frame names must not be empty. */
+inline void requireFrame(const ros::NodeHandle& pnh, const char* key, const std::string& frame)
+{
+  if (frame.empty())
+    throw invalidParameter(pnh, key, "must not be empty");
+}
+
+inline void requireNonNegative(const ros::NodeHandle& pnh, const char* key, double value)
+{
+  if (!(std::isfinite(value) && value >= 0.0))
+    throw invalidParameter(pnh, key, "must be a finite number >= 0, not " + std::to_string(value));
+}
+
+inline void requirePositive(const ros::NodeHandle& pnh, const char* key, double value)
+{
+  if (!(std::isfinite(value) && value > 0.0))
+    throw invalidParameter(pnh, key, "must be a finite number > 0, not " + std::to_string(value));
 }
 
 /**
- * @brief A core configuration read from the private parameters with its io reader (e.g.
- * io::readFastSlamConfig), and `~seed`. A wrong type or an invalid value is reported (naming the key) and
- * the whole configuration falls back to its defaults, so a nodelet never starts half-configured.
+ * @brief A core configuration read with its io reader (e.g. io::readFastSlamConfig), and `~seed`. A wrong type
+ * or an invalid value throws, naming the key: a node never starts half-configured or on defaults it was not
+ * given. The reader's validation (Config::validate()) is called here too.
  */
 template <typename Config>
-Config readCoreConfig(const ros::NodeHandle& pnh, void (*reader)(const io::ParamSource&, Config*), const char* what)
+Config readCoreConfig(const RosParamSource& params, void (*reader)(const io::ParamSource&, Config*))
 {
   Config c;
-  try
-  {
-    reader(RosParamSource(pnh), &c);
-  }
-  catch (const std::exception& e)
-  {
-    ROS_ERROR("%s: %s; using the default %s configuration", pnh.getNamespace().c_str(), e.what(), what);
-    c = Config();
-  }
-  c.seed = readSeed(pnh);
+  reader(params, &c);
+  c.seed = readSeed(params);
   return c;
+}
+
+/**
+ * @brief Warns, by name, of every private parameter (leaf key under @p params' namespace) that no reader asked
+ * for: a misspelt key would otherwise be ignored without a word. A key counts as asked when it, or a key above
+ * it, was asked for.
+ */
+inline std::vector<std::string> warnUnknownKeys(const RosParamSource& params)
+{
+  std::vector<std::string> unknown;
+  std::vector<std::string> names;
+  if (!ros::param::getParamNames(names))
+    return unknown;
+  const std::string ns = params.nodeHandle().getNamespace() + "/";
+  for (const std::string& name : names)
+  {
+    if (name.compare(0, ns.size(), ns) != 0)
+      continue;
+    const std::string key = name.substr(ns.size());
+    bool known = false;
+    for (std::string k = key; !k.empty() && !known;)
+    {
+      known = params.asked().count(k) > 0;
+      const std::size_t slash = k.rfind('/');
+      k = slash == std::string::npos ? std::string() : k.substr(0, slash);
+    }
+    if (!known)
+    {
+      unknown.push_back(key);
+      ROS_WARN("%s: parameter %s is not one of this node's (misspelt?); ignored", params.nodeHandle().getNamespace().c_str(),
+               name.c_str());
+    }
+  }
+  return unknown;
 }
 
 }  // namespace rbpf_slam

@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_ROS_ROS_PARAM_SOURCE_H
 #define RBPF_SLAM_ROS_ROS_PARAM_SOURCE_H
 
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -10,13 +11,17 @@
 
 namespace rbpf_slam
 {
-/** @brief The ROS parameter server (under a node handle's namespace) as a ParamSource. */
+/**
+ * @brief The ROS parameter server (under a node handle's namespace) as a ParamSource. Remembers every key asked
+ * for, so that the keys nobody asked for (typos) can be named (warnUnknownKeys in params.h).
+ */
 class RosParamSource : public io::ParamSource
 {
 public:
   explicit RosParamSource(const ros::NodeHandle& nh) : nh_(nh) {}
   bool get(const std::string& key, double* value) const override
   {
+    asked_.insert(key);
     XmlRpc::XmlRpcValue v;
     if (!nh_.getParam(key, v))
       return false;
@@ -31,11 +36,20 @@ public:
   bool get(const std::string& key, int* value) const override { return typed(key, value, "an integer"); }
   bool get(const std::string& key, bool* value) const override { return typed(key, value, "true or false"); }
   bool get(const std::string& key, std::string* value) const override { return typed(key, value, "a string"); }
+  bool get(const std::string& key, std::vector<std::string>* value) const
+  {
+    return typed(key, value, "a list of strings");
+  }
+  /** @brief Marks @p key (and every key below it) as known without reading it. */
+  void markUsed(const std::string& key) const { asked_.insert(key); }
+  const std::set<std::string>& asked() const { return asked_; }
+  const ros::NodeHandle& nodeHandle() const { return nh_; }
 
 private:
   template <typename T>
   bool typed(const std::string& key, T* value, const char* what) const
   {
+    asked_.insert(key);
     if (!nh_.hasParam(key))
       return false;
     if (!nh_.getParam(key, *value))
@@ -43,6 +57,7 @@ private:
     return true;
   }
   ros::NodeHandle nh_;
+  mutable std::set<std::string> asked_;
 };
 
 }  // namespace rbpf_slam

@@ -58,6 +58,8 @@ private:
   /** @brief Rotation from @p frame to a level frame with the sensor's heading; identity if unavailable. */
   Eigen::Matrix3d levelRotation(const std::string& frame, const ros::Time& stamp);
   bool anyOutputSubscribed() const;
+  /** @brief Reports a dropped input on ~stats (no TrunkArray is published for it). */
+  void publishDropped(const std_msgs::Header& header, const char* input, const std::string& why);
   void publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
                const core::TrunkDetectorStats& stats, double band_height, const char* input, double sweep_period = 0.0);
 
@@ -81,6 +83,7 @@ private:
   ros::Publisher trunks_pub_, markers_pub_, stats_pub_, address_pub_;
   std::uint64_t markers_published_ = 0;
   std::uint64_t inputs_ = 0;
+  std::size_t dropped_ = 0;  ///< inputs that could not be read (no TrunkArray published for them)
 };
 
 }  // namespace rbpf_slam
