@@ -14,7 +14,7 @@
   polar-to-Cartesian Jacobian, method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
 * ``id`` is -1 (unknown) unless ``--keep-ids``: the course data gives each observation the true
   landmark's id, i.e. the true data association, which is ground truth and must not reach a filter
-  behind the truth firewall (``../shared/scenarios/README.md``). ``--keep-ids`` reproduces the course's
+  that estimates. ``--keep-ids`` reproduces the course's
   known-correspondence exercise; say so beside any figure made with it.
 * ``world.dat`` (``id x y``): the true landmarks on ``ground_truth/landmarks`` (TrunkArray in ``map``,
   with their ids, latched).

@@ -1,5 +1,5 @@
 // Prints the forest simulator's figures: time to cast one VLP-16 sweep (28,800 rays) among the
-// trees of a world, and the dead-reckoning drift of the pinned drives over seeds.
+// trees of a world, and the dead-reckoning drift of the reference drives over seeds.
 //   sim_benchmark [--world FILE]... [--seeds N] [--sweeps N]
 // Without --world: the paper world and a generated 150-tree stand of the same area.
 #include <algorithm>
@@ -145,11 +145,11 @@ int main(int argc, char** argv)
       benchmarkCast(w.first, w.second, sweeps);
     benchmarkCast("generated 150 trees", generatedStand(150, 7), sweeps);
 
-    std::printf("\n== Dead reckoning (wheel odometry alone) against truth, pinned drives\n");
+    std::printf("\n== Dead reckoning (wheel odometry alone) against truth, reference drives\n");
     for (const auto& w : loaded)
     {
       if (default_worlds && &w != &loaded.front())
-        break;  // the pinned drift is the paper world's
+        break;  // the reference drift is the paper world's
       benchmarkDrift(w.first + " straight", w.second, core::straightDrive(), seeds);
       benchmarkDrift(w.first + " loop", w.second, core::loopDrive(), seeds);
     }

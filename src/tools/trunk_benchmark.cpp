@@ -51,7 +51,7 @@ struct TrueTrunk
 struct Result
 {
   BandStats band[kNumBands];
-  BandStats within10;  // [1, 10) m, the goal's range
+  BandStats within10;  // [1, 10) m, the range figures are given for
   std::vector<double> times_ms;
   int spurious_within10 = 0;
   double stage_ms[4] = { 0.0, 0.0, 0.0, 0.0 };

@@ -352,7 +352,7 @@ TEST(ShippedWorlds, AllLoad)
 
 TEST(ShippedWorlds, PaperForestIsThePinnedStand)
 {
-  // The 16 trunks of /work/shared/scenarios/paper_forest.trees.txt (pinned; x y radius).
+  // The 16 trunks of the reference scenario's tree list (x y radius).
   const double expected[16][3] = {
     { 1.391, 7.417, 0.172 },   { 2.702, 22.942, 0.247 }, { 3.977, 11.912, 0.250 }, { 4.667, 3.012, 0.119 },
     { 8.419, 26.358, 0.231 },  { 8.740, 1.880, 0.248 },  { 11.302, 12.354, 0.110 }, { 12.546, 18.753, 0.222 },
@@ -367,7 +367,7 @@ TEST(ShippedWorlds, PaperForestIsThePinnedStand)
     EXPECT_EQ(world.trunks[i].y, expected[i][1]) << i;
     EXPECT_EQ(world.trunks[i].radius, expected[i][2]) << i;
   }
-  // Pinned realism: stand 30 x 30 m, ground +-0.3 m, bushes and fallen branches between the trunks.
+  // The reference realism: stand 30 x 30 m, ground +-0.3 m, bushes and fallen branches between the trunks.
   EXPECT_EQ(world.min_x, 0.0);
   EXPECT_EQ(world.min_y, 0.0);
   EXPECT_EQ(world.max_x, 30.0);
@@ -377,7 +377,7 @@ TEST(ShippedWorlds, PaperForestIsThePinnedStand)
   EXPECT_FALSE(world.branches.empty());
 
   // Where the shared scenarios are at hand, the copy must be byte-for-byte.
-  const std::string shared = "/work/shared/scenarios/paper_forest.trees.txt";
+  const std::string shared = std::string(RBPF_SLAM_SOURCE_DIR) + "/../shared/scenarios/paper_forest.trees.txt";
   if (access(shared.c_str(), R_OK) == 0)
   {
     EXPECT_EQ(readFile(shared), readFile(kWorldDir + "paper_forest.trees.txt"));

@@ -1,4 +1,4 @@
-"""The offline bag runner: FastSLAM on a recorded paper-world drive, and the truth firewall.
+"""The offline bag runner: FastSLAM on a recorded paper-world drive, and that the truth never reaches it.
 
 Records a bag with record_scenario, strips every ground-truth topic from a copy, runs the shared bag runner
 (slam_bag --filter fastslam) on both: the outputs must be identical (extraction and filter never read the truth), and the final pose

@@ -1,4 +1,4 @@
-"""freiburg_to_bag: rot1-trans-rot2 odometry, observations as TrunkArray, the truth firewall on ids; malformed
+"""freiburg_to_bag: rot1-trans-rot2 odometry, observations as TrunkArray, no true ids reach a filter; malformed
 data; the real course data."""
 import math
 import os
@@ -110,7 +110,7 @@ def test_real_data(tmp_path):
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
     obs = [t for _, m in bag['/landmarks'] for t in m.trunks]
-    assert len(obs) == 1212 and all(t.id == -1 for t in obs)  # the truth firewall: no given association
+    assert len(obs) == 1212 and all(t.id == -1 for t in obs)  # no given association: that is ground truth
     assert all(t.range >= 0 for t in obs)
     first = bag['/landmarks'][1][1].trunks[0]
     assert (first.range, first.bearing) == pytest.approx((1.89645381418, 0.374031885671))

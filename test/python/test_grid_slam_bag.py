@@ -3,7 +3,7 @@
 - The ESE 650 lidar path: a run written here in the course's exact .mat layout (Encoders, Hokuyo: a straight
   corridor), converted by ese650_to_bag, mapped from wheel odometry: every scan is used and the walls land
   where they are.
-- The truth firewall: a simulated indoor drive and the same bag with every ground-truth topic stripped give
+- The truth stays out: a simulated indoor drive and the same bag with every ground-truth topic stripped give
   byte-identical output.
 """
 import filecmp

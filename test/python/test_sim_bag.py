@@ -3,7 +3,7 @@
 Records with the built `record_scenario` tool, then checks with nothing but the bag:
 - trunk points, put in the map frame through the true 3D pose at each point's own time and the
   static lidar mount, lie on the true trunk surfaces (range noise 2 cm);
-- dead reckoning drifts as pinned in ../shared/scenarios/README.md (median over seeds >= 1.5 m final
+- dead reckoning drifts as the reference scenarios state (median over seeds >= 1.5 m final
   error, >= 1.0 m of it sideways);
 - the same seed gives the same bag content.
 """

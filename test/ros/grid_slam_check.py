@@ -101,7 +101,7 @@ class GridSlamCheck(unittest.TestCase):
                     rospy.Subscriber('pose', PoseWithCovarianceStamped, on_pose, queue_size=1000)]
         rospy.wait_for_service('grid_slam/save_map', timeout=30.0)
         time.sleep(1.0)  # let the subscriptions connect before the bag starts
-        # The sensor topics only: the truth stays out of the filter's reach (truth firewall).
+        # The sensor topics only: the truth stays out of the filter's reach.
         play = subprocess.run(['rosbag', 'play', '--clock', '-q', '--wait-for-subscribers', '-r', str(rospy.get_param('~rate', 3.0)), cls.bag, '--topics', '/scan', '/tf',
                                '/tf_static'], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                               universal_newlines=True)

@@ -44,7 +44,7 @@ struct ForestSlamRunResult
 /**
  * @brief The deterministic in-process runner: simulator, noise relay and path follower in lockstep (the
  * Scenario), trunk extraction on each sweep, FastSLAM on odometry and trunks, as fast as it computes.
- * Extraction and filter see only the sensor data and odometry (the truth firewall); the truth is used to
+ * Extraction and filter see only the sensor data and odometry, never the truth; the truth is used to
  * score the result at the end.
  *
  * Timing: wheel odometry arrives late (its latency); a sweep is processed once odometry covers it. Each trunk

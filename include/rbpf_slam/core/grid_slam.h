@@ -18,7 +18,7 @@ namespace rbpf_slam
 namespace core
 {
 /**
- * @brief The grid SLAM methods: `course` (issue 8: one map, the best particle maps) and `rbpf` (issue 9:
+ * @brief The grid SLAM methods: `course` (one map, the best particle maps) and `rbpf` (
  * GMapping-like, each particle owns its map, scan-matched proposal, likelihood-field weights).
  */
 enum class GridSlamMode
