@@ -9,6 +9,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 DATA = os.path.normpath(os.path.join(ROOT, '..', 'shared', 'data'))
 
 
+def built_tool(name):
+    """Path of a C++ tool of the package as built by scripts/bootstrap (RBPF_WS: another workspace)."""
+    ws = os.environ.get('RBPF_WS', os.path.join(ROOT, 'build'))
+    path = os.path.join(ws, 'devel', 'lib', 'rbpf_slam', name)
+    if not os.path.exists(path):
+        raise RuntimeError('%s is not built (%s); run scripts/bootstrap' % (name, path))
+    return path
+
+
 def data_path(*parts):
     """A file of the real data sets in <repo>/../shared/data; the test is skipped when it is absent."""
     path = os.path.join(DATA, *parts)

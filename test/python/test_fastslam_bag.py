@@ -10,6 +10,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from bagcheck import built_tool
 
 rosbag = pytest.importorskip('rosbag')
 
@@ -17,12 +18,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 WORLD = os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml')
 
 
-def _tool(name):
-    ws = os.environ.get('RBPF_WS', os.path.join(ROOT, 'build'))
-    path = os.path.join(ws, 'devel', 'lib', 'rbpf_slam', name)
-    if not os.path.exists(path):
-        raise RuntimeError('%s is not built (%s); run scripts/bootstrap' % (name, path))
-    return path
+_tool = built_tool
 
 
 def _final_xy(bag_path, topic):

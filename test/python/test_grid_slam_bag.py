@@ -14,6 +14,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from bagcheck import built_tool
 
 from bagcheck import run_main
 from test_ese650 import T0, write_run
@@ -24,12 +25,7 @@ from rbpf_slam import ese650  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def _tool(name):
-    ws = os.environ.get('RBPF_WS', os.path.join(ROOT, 'build'))
-    path = os.path.join(ws, 'devel', 'lib', 'rbpf_slam', name)
-    if not os.path.exists(path):
-        raise RuntimeError('%s is not built (%s); run scripts/bootstrap' % (name, path))
-    return path
+_tool = built_tool
 
 
 def _plot_module():

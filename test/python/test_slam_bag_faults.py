@@ -8,6 +8,7 @@ import subprocess
 import time
 
 import pytest
+from bagcheck import built_tool
 
 rosbag = pytest.importorskip('rosbag')
 from geometry_msgs.msg import TransformStamped  # noqa: E402
@@ -19,12 +20,7 @@ import rospy  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def _tool(name):
-    ws = os.environ.get('RBPF_WS', os.path.join(ROOT, 'build'))
-    path = os.path.join(ws, 'devel', 'lib', 'rbpf_slam', name)
-    if not os.path.exists(path):
-        raise RuntimeError('%s is not built (%s); run scripts/bootstrap' % (name, path))
-    return path
+_tool = built_tool
 
 
 def _cloud(stamp, kind='float32', n_trunk=400):

@@ -29,6 +29,23 @@ from tf2_msgs.msg import TFMessage
 TIMEOUT = 30.0
 
 
+_MOUNTS = []
+
+
+def send_mount(parent, child):
+    """Adds parent -> child (identity) to /tf_static: one latched message holds every mount sent so far."""
+    global _STATIC
+    if not _MOUNTS:
+        _STATIC = tf2_ros.StaticTransformBroadcaster()
+    mount = TransformStamped()
+    mount.header.stamp = rospy.Time.now()
+    mount.header.frame_id = parent
+    mount.child_frame_id = child
+    mount.transform.rotation.w = 1.0
+    _MOUNTS.append(mount)
+    _STATIC.sendTransform(_MOUNTS)
+
+
 def start(node, name, params, log):
     """rosrun rbpf_slam NODE under __name:=NAME with private parameters, output to the file LOG."""
     args = ['rosrun', 'rbpf_slam', node, '__name:=' + name] + ['_%s:=%s' % kv for kv in params]
@@ -124,10 +141,10 @@ class ConfigFaults(object):
 class TimeFaults(object):
     """Grid SLAM and FastSLAM fed with wall-clock stamps, with late, future and looped messages among them."""
 
-    def scan(self, stamp):
+    def scan(self, stamp, frame='fault_laser'):
         msg = LaserScan()
         msg.header.stamp = stamp
-        msg.header.frame_id = 'fault_laser'
+        msg.header.frame_id = frame
         msg.angle_min, msg.angle_increment = -1.5, 0.01
         msg.range_min, msg.range_max = 0.1, 30.0
         # A room: walls 4 m ahead and 3 m to each side.
@@ -146,13 +163,7 @@ class TimeFaults(object):
         return TFMessage(transforms=[t])
 
     def test_grid_slam_restarts_only_on_a_real_jump(self):
-        static = tf2_ros.StaticTransformBroadcaster()
-        mount = TransformStamped()
-        mount.header.stamp = rospy.Time.now()
-        mount.header.frame_id = 'fault_base'
-        mount.child_frame_id = 'fault_laser'
-        mount.transform.rotation.w = 1.0
-        static.sendTransform(mount)
+        send_mount('fault_base', 'fault_laser')
         scan_pub = rospy.Publisher('/fault/scan', LaserScan, queue_size=50)
         tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=50)
         with tempfile.TemporaryFile('w+') as log:
@@ -198,19 +209,13 @@ class TimeFaults(object):
     def test_grid_slam_survives_bad_scans(self):
         """Ranges NaN / +-Inf / 0 / huge, empty and all-NaN scans, beam-count changes, 4000 and 1 beams, bad
         increments, an unknown frame and a TF gap: the node stays up, names what it dropped, and maps on."""
-        static = tf2_ros.StaticTransformBroadcaster()
-        mount = TransformStamped()
-        mount.header.stamp = rospy.Time.now()
-        mount.header.frame_id = 'bad_base'
-        mount.child_frame_id = 'fault_laser'
-        mount.transform.rotation.w = 1.0
-        static.sendTransform(mount)
+        send_mount('bad_base', 'bad_laser')
         scan_pub = rospy.Publisher('/bad/scan', LaserScan, queue_size=50)
         tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=50)
         inf, nan = float('inf'), float('nan')
 
         def variant(change):
-            msg = self.scan(rospy.Time.now())
+            msg = self.scan(rospy.Time.now(), 'bad_laser')
             change(msg)
             return msg
 
@@ -250,13 +255,13 @@ class TimeFaults(object):
                     stamp = rospy.Time.now()
                     tf_pub.publish(tf(stamp, x))
                     time.sleep(0.02)
-                    msg = self.scan(stamp)
+                    msg = self.scan(stamp, 'bad_laser')
                     if change is not None:
                         change(msg)
                     scan_pub.publish(msg)
                     time.sleep(0.15)
                 # A TF gap: a scan whose odometry never comes.
-                scan_pub.publish(self.scan(rospy.Time.now()))
+                scan_pub.publish(self.scan(rospy.Time.now(), 'bad_laser'))
                 time.sleep(1.0)
                 self.assertIsNone(proc.poll(), 'the node died')
             finally:
@@ -279,13 +284,7 @@ class TimeFaults(object):
         sub = rospy.Subscriber('/fault/pose', PoseWithCovarianceStamped, on_pose, queue_size=100)
         odom_pub = rospy.Publisher('/fault/odom', Odometry, queue_size=100)
         trunks_pub = rospy.Publisher('/fault/trunks', TrunkArray, queue_size=100)
-        static = tf2_ros.StaticTransformBroadcaster()
-        mount = TransformStamped()
-        mount.header.stamp = rospy.Time.now()
-        mount.header.frame_id = 'fault_base'
-        mount.child_frame_id = 'fault_lidar'
-        mount.transform.rotation.w = 1.0
-        static.sendTransform(mount)
+        send_mount('fault_base', 'fault_lidar')
 
         def drive(t0, n):
             for k in range(n):
