@@ -160,8 +160,9 @@ std::string FastSlamConfig::validate() const
     return "delete_evidence must be < 0";
   if (confirm_observations < 1)
     return "confirm_observations must be >= 1";
-  if (!(resample_threshold >= 0.0 && resample_threshold <= 1.0))
-    return "resample_threshold must be in [0, 1]";
+  const std::string r = resampling.validate();
+  if (!r.empty())
+    return r;
   if (!(roughening_sigma_xy >= 0.0) || !(roughening_sigma_theta >= 0.0))
     return "roughening sigmas must be >= 0";
   if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
@@ -695,40 +696,21 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
       }
     }
   }
-  normalizeLogWeights(&log_w, &weights_);
+  const WeightingStep step = weighAndResample(&log_w, &weights_, config_.resampling, random_);
+  stats.neff = step.neff;
+  stats.resampled = step.resampled;
+  if (step.resampled)
+    applyResampling(&particles_, step.keep);  // the copies of a particle share its map's chunks (copy-on-write)
   for (std::size_t i = 0; i < particles_.size(); ++i)
-    particles_[i].log_weight = log_w[i];
-  stats.neff = effectiveSampleSize(weights_);
-  if (stats.neff < config_.resample_threshold * static_cast<double>(particles_.size()))
   {
-    const std::vector<int> keep = lowVarianceResample(weights_, random_);
-    // The last copy of a particle takes its map by move; the others share its chunks (copy-on-write).
-    std::vector<int> last_use(particles_.size(), -1);
-    for (std::size_t n = 0; n < keep.size(); ++n)
-      last_use[static_cast<std::size_t>(keep[n])] = static_cast<int>(n);
-    std::vector<Particle> next;
-    next.reserve(particles_.size());
-    for (std::size_t n = 0; n < keep.size(); ++n)
+    Particle& p = particles_[i];
+    p.log_weight = log_w[i];
+    if (step.resampled && config_.roughening)
     {
-      Particle& src = particles_[static_cast<std::size_t>(keep[n])];
-      if (last_use[static_cast<std::size_t>(keep[n])] == static_cast<int>(n))
-        next.push_back(std::move(src));
-      else
-        next.push_back(src);
+      p.pose.x += random_.gaussian(config_.roughening_sigma_xy);
+      p.pose.y += random_.gaussian(config_.roughening_sigma_xy);
+      p.pose.theta = wrapAngle(p.pose.theta + random_.gaussian(config_.roughening_sigma_theta));
     }
-    particles_.swap(next);
-    const double uniform = -std::log(static_cast<double>(particles_.size()));
-    for (auto& p : particles_)
-    {
-      p.log_weight = uniform;
-      if (config_.roughening)
-      {
-        p.pose.x += random_.gaussian(config_.roughening_sigma_xy);
-        p.pose.y += random_.gaussian(config_.roughening_sigma_xy);
-        p.pose.theta = wrapAngle(p.pose.theta + random_.gaussian(config_.roughening_sigma_theta));
-      }
-    }
-    stats.resampled = true;
   }
   return stats;
 }

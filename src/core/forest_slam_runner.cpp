@@ -35,7 +35,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
     TrunkDetectorConfig dc = v.detector;
     if (dc.sensor_height <= 0.0)
       dc.sensor_height = sc.lidar3d.mount.z;  // what TF says on a robot
-    pipelines.emplace_back(new TrunkSlamPipeline(dc, v.filter, mount));
+    pipelines.emplace_back(new TrunkSlamPipeline(dc, v.filter));
   }
   const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
   const double period = 1.0 / sc.lidar3d.rate;
@@ -79,7 +79,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
       for (const auto& p : sw.points)
         pts.emplace_back(p.x, p.y, p.z);
       for (auto& pl : pipelines)
-        pl->addSweep(sw.stamp, period, pts);
+        pl->addSweep(sw.stamp, period, pts, mount);
       truth_at.emplace_back(sw.stamp + 0.5 * period, between(start, sim.poseAt(sw.stamp + 0.5 * period)));
       ++sweeps;
     }
@@ -87,14 +87,14 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
     {
       ForestSlamRunResult& res = results[v];
       const FastSlamConfig& fc = variants[v].filter;
-      for (const PipelineUpdate& u : pipelines[v]->process(!more))
+      for (const PipelineUpdate& u : pipelines[v]->process(NAN, !more))
       {
         std::size_t& next = truth_next[v];
         while (next < truth_at.size() && truth_at[next].first < u.stamp - 1e-9)
           ++next;
         const Pose2 truth = next < truth_at.size() ? truth_at[next].second : Pose2();
         res.stamps.push_back(u.stamp);
-        res.estimate.push_back(pipelines[v]->filter().best().pose);
+        res.estimate.push_back(u.estimate);
         res.odometry.push_back(u.odometry);
         res.truth.push_back(truth);
         // Trees inside the true sensor's scope at this instant.

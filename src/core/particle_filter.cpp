@@ -157,6 +157,35 @@ std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod m
                                                   : lowVarianceResample(weights, random);
 }
 
+std::string ResamplingPolicy::validate() const
+{
+  if (!(std::isfinite(neff_ratio) && neff_ratio >= 0.0 && neff_ratio <= 1.0))
+    return "resample_neff_ratio must be in [0, 1]";
+  return "";
+}
+
+WeightingStep weighAndResample(std::vector<double>* log_weights, std::vector<double>* weights,
+                               const ResamplingPolicy& policy, Random& random,
+                               const std::function<void(const WeightingStep&)>& before_resampling)
+{
+  WeightingStep step;
+  normalizeLogWeights(log_weights, weights);
+  step.neff = effectiveSampleSize(*weights);
+  const std::size_t n = weights->size();
+  if (n > 0)
+    step.best = static_cast<std::size_t>(std::max_element(weights->begin(), weights->end()) - weights->begin());
+  if (before_resampling)
+    before_resampling(step);
+  if (n == 0 || !(step.neff < policy.neff_ratio * static_cast<double>(n)))
+    return step;
+  step.keep = resample(*weights, policy.method, random);
+  step.resampled = true;
+  const double uniform = 1.0 / static_cast<double>(n);
+  std::fill(weights->begin(), weights->end(), uniform);
+  std::fill(log_weights->begin(), log_weights->end(), -std::log(static_cast<double>(n)));
+  return step;
+}
+
 PoseMoments poseMoments(const std::vector<Pose2>& poses, const std::vector<double>& weights)
 {
   PoseMoments m;

@@ -17,43 +17,122 @@ double since(std::chrono::steady_clock::time_point t0)
 }  // namespace
 
 TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
-                                     const SensorMount& mount)
-  : detector_(detector), filter_(filter), mount_(mount)
+                                     const PipelineTiming& timing)
+  : detector_config_(detector)
+  , filter_config_(filter)
+  , timing_(timing)
+  , detector_(new TrunkDetector(detector))
+  , filter_(new FastSlam(filter))
+  , gate_(timing.time_jump_threshold)
 {
 }
 
-bool TrunkSlamPipeline::addOdometry(double stamp, const Pose2& pose)
+void TrunkSlamPipeline::restart()
 {
-  return odometry_.add(stamp, pose) != OdometryBuffer::AddResult::kBackwards;
+  // The old timeline's sweeps with the old timeline's odometry; then everything starts over, seeds included, so
+  // that each timeline is reproducible on its own.
+  for (PipelineUpdate& u : process(NAN, true))
+  {
+    u.timeline = gate_.restarts() - 1;
+    flushed_.push_back(std::move(u));
+  }
+  detector_.reset(new TrunkDetector(detector_config_));
+  filter_.reset(new FastSlam(filter_config_));
+  odometry_ = OdometryBuffer();
+  initialized_ = false;
+  last_odometry_ = Pose2();
 }
 
-void TrunkSlamPipeline::addSweep(double stamp, double period, const std::vector<Eigen::Vector3f>& points)
+StampVerdict TrunkSlamPipeline::addOdometry(double stamp, const Pose2& pose, double clock)
 {
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.theta))
+    return StampVerdict::kInvalid;
+  const StampVerdict v = gate_.check(TimelineGate::kOdometry, stamp, clock);
+  if (v == StampVerdict::kReset)
+    restart();
+  if (v == StampVerdict::kAccept || v == StampVerdict::kReset)
+    odometry_.add(stamp, pose);
+  return v;
+}
+
+StampVerdict TrunkSlamPipeline::admitSensor(double stamp, double clock)
+{
+  const StampVerdict v = gate_.check(TimelineGate::kSensor, stamp, clock);
+  if (v == StampVerdict::kReset)
+    restart();
+  return v;
+}
+
+void TrunkSlamPipeline::enqueue(TrunkSweep sweep, double arrival)
+{
+  pending_.push_back({ std::move(sweep), arrival });
+  while (pending_.size() > timing_.max_pending)
+  {
+    pending_.pop_front();
+    ++dropped_pending_;
+  }
+}
+
+StampVerdict TrunkSlamPipeline::addTrunks(TrunkSweep sweep, double clock, double arrival)
+{
+  const StampVerdict v = admitSensor(sweep.stamp, clock);
+  if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
+    return v;
+  if (!std::isfinite(sweep.period) || sweep.period < 0.0)
+    sweep.period = 0.0;
+  if (!std::isfinite(sweep.tilt_roll))
+    sweep.tilt_roll = 0.0;
+  if (!std::isfinite(sweep.tilt_pitch))
+    sweep.tilt_pitch = 0.0;
+  enqueue(std::move(sweep), arrival);
+  return v;
+}
+
+StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std::vector<Eigen::Vector3f>& points,
+                                         const SensorMount& mount, double clock, double arrival)
+{
+  const StampVerdict v = admitSensor(stamp, clock);
+  if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
+    return v;
   const auto t0 = std::chrono::steady_clock::now();
   TrunkDetectorStats stats;
-  Pending p;
-  p.stamp = stamp;
-  p.period = period;
-  p.trunks = detector_.detect(points, Eigen::Matrix3d::Identity(), &stats);
-  p.tilt_roll = stats.tilt_roll;
-  p.tilt_pitch = stats.tilt_pitch;
-  pending_.push_back(std::move(p));
+  TrunkSweep sweep;
+  sweep.stamp = stamp;
+  sweep.period = period;
+  sweep.mount = mount;
+  sweep.trunks = detector_->detect(points, Eigen::Matrix3d::Identity(), &stats);
+  sweep.tilt_roll = stats.tilt_roll;
+  sweep.tilt_pitch = stats.tilt_pitch;
+  enqueue(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
+  return v;
 }
 
-void TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& scan)
+StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& scan, const SensorMount& mount,
+                                        double clock, double arrival)
 {
+  const StampVerdict v = admitSensor(stamp, clock);
+  if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
+    return v;
   const auto t0 = std::chrono::steady_clock::now();
-  Pending p;
-  p.stamp = stamp;
-  p.period = period;
-  p.trunks = detector_.detectScan(scan);
-  p.tilt_roll = 0.0;
-  p.tilt_pitch = 0.0;
-  p.geometry.start_angle = scan.angle_min;
-  p.geometry.span = std::max(1e-9, std::abs(scan.angle_increment) * (scan.ranges.size() > 1 ? scan.ranges.size() - 1 : 1));
-  pending_.push_back(std::move(p));
+  TrunkSweep sweep;
+  sweep.stamp = stamp;
+  sweep.period = period;
+  sweep.mount = mount;
+  sweep.trunks = detector_->detectScan(scan);
+  sweep.geometry = scanGeometry(scan);
+  enqueue(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
+  return v;
+}
+
+SweepGeometry scanGeometry(const PlanarScan& scan)
+{
+  SweepGeometry g;
+  g.start_angle = scan.angle_min;
+  g.span = std::max(1e-9, std::abs(scan.angle_increment) *
+                              static_cast<double>(scan.ranges.size() > 1 ? scan.ranges.size() - 1 : 1));
+  return g;
 }
 
 std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
@@ -89,38 +168,56 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
   return obs;
 }
 
-std::vector<PipelineUpdate> TrunkSlamPipeline::process(bool flush)
+PipelineUpdate TrunkSlamPipeline::update(Pending p, bool covered)
+{
+  const auto t0 = std::chrono::steady_clock::now();
+  const TrunkSweep& sw = p.sweep;
+  const double t_mid = sw.stamp + 0.5 * sw.period;
+  const Pose2 odom_mid = odometry_.at(t_mid);
+  if (!initialized_)
+  {
+    // The map frame is the odometry frame at the first update: map -> odom starts as the identity.
+    filter_->initialize(odom_mid);
+    last_odometry_ = odom_mid;
+    initialized_ = true;
+  }
+  filter_->predict(decomposeOdometry(last_odometry_, odom_mid));
+  last_odometry_ = odom_mid;
+  const std::vector<LandmarkObservation> obs = sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,
+                                                                 sw.tilt_pitch, sw.mount, odometry_, t_mid,
+                                                                 sw.geometry);
+  PipelineUpdate u;
+  u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
+  u.stats = filter_->update(obs, u.mount);
+  u.stamp = t_mid;
+  u.odometry = odom_mid;
+  u.estimate = filter_->best().pose;
+  u.timeline = gate_.restarts();
+  u.odometry_covered = covered;
+  u.trunks = std::move(p.sweep.trunks);
+  seconds_filter_ += since(t0);
+  return u;
+}
+
+std::vector<PipelineUpdate> TrunkSlamPipeline::process(double now, bool flush)
 {
   std::vector<PipelineUpdate> done;
-  const Pose2 mount(mount_.x, mount_.y, mount_.yaw);  // the filter's sensor pose on base_link
-  while (!pending_.empty() && !odometry_.empty() && (flush || odometry_.covers(pending_.front().stamp + pending_.front().period)))
+  done.swap(flushed_);
+  while (!pending_.empty() && !odometry_.empty())
   {
-    Pending ps = std::move(pending_.front());
+    const Pending& front = pending_.front();
+    const bool covered = odometry_.covers(front.sweep.stamp + front.sweep.period);
+    const bool waited = std::isfinite(now) && std::isfinite(front.arrival) &&
+                        now - front.arrival >= timing_.odometry_wait;
+    if (!covered && !waited && !flush)
+      break;
+    Pending p = std::move(pending_.front());
     pending_.pop_front();
-    const auto t0 = std::chrono::steady_clock::now();
-    const double t_mid = ps.stamp + 0.5 * ps.period;
-    const Pose2 odom_mid = odometry_.at(t_mid);
-    if (!initialized_)
-    {
-      filter_.initialize(Pose2());  // the map frame starts at the first odometry pose
-      last_odometry_ = odometry_.at(odometry_.earliest());
-      initialized_ = true;
-    }
-    filter_.predict(decomposeOdometry(last_odometry_, odom_mid));
-    last_odometry_ = odom_mid;
-    const std::vector<LandmarkObservation> obs =
-        sweepObservations(ps.trunks, ps.stamp, ps.period, ps.tilt_roll, ps.tilt_pitch, mount_, odometry_, t_mid,
-                          ps.geometry);
-    PipelineUpdate u;
-    u.stats = filter_.update(obs, mount);
-    u.stamp = t_mid;
-    u.odometry = odom_mid;
-    u.trunks = std::move(ps.trunks);
-    done.push_back(std::move(u));
-    seconds_filter_ += since(t0);
+    const double t_mid = p.sweep.stamp + 0.5 * p.sweep.period;
+    done.push_back(update(std::move(p), covered));
     // Odometry older than what the next sweep needs is no longer kept.
-    const double keep_from = pending_.empty() ? t_mid : std::min(t_mid, pending_.front().stamp);
-    odometry_.dropBefore(keep_from - 0.1);
+    const double keep_from = pending_.empty() ? t_mid : std::min(t_mid, pending_.front().sweep.stamp);
+    odometry_.dropBefore(keep_from - timing_.odometry_margin);
   }
   return done;
 }

@@ -30,7 +30,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("delete_evidence", &c->delete_evidence);
   p.get("confirm_observations", &c->confirm_observations);
   p.get("drop_unconfirmed_leaving_scope", &c->drop_unconfirmed_leaving_scope);
-  p.get("resample_threshold", &c->resample_threshold);
+  readResamplingPolicy(p, &c->resampling);
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);

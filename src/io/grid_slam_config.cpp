@@ -22,12 +22,10 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
 {
   std::string name;
   if (p.get("mode", &name) && !core::parseGridSlamMode(name, &c->mode))
-    throw std::runtime_error("invalid parameter: mode must be 'course' or 'rbpf' (got '" + name + "')");
+    throw std::runtime_error("invalid parameter: mode must be 'single_map' or 'rbpf' (got '" + name + "')");
   p.get("particles", &c->particles);
   p.getSeed("seed", &c->seed);
-  if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &c->resampling))
-    throw std::runtime_error("invalid parameter: resampling must be low_variance or multinomial (got '" + name + "')");
-  p.get("resample_neff_ratio", &c->resample_neff_ratio);
+  readResamplingPolicy(p, &c->resampling);
   p.get("correlation_gain", &c->correlation_gain);
   p.get("score_beam_step", &c->score_beam_step);
   p.get("motion/alpha1", &c->motion.alpha1);

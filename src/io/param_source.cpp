@@ -17,6 +17,14 @@ bool ParamSource::getSeed(const std::string& key, std::uint64_t* seed) const
   return true;
 }
 
+void readResamplingPolicy(const ParamSource& p, core::ResamplingPolicy* policy)
+{
+  std::string name = core::resamplingMethodName(policy->method);
+  if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &policy->method))
+    throw std::runtime_error("invalid parameter: resampling must be low_variance or multinomial (got '" + name + "')");
+  p.getRenamed("resample_neff_ratio", "resample_threshold", &policy->neff_ratio);
+}
+
 struct YamlParamSource::Impl
 {
   std::string path;

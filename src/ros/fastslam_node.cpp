@@ -58,8 +58,6 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
   return c;
 }
 
-constexpr std::size_t kMaxPending = 100;  ///< trunk arrays waiting for odometry
-
 }  // namespace
 
 core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
@@ -95,9 +93,10 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   config_ = readRosConfig(params);
   const core::FastSlamConfig filter_config = readCoreConfig<core::FastSlamConfig>(params, &io::readFastSlamConfig);
   warnUnknownKeys(params);
-  filter_.reset(new core::FastSlam(filter_config));
-  trunks_gate_ = core::StampGate(config_.time_jump_threshold);
-  odometry_gate_ = core::StampGate(config_.time_jump_threshold);
+  core::PipelineTiming timing;
+  timing.time_jump_threshold = config_.time_jump_threshold;
+  timing.odometry_wait = config_.odom_timeout;  // wall seconds: the node's clock for waiting
+  pipeline_.reset(new core::TrunkSlamPipeline(core::TrunkDetectorConfig(), filter_config, timing));
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -128,70 +127,79 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto& p = msg->pose.pose;
-  if (!std::isfinite(p.position.x) || !std::isfinite(p.position.y) || !std::isfinite(yawOf(p.orientation)))
-  {
-    ROS_WARN_THROTTLE(5.0, "%s: odometry with non-finite pose dropped", name_.c_str());
-    return;
-  }
-  if (!admit(&odometry_gate_, "odometry", msg->header.stamp))
-    return;
-  odometry_.add(msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)));
+  const core::StampVerdict v = pipeline_->addOdometry(
+      msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)), ros::Time::now().toSec());
+  report(v, "odometry", msg->header.stamp);
   processPending();
 }
 
 void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!admit(&trunks_gate_, "trunks", msg->header.stamp))
+  core::TrunkSweep sweep;
+  if (!toSweep(*msg, &sweep))
     return;
-  last_trunks_stamp_ = msg->header.stamp;
-  pending_.push_back({ msg, ros::WallTime::now() });
-  if (pending_.size() > kMaxPending)  // no odometry at all: do not grow without bound
-  {
+  const std::size_t dropped_before = pipeline_->droppedPending();
+  const core::StampVerdict v = pipeline_->addTrunks(std::move(sweep), ros::Time::now().toSec(),
+                                                    ros::WallTime::now().toSec());
+  report(v, "trunks", msg->header.stamp);
+  if (pipeline_->droppedPending() > dropped_before)  // no odometry at all: the waiting arrays do not grow without bound
     ROS_WARN_THROTTLE(5.0, "%s: %zu trunk arrays wait for odometry on %s; dropping the oldest", name_.c_str(),
-                      pending_.size(), odom_sub_.getTopic().c_str());
-    pending_.pop_front();
-  }
+                      pipeline_->pending(), odom_sub_.getTopic().c_str());
   processPending();
 }
 
-bool FastSlamRos::admit(core::StampGate* gate, const char* stream, const ros::Time& stamp)
+bool FastSlamRos::toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sweep)
 {
-  const double previous = gate->last();
-  const core::StampVerdict verdict = gate->check(stamp.toSec(), ros::Time::now().toSec());
-  if (verdict == core::StampVerdict::kReset)
+  core::Pose2 sensor;
+  if (!sensorPose(msg.header.frame_id, &sensor))
+    return false;
+  sweep->stamp = msg.header.stamp.toSec();
+  // Every trunk is carried to the sweep's middle from its own instant (sweep_period, sweep_start_angle, sweep_span)
+  // and moved by the lever arm of the tilt the extractor removed (tilt_roll, tilt_pitch, the sensor's height on
+  // base_link from TF); 0 = all trunks at the stamp, no tilt, a spinning lidar's sweep.
+  sweep->period = msg.sweep_period;
+  sweep->tilt_roll = msg.tilt_roll;
+  sweep->tilt_pitch = msg.tilt_pitch;
+  if (std::isfinite(msg.sweep_span) && msg.sweep_span > 0.0 && std::isfinite(msg.sweep_start_angle))
   {
-    restart(stream, stamp.toSec(), previous);
-    return true;
+    sweep->geometry.start_angle = msg.sweep_start_angle;
+    sweep->geometry.span = msg.sweep_span;
   }
-  if (verdict == core::StampVerdict::kAccept)
-    return true;
-  ++dropped_;
-  if (warned_verdicts_.insert(static_cast<int>(verdict)).second)  // the first of each kind always, then every 5 s
-    ROS_WARN("%s: %s stamped %.3f (previous %.3f): %s; dropped (%zu messages dropped so far)", name_.c_str(), stream,
-             stamp.toSec(), previous, core::stampVerdictName(verdict), dropped_);
-  else
-    ROS_WARN_THROTTLE(5.0, "%s: %s stamped %.3f (previous %.3f): %s; dropped (%zu messages dropped so far)",
-                      name_.c_str(), stream, stamp.toSec(), previous, core::stampVerdictName(verdict), dropped_);
-  return false;
+  sweep->mount.x = sensor.x;
+  sweep->mount.y = sensor.y;
+  sweep->mount.yaw = sensor.theta;
+  sweep->mount.z = sensor_height_;
+  sweep->trunks.reserve(msg.trunks.size());
+  for (const auto& trunk : msg.trunks)
+  {
+    const core::TrunkObservation o = fromMsg(trunk);
+    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
+      continue;
+    sweep->trunks.push_back(o);
+  }
+  return true;
 }
 
-void FastSlamRos::restart(const char* stream, double stamp, double previous)
+void FastSlamRos::report(core::StampVerdict verdict, const char* stream, const ros::Time& stamp)
 {
-  ++resets_;
-  ROS_WARN("%s: %s stamped %.3f, %.3f s before the previous one (more than ~time_jump_threshold %.2f s): time "
-           "jumped back; the filter restarts with a new map (reset %zu, after %zu updates; the old map is gone unless "
-           "saved)",
-           name_.c_str(), stream, stamp, previous - stamp, config_.time_jump_threshold, resets_, updates_);
-  odometry_ = core::OdometryBuffer();
-  pending_.clear();
-  initialized_ = false;
-  path_.poses.clear();
-  odom_path_.poses.clear();
-  // Both streams start their new timeline here: the other one's next message must not look like another jump.
-  trunks_gate_.reset();
-  odometry_gate_.reset();
-  (std::strcmp(stream, "odometry") == 0 ? odometry_gate_ : trunks_gate_).check(stamp);
+  if (verdict == core::StampVerdict::kAccept)
+    return;
+  if (verdict == core::StampVerdict::kReset)
+  {
+    ROS_WARN("%s: %s stamped %.3f: time jumped back by more than ~time_jump_threshold %.2f s; the filter restarts "
+             "with a new map (reset %d, after %zu updates; the old map is gone unless saved)",
+             name_.c_str(), stream, stamp.toSec(), config_.time_jump_threshold, pipeline_->restarts(), updates_);
+    return;
+  }
+  ++dropped_;
+  const char* why = verdict == core::StampVerdict::kInvalid ? "stamp or pose not finite" : core::stampVerdictName(verdict);
+  if (warned_verdicts_.insert(static_cast<int>(verdict)).second)  // the first of each kind always, then every 5 s
+    ROS_WARN("%s: %s stamped %.3f: %s; dropped (%zu messages dropped so far)", name_.c_str(), stream, stamp.toSec(),
+             why, dropped_);
+  else
+    ROS_WARN_THROTTLE(5.0, "%s: %s stamped %.3f: %s; dropped (%zu messages dropped so far)", name_.c_str(), stream,
+                      stamp.toSec(), why, dropped_);
 }
 
 void FastSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
@@ -202,28 +210,33 @@ void FastSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
 
 void FastSlamRos::processPending()
 {
-  while (!pending_.empty())
+  std::vector<core::PipelineUpdate> done;
+  try
   {
-    const Pending& front = pending_.front();
-    const double period = std::isfinite(front.msg->sweep_period) ? std::max(0.0, front.msg->sweep_period) : 0.0;
-    const double t = front.msg->header.stamp.toSec() + period;  // the end of the sweep
-    if (!odometry_.covers(t))
+    done = pipeline_->process(ros::WallTime::now().toSec());
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
+    return;
+  }
+  for (const core::PipelineUpdate& u : done)
+  {
+    if (u.timeline != pipeline_->restarts())
+      continue;  // the old timeline's last sweeps, flushed by a restart: its map is gone
+    if (u.timeline != published_timeline_)  // the new timeline's first update: the old paths end here
     {
-      if (odometry_.empty() || (ros::WallTime::now() - front.arrival).toSec() < config_.odom_timeout)
-        return;
-      ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); using the newest",
-                        name_.c_str(), t, config_.odom_timeout, odometry_.latest());
+      path_.poses.clear();
+      odom_path_.poses.clear();
+      published_timeline_ = u.timeline;
     }
-    const rbpf_slam::TrunkArray::ConstPtr msg = front.msg;
-    pending_.pop_front();
-    try
-    {
-      processArray(*msg);
-    }
-    catch (const std::exception& e)
-    {
-      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
-    }
+    if (!u.odometry_covered)
+      ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); used the newest",
+                        name_.c_str(), u.stamp, config_.odom_timeout, pipeline_->odometry().latest());
+    ++updates_;
+    ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
+              u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
+    publish(ros::Time(u.stamp), u.odometry);
   }
 }
 
@@ -259,7 +272,7 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
 {
   if (scope_pub_.getNumSubscribers() == 0)
     return;
-  const core::FastSlamConfig& c = filter_->config();
+  const core::FastSlamConfig& c = pipeline_->filter().config();
   auto m = boost::make_shared<visualization_msgs::Marker>();
   m->header.frame_id = config_.base_frame;  // at the update's stamp: it moves with the robot
   m->header.stamp = stamp;
@@ -296,77 +309,22 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
   scope_pub_.publish(visualization_msgs::Marker::ConstPtr(m));
 }
 
-void FastSlamRos::processArray(const rbpf_slam::TrunkArray& msg)
-{
-  core::Pose2 sensor;
-  if (!sensorPose(msg.header.frame_id, &sensor))
-    return;
-  // The filter updates at the sweep's middle; each trunk is carried there from its own instant in the
-  // sweep and moved by the lever arm of the tilt the extractor removed (sweep_period and tilt from the
-  // TrunkArray; 0 = all trunks at the stamp, no tilt).
-  const double period = std::isfinite(msg.sweep_period) ? std::max(0.0, msg.sweep_period) : 0.0;
-  const double tilt_roll = std::isfinite(msg.tilt_roll) ? msg.tilt_roll : 0.0;
-  const double tilt_pitch = std::isfinite(msg.tilt_pitch) ? msg.tilt_pitch : 0.0;
-  const double t = msg.header.stamp.toSec() + 0.5 * period;
-  const core::Pose2 odom_pose = odometry_.at(t);
-  if (!initialized_)
-  {
-    // The map frame starts where odometry is at the first observation: map -> odom is the identity then.
-    filter_->initialize(odom_pose);
-    last_odom_pose_ = odom_pose;
-    initialized_ = true;
-  }
-  filter_->predict(core::decomposeOdometry(last_odom_pose_, odom_pose));
-  last_odom_pose_ = odom_pose;
-
-  std::vector<core::TrunkObservation> trunks;
-  trunks.reserve(msg.trunks.size());
-  for (const auto& trunk : msg.trunks)
-  {
-    const core::TrunkObservation o = fromMsg(trunk);
-    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
-      continue;
-    trunks.push_back(o);
-  }
-  core::SensorMount mount;
-  mount.x = sensor.x;
-  mount.y = sensor.y;
-  mount.yaw = sensor.theta;
-  mount.z = sensor_height_;
-  const std::vector<core::LandmarkObservation> observations = core::sweepObservations(
-      trunks, msg.header.stamp.toSec(), period, tilt_roll, tilt_pitch, mount, odometry_, t);
-  const core::FastSlamUpdateStats stats = filter_->update(observations, sensor);
-  ++updates_;
-  ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), stats.observations, stats.matched,
-            stats.created, stats.neff, stats.resampled ? ", resampled" : "");
-  odometry_.dropBefore(t - 1.0);
-  last_processed_stamp_ = msg.header.stamp;
-  publish(ros::Time(t), odom_pose);
-}
-
 void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
 {
-  const core::Particle& best = filter_->best();
+  const core::FastSlam& filter = pipeline_->filter();
+  const core::Particle& best = filter.best();
   publishScope(stamp);
 
   if (config_.publish_tf)
-  {
-    const core::Pose2 map_to_odom = best.pose * odom_pose.inverse();
-    geometry_msgs::TransformStamped tf;
-    tf.header.stamp = stamp + ros::Duration(config_.transform_tolerance);
-    tf.header.frame_id = config_.map_frame;
-    tf.child_frame_id = config_.odom_frame;
-    tf.transform.translation.x = map_to_odom.x;
-    tf.transform.translation.y = map_to_odom.y;
-    tf.transform.rotation = quaternionOfYaw(map_to_odom.theta);
-    tf_broadcaster_.sendTransform(tf);
-  }
+    tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
+                                                  config_.map_frame, config_.odom_frame,
+                                                  best.pose * odom_pose.inverse()));
 
   pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
-      poseWithCovariance(stamp, config_.map_frame, filter_->meanPose(), filter_->poseCovariance())));
+      poseWithCovariance(stamp, config_.map_frame, filter.meanPose(), filter.poseCovariance())));
   if (particles_pub_.getNumSubscribers() > 0)
     particles_pub_.publish(
-        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter_->particles())));
+        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter.particles())));
   appendToPath(&path_, stamp, config_.map_frame, best.pose, config_.max_path_poses);
   if (path_pub_.getNumSubscribers() > 0)
     path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
@@ -480,9 +438,9 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
   std::size_t trees = 0;
   std::string csv = "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations\n";
   char line[256];
-  if (initialized_)
+  if (pipeline_->initialized())
   {
-    const core::Particle& best = filter_->best();
+    const core::Particle& best = pipeline_->filter().best();
     for (std::size_t i = 0; i < best.map.size(); ++i)
     {
       const core::Landmark& l = best.map[i];

@@ -78,8 +78,9 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   filter_config_ = readCoreConfig<core::GridSlamConfig>(params, &io::readGridSlamConfig);
   filter_config_.keep_trajectory = false;  // the node never asks for it: memory stays flat on long runs
   warnUnknownKeys(params);
-  filter_.reset(new core::GridSlam(filter_config_));
-  stamp_gate_ = core::StampGate(config_.time_jump_threshold);
+  core::PipelineTiming timing;
+  timing.time_jump_threshold = config_.time_jump_threshold;
+  pipeline_.reset(new core::GridSlamPipeline(filter_config_, timing));
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -95,7 +96,8 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &GridSlamRos::onTimer, this);
 
   ROS_INFO("%s: grid SLAM (%s mode, %d particles, %s resampling, seed %llu, %.3f m cells) on %s; frames %s -> %s -> %s",
-           name_.c_str(), filter_config_.mode == core::GridSlamMode::kRbpf ? "rbpf" : "course", filter_config_.particles, core::resamplingMethodName(filter_config_.resampling),
+           name_.c_str(), core::gridSlamModeName(filter_config_.mode), filter_config_.particles,
+           core::resamplingMethodName(filter_config_.resampling.method),
            static_cast<unsigned long long>(filter_config_.seed), filter_config_.grid.resolution,
            scan_sub_.getTopic().c_str(), config_.map_frame.c_str(), config_.odom_frame.c_str(),
            config_.base_frame.c_str());
@@ -106,18 +108,17 @@ GridSlamRos::~GridSlamRos() = default;
 void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const core::StampVerdict verdict = stamp_gate_.check(msg->header.stamp.toSec(), ros::Time::now().toSec());
+  // The stamp rule at arrival (the pipeline's, as offline): a late or future scan must not wait for its TF.
+  const core::StampVerdict verdict = pipeline_->admitScan(msg->header.stamp.toSec(), ros::Time::now().toSec());
   if (verdict == core::StampVerdict::kReset)
   {
-    // A looped bag or a restarted simulation: start a new map rather than mixing two timelines.
-    // The TF listener clears its own buffer when the clock jumps back; clearing it here as well could drop
-    // the bag's /tf_static, which is published only once.
-    ++resets_;
+    // A looped bag or a restarted simulation: a new map rather than two timelines mixed. The TF listener clears
+    // its own buffer when the clock jumps back; clearing it here as well could drop the bag's /tf_static, which
+    // is published only once.
     ROS_WARN("%s: scan stamped %.3f, %.3f s before the previous one (more than ~time_jump_threshold %.2f s): time "
-             "jumped back; the map is restarted (reset %zu, after %zu scans)",
+             "jumped back; the map is restarted (reset %d, after %zu scans)",
              name_.c_str(), msg->header.stamp.toSec(), (last_scan_stamp_ - msg->header.stamp).toSec(),
-             config_.time_jump_threshold, resets_, updates_);
-    filter_->reset();
+             config_.time_jump_threshold, pipeline_->restarts(), updates_);
     pending_.clear();
     path_.poses.clear();
     last_map_stamp_ = ros::Time();
@@ -225,28 +226,47 @@ void GridSlamRos::processScan(const sensor_msgs::LaserScan& msg, const core::Pos
       ROS_WARN_THROTTLE(5.0, "%s: %s: dropped (%zu dropped so far)", name_.c_str(), why.c_str(), dropped_);
     return;
   }
-  const core::GridSlamStep step = filter_->update(odom_pose, scan, sensor, msg.header.stamp.toSec());
-  if (step.skipped)
+  // Odometry from TF at the scan's stamp: the pipeline interpolates it there (exactly this pose).
+  const double stamp = msg.header.stamp.toSec();
+  const core::StampVerdict v = pipeline_->addOdometry(stamp, odom_pose);
+  if (v != core::StampVerdict::kAccept && v != core::StampVerdict::kReset)
   {
-    ++skipped_;  // below the travel thresholds: only the pose moves on with the odometry
-    publishPoses(msg.header.stamp, odom_pose);
+    ++dropped_;
+    ROS_WARN_THROTTLE(5.0, "%s: odometry from TF at %.3f: %s; scan dropped (%zu dropped so far)", name_.c_str(), stamp,
+                      core::stampVerdictName(v), dropped_);
     return;
   }
-  ++updates_;
-  ROS_DEBUG("%s: scan %zu: Neff %.1f%s, best correlation %d", name_.c_str(), updates_, step.neff,
-            step.resampled ? ", resampled" : "", step.best_correlation);
-  publishPoses(msg.header.stamp, odom_pose);
-  if (last_map_stamp_.isZero() || (msg.header.stamp - last_map_stamp_).toSec() >= config_.map_update_interval)
+  pipeline_->enqueueScan(stamp, std::move(scan), sensor);
+  for (const core::GridPipelineUpdate& u : pipeline_->process())
   {
-    publishMap(msg.header.stamp);
-    last_map_stamp_ = msg.header.stamp;
+    if (!u.error.empty())
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), u.error.c_str());
+      continue;
+    }
+    if (u.step.skipped)
+      ++skipped_;  // below the travel thresholds: only the pose moves on with the odometry
+    else
+    {
+      ++updates_;
+      ROS_DEBUG("%s: scan %zu: Neff %.1f%s, best correlation %d", name_.c_str(), updates_, u.step.neff,
+                u.step.resampled ? ", resampled" : "", u.step.best_correlation);
+    }
+    const ros::Time t(u.stamp);
+    publishPoses(t, u);
+    if (!u.step.skipped &&
+        (last_map_stamp_.isZero() || (t - last_map_stamp_).toSec() >= config_.map_update_interval))
+    {
+      publishMap(t);
+      last_map_stamp_ = t;
+    }
   }
 }
 
 void GridSlamRos::publishMap(const ros::Time& stamp)
 {
   auto map = boost::make_shared<nav_msgs::OccupancyGrid>();
-  toMsg(filter_->map(), map.get());
+  toMsg(pipeline_->filter().map(), map.get());
   map->header.stamp = stamp;
   map->header.frame_id = config_.map_frame;
   map->info.map_load_time = stamp;
@@ -254,27 +274,17 @@ void GridSlamRos::publishMap(const ros::Time& stamp)
   metadata_pub_.publish(boost::make_shared<nav_msgs::MapMetaData>(map->info));
 }
 
-void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_pose)
+void GridSlamRos::publishPoses(const ros::Time& stamp, const core::GridPipelineUpdate& u)
 {
-  // The map pose at this scan's odometry: the last processed scan's estimate carried by the odometry since.
-  const core::Pose2 best = filter_->poseAt(odom_pose);
+  const core::GridSlam& filter = pipeline_->filter();
   if (config_.publish_tf)
-  {
-    const core::Pose2 map_to_odom = filter_->mappingPose() * filter_->lastOdometry().inverse();
-    geometry_msgs::TransformStamped tf;
-    tf.header.stamp = stamp + ros::Duration(config_.transform_tolerance);
-    tf.header.frame_id = config_.map_frame;
-    tf.child_frame_id = config_.odom_frame;
-    tf.transform.translation.x = map_to_odom.x;
-    tf.transform.translation.y = map_to_odom.y;
-    tf.transform.rotation = quaternionOfYaw(map_to_odom.theta);
-    tf_broadcaster_.sendTransform(tf);
-  }
-
+    tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
+                                                  config_.map_frame, config_.odom_frame, u.map_to_odom));
+  // The particles carried by the odometry since the last processed scan (to this scan's odometry).
   std::vector<core::Pose2> poses;
   std::vector<double> weights;
-  const core::Pose2 since = filter_->lastOdometry().inverse() * odom_pose;
-  for (const auto& p : filter_->particles())
+  const core::Pose2 since = filter.lastOdometry().inverse() * u.odometry;
+  for (const auto& p : filter.particles())
   {
     poses.push_back(p.pose * since);
     weights.push_back(p.weight);
@@ -284,8 +294,8 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::Pose2& odom_p
       poseWithCovariance(stamp, config_.map_frame, moments.mean, moments.covariance)));
   if (particles_pub_.getNumSubscribers() > 0)
     particles_pub_.publish(
-        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter_->particles())));
-  appendToPath(&path_, stamp, config_.map_frame, best, config_.max_path_poses);
+        boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter.particles())));
+  appendToPath(&path_, stamp, config_.map_frame, u.estimate, config_.max_path_poses);
   if (path_pub_.getNumSubscribers() > 0)
     path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
 }
@@ -294,7 +304,8 @@ bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigg
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string target = io::expandHome(config_.map_path);
-  if (!filter_->initialised() || filter_->map().tileCount() == 0)
+  const core::GridSlam& filter = pipeline_->filter();
+  if (!filter.initialised() || filter.map().tileCount() == 0)
   {
     res.success = false;
     res.message = "no map yet (no scan processed)";
@@ -309,7 +320,7 @@ bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigg
   }
   try
   {
-    io::saveMapImage(filter_->map().toImage(), target);
+    io::saveMapImage(filter.map().toImage(), target);
     res.success = true;
     res.message = "map saved to " + target;
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());

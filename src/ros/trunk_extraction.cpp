@@ -346,7 +346,8 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
       return;
     }
   }
-  publish(msg->header, trunks, stats, band_height, "scan");
+  const core::SweepGeometry geometry = core::scanGeometry(scan);
+  publish(msg->header, trunks, stats, band_height, "scan", scanPeriod(*msg), &geometry);
 }
 
 void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char* input, const std::string& why)
@@ -363,11 +364,16 @@ void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char*
 
 void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
                               const core::TrunkDetectorStats& stats, double band_height, const char* input,
-                              double sweep_period)
+                              double sweep_period, const core::SweepGeometry* geometry)
 {
   auto out = boost::make_shared<rbpf_slam::TrunkArray>();
   out->header = header;
   out->sweep_period = sweep_period;
+  if (geometry)
+  {
+    out->sweep_start_angle = geometry->start_angle;
+    out->sweep_span = geometry->span;
+  }
   out->tilt_roll = stats.tilt_roll;
   out->tilt_pitch = stats.tilt_pitch;
   out->trunks.reserve(trunks.size());

@@ -28,7 +28,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <deque>
+#include <functional>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -52,7 +52,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include "rbpf_slam/core/grid_slam.h"
+#include "rbpf_slam/core/grid_slam_pipeline.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/skid_steer_odometry.h"
 #include "rbpf_slam/core/stamp_gate.h"
@@ -259,25 +259,48 @@ private:
   std::map<std::string, int> per_topic_;
 };
 
-/** @brief The restart rule of the nodes (core::StampGate) for one stream; false when the message is dropped. */
-bool gate(core::StampGate* g, double stamp, double clock, const std::string& topic, DropLog* drops, bool* reset)
+/**
+ * @brief What the pipeline made of one message's stamp (its core::TimelineGate, as in the nodes): true when the
+ * message was used; a drop is counted, a restart said.
+ */
+bool admitted(core::StampVerdict v, const std::string& topic, double stamp, DropLog* drops)
 {
-  const double previous = g->last();
-  const core::StampVerdict v = g->check(stamp, clock);
   if (v == core::StampVerdict::kReset)
   {
-    std::fprintf(stderr, "slam_bag: warning: %s at %.3f: %.3f s before the previous message: time jumped back; the "
-                         "filter restarts (as the node does)\n",
-                 topic.c_str(), stamp, previous - stamp);
-    *reset = true;
+    std::fprintf(stderr, "slam_bag: warning: %s at %.3f: time jumped back; the filter restarts (as the node does)\n",
+                 topic.c_str(), stamp);
     return true;
   }
-  if (v != core::StampVerdict::kAccept)
+  if (v == core::StampVerdict::kAccept)
+    return true;
+  drops->drop(topic, stamp, v == core::StampVerdict::kInvalid ? "stamp or pose not finite" : core::stampVerdictName(v));
+  return false;
+}
+
+/** @brief An odometry message's planar pose. */
+core::Pose2 odometryPose(const nav_msgs::Odometry& od)
+{
+  return core::Pose2(od.pose.pose.position.x, od.pose.pose.position.y, yawOf(od.pose.pose.orientation));
+}
+
+/**
+ * @brief The one bag loop of both filters: every message of @p topics in record order goes to @p feed, then
+ * @p process runs with the record time as the clock (so a sensor message waits for odometry exactly as long as
+ * the bag says it did); at the end @p process flushes.
+ */
+void replay(rosbag::Bag& bag, const std::vector<std::string>& topics,
+            const std::function<void(const rosbag::MessageInstance&, double clock)>& feed,
+            const std::function<void(double clock, bool flush)>& process)
+{
+  rosbag::View view(bag, rosbag::TopicQuery(topics));
+  for (const auto& m : view)
   {
-    drops->drop(topic, stamp, core::stampVerdictName(v));
-    return false;
+    checkInterrupted();
+    const double clock = m.getTime().toSec();
+    feed(m, clock);
+    process(clock, false);
   }
-  return true;
+  process(NAN, true);
 }
 
 std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, std::uint64_t seed)
@@ -309,6 +332,8 @@ void loadYaml(const std::string& path, const Reader& reader)
   {
     throw std::runtime_error(path + ": " + e.what());
   }
+  for (const auto& notice : yaml.notices())
+    std::fprintf(stderr, "slam_bag: warning: %s: %s\n", path.c_str(), notice.c_str());
   for (const auto& key : yaml.unusedKeys())
     if (std::find(kNodeKeys.begin(), kNodeKeys.end(), key) == kNodeKeys.end())
       std::fprintf(stderr, "slam_bag: warning: %s: key '%s' is not one of this filter's (misspelt?); ignored\n",
@@ -358,102 +383,54 @@ int runFastSlam(const Options& o)
     fc.seed = static_cast<std::uint64_t>(o.seed);
     dc.seed = static_cast<std::uint64_t>(o.seed);
   }
-  auto pipeline = std::make_unique<core::TrunkSlamPipeline>(dc, fc, mount);
+  core::TrunkSlamPipeline pipeline(dc, fc);
 
   Outputs out(o.out_dir);
-  std::vector<core::PipelineUpdate> ups;
-  int clouds = 0, updates = 0, resets = 0;
+  int clouds = 0, updates = 0;
   DropLog drops;
-  const auto consume = [&](const std::vector<core::PipelineUpdate>& done) {
-    for (const auto& u : done)
-    {
-      ++updates;
-      if (out.enabled())
-      {
-        io::writeTumLine(out.stream("estimate.tum"), u.stamp, pipeline->filter().best().pose);
-        io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
-      }
-    }
-  };
-  core::StampGate sensor_gate, odom_gate;
-  const auto restart = [&]() {
-    consume(pipeline->process(true));
-    pipeline = std::make_unique<core::TrunkSlamPipeline>(dc, fc, mount);
-    sensor_gate.reset();
-    odom_gate.reset();
-    ++resets;
-  };
   core::PlanarScan planar;
   CloudPoints cloud_points;
-  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{ sensor_topic, o.odom_topic }));
-  for (const auto& m : view)
-  {
-    checkInterrupted();
-    const double clock = m.getTime().toSec();
-    bool reset = false;
+  const auto feed = [&](const rosbag::MessageInstance& m, double clock) {
     if (const auto od = m.instantiate<nav_msgs::Odometry>())
     {
-      const double stamp = od->header.stamp.toSec();
-      const core::Pose2 p(od->pose.pose.position.x, od->pose.pose.position.y, yawOf(od->pose.pose.orientation));
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta))
-      {
-        drops.drop(m.getTopic(), stamp, "odometry pose not finite");
-        continue;
-      }
-      if (!gate(&odom_gate, stamp, clock, m.getTopic(), &drops, &reset))
-        continue;
-      if (reset)
-      {
-        restart();
-        odom_gate.check(stamp);
-      }
-      pipeline->addOdometry(stamp, p);
+      admitted(pipeline.addOdometry(od->header.stamp.toSec(), odometryPose(*od), clock), m.getTopic(),
+               od->header.stamp.toSec(), &drops);
     }
     else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
     {
       const double stamp = scan->header.stamp.toSec();
       const std::string why = toPlanarScan(*scan, &planar);
       if (!why.empty())
-      {
-        drops.drop(m.getTopic(), stamp, why);
-        continue;
-      }
-      if (!gate(&sensor_gate, stamp, clock, m.getTopic(), &drops, &reset))
-        continue;
-      if (reset)
-      {
-        restart();
-        sensor_gate.check(stamp);
-      }
-      // The beams' own times: time_increment apart (0 when the driver does not say: one instant).
-      const double period = scan->time_increment > 0.0f && scan->ranges.size() > 1
-                                ? static_cast<double>(scan->time_increment) * static_cast<double>(scan->ranges.size() - 1)
-                                : 0.0;
-      pipeline->addScan(stamp, std::max(period, 1e-3), planar);
-      ++clouds;
+        return drops.drop(m.getTopic(), stamp, why);
+      // The beams' own times, as the extraction nodelet gives them (TrunkArray.sweep_period).
+      if (admitted(pipeline.addScan(stamp, scanPeriod(*scan), planar, mount, clock, clock), m.getTopic(), stamp,
+                   &drops))
+        ++clouds;
     }
     else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
     {
       const double stamp = cloud->header.stamp.toSec();
       const std::string why = readCloud(*cloud, &cloud_points);
       if (!why.empty())
-      {
-        drops.drop(m.getTopic(), stamp, why);
-        continue;
-      }
-      if (!gate(&sensor_gate, stamp, clock, m.getTopic(), &drops, &reset))
-        continue;
-      if (reset)
-      {
-        restart();
-        sensor_gate.check(stamp);
-      }
-      pipeline->addSweep(stamp, std::max(cloud_points.sweep_period, 1e-3), cloud_points.points);
-      ++clouds;
+        return drops.drop(m.getTopic(), stamp, why);
+      if (admitted(pipeline.addSweep(stamp, cloud_points.sweep_period, cloud_points.points, mount, clock, clock),
+                   m.getTopic(), stamp, &drops))
+        ++clouds;
     }
-    consume(pipeline->process(false));
-  }
-  consume(pipeline->process(true));
+  };
+  const auto process = [&](double clock, bool flush) {
+    for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
+    {
+      ++updates;
+      if (out.enabled())
+      {
+        io::writeTumLine(out.stream("estimate.tum"), u.stamp, u.estimate);
+        io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
+      }
+    }
+  };
+  replay(bag, { sensor_topic, o.odom_topic }, feed, process);
+  const int resets = pipeline.restarts();
   if (clouds == 0)
     throw std::runtime_error(o.bag_path + ": no usable message on " + sensor_topic + " (" +
                              std::to_string(drops.count()) + " dropped); nothing written");
@@ -461,14 +438,14 @@ int runFastSlam(const Options& o)
     throw std::runtime_error(o.bag_path + ": no filter update (no odometry on " + o.odom_topic +
                              " covers the sensor's messages?); nothing written");
 
-  const core::Particle& best = pipeline->filter().best();
+  const core::Particle& best = pipeline.filter().best();
   if (out.enabled())
   {
     std::vector<core::Landmark> landmarks;
     for (std::size_t i = 0; i < best.map.size(); ++i)
       landmarks.push_back(best.map[i]);
     out.stream("map.csv") << io::landmarksCsv(landmarks);
-    out.stream("timing.json") << timingJson(clouds, updates, pipeline->secondsExtraction(), pipeline->secondsFilter(),
+    out.stream("timing.json") << timingJson(clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(),
                                             fc.particles, fc.seed);
     out.commit();
   }
@@ -477,11 +454,11 @@ int runFastSlam(const Options& o)
     std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
                 "backwards or not finite), %d restarts (time jumped back)\n",
                 o.bag_path.c_str(), clouds, updates, drops.count(), resets);
-    std::printf("  final pose (map frame = first odometry pose): %.3f %.3f %.1f deg; %zu landmarks\n", best.pose.x,
+    std::printf("  final pose (map frame = the odometry frame at the first update): %.3f %.3f %.1f deg; %zu landmarks\n", best.pose.x,
                 best.pose.y, best.pose.theta * 180.0 / M_PI, best.map.size());
-    std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline->secondsExtraction(),
-                pipeline->secondsFilter(),
-                clouds / std::max(1e-9, pipeline->secondsExtraction() + pipeline->secondsFilter()));
+    std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
+                pipeline.secondsFilter(),
+                clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
   }
   return 0;
 }
@@ -508,9 +485,9 @@ int runGrid(const Options& o)
     gc.particles = o.particles;
   if (o.seed >= 0)
     gc.seed = static_cast<std::uint64_t>(o.seed);
-  if (!o.resampling.empty() && !core::parseResamplingMethod(o.resampling, &gc.resampling))
+  if (!o.resampling.empty() && !core::parseResamplingMethod(o.resampling, &gc.resampling.method))
     throw std::runtime_error("--resampling must be low_variance or multinomial, not '" + o.resampling + "'");
-  core::GridSlam slam(gc);
+  core::GridSlamPipeline pipeline(gc);
 
   // The scanner's mount from /tf_static (the first scan names its frame).
   std::string laser_frame;
@@ -536,71 +513,72 @@ int runGrid(const Options& o)
   core::SkidSteerOdometry wheels(sc);
   std::vector<double> last_wheel_angles;
 
-  core::OdometryBuffer odometry;
-  std::deque<std::pair<double, core::ScanData>> pending;
-  int scans = 0, processed = 0, resamples = 0, resets = 0;
+  int scans = 0, processed = 0, resamples = 0;
+  bool have_odometry = false;
   DropLog drops;
   long evaluations = 0;
-  double seconds = 0.0, worst = 0.0;
   std::vector<double> processed_stamps;
-  core::StampGate scan_gate, odom_gate;
   const auto addOdometry = [&](double t, const core::Pose2& p, const std::string& topic, double clock) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta))
-    {
-      drops.drop(topic, t, "odometry pose not finite");
-      return false;
-    }
-    bool reset = false;
-    if (!gate(&odom_gate, t, clock, topic, &drops, &reset))
-      return false;
-    if (reset)
-    {
-      slam.reset();
-      odometry = core::OdometryBuffer();
-      pending.clear();
-      scan_gate.reset();
-      ++resets;
-    }
-    odometry.add(t, p);
+    if (!admitted(pipeline.addOdometry(t, p, clock), topic, t, &drops))
+      return;
+    have_odometry = true;
     if (out.enabled())
       io::writeTumLine(out.stream("odometry_all.tum"), t, p);
-    return true;
   };
-  const auto process = [&](bool flush) {
-    while (!pending.empty() && !odometry.empty() && (flush || odometry.covers(pending.front().first)))
+  const auto feed = [&](const rosbag::MessageInstance& m, double clock) {
+    if (const auto s = m.instantiate<sensor_msgs::LaserScan>())
     {
-      const double t = pending.front().first;
-      const core::Pose2 od = odometry.at(t);
-      const auto t0 = std::chrono::steady_clock::now();
-      core::GridSlamStep step;
-      try
+      const double t = s->header.stamp.toSec();
+      core::ScanData scan;
+      const std::string why = toScanData(*s, &scan);
+      if (!why.empty())
+        return drops.drop(m.getTopic(), t, why);
+      admitted(pipeline.addScan(t, std::move(scan), sensor, clock, clock), m.getTopic(), t, &drops);
+    }
+    else if (const auto od = m.instantiate<nav_msgs::Odometry>())
+      addOdometry(od->header.stamp.toSec(), odometryPose(*od), m.getTopic(), clock);
+    else if (const auto js = m.instantiate<sensor_msgs::JointState>())
+    {
+      // ESE 650 layout: FR FL RR RL cumulative wheel angles [rad]; left = mean(FL, RL), right = mean(FR, RR).
+      const double t = js->header.stamp.toSec();
+      if (js->position.size() < 4)
+        return drops.drop(m.getTopic(), t, "fewer than 4 wheel positions");
+      if (!last_wheel_angles.empty())
       {
-        step = slam.update(od, pending.front().second, sensor, t);
+        const auto d = [&](int i) { return (js->position[i] - last_wheel_angles[i]) * o.wheel_radius; };
+        if (!wheels.addEncoders(t, 0.5 * (d(1) + d(3)), 0.5 * (d(0) + d(2))))
+          return drops.drop(m.getTopic(), t, "wheel angles not finite or stamp not after the previous");
       }
-      catch (const std::invalid_argument& e)
+      last_wheel_angles.assign(js->position.begin(), js->position.begin() + 4);
+      addOdometry(t, wheels.pose(), m.getTopic(), clock);
+    }
+    else if (const auto imu = m.instantiate<sensor_msgs::Imu>())
+    {
+      if (!wheels.addGyro(imu->header.stamp.toSec(), imu->angular_velocity.z))
+        drops.drop(m.getTopic(), imu->header.stamp.toSec(), "gyro rate not finite or stamp not after the previous");
+    }
+  };
+  const auto process = [&](double clock, bool flush) {
+    for (const core::GridPipelineUpdate& u : pipeline.process(clock, flush))
+    {
+      if (!u.error.empty())
       {
-        drops.drop(o.scan_topic, t, e.what());
-        pending.pop_front();
+        drops.drop(o.scan_topic, u.stamp, u.error);
         continue;
       }
-      const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      seconds += dt;
-      worst = std::max(worst, dt);
       ++scans;
-      if (!step.skipped)
+      if (!u.step.skipped)
       {
         ++processed;
-        resamples += step.resampled ? 1 : 0;
-        evaluations += step.matcher_evaluations;
-        processed_stamps.push_back(t);
+        resamples += u.step.resampled ? 1 : 0;
+        evaluations += u.step.matcher_evaluations;
+        processed_stamps.push_back(u.stamp);
       }
       if (out.enabled())
       {
-        io::writeTumLine(out.stream("estimate.tum"), t, slam.poseAt(od));
-        io::writeTumLine(out.stream("odometry.tum"), t, od);
+        io::writeTumLine(out.stream("estimate.tum"), u.stamp, u.estimate);
+        io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
       }
-      odometry.dropBefore(t);
-      pending.pop_front();
     }
   };
 
@@ -615,72 +593,15 @@ int runGrid(const Options& o)
   }
   else
     read_topics.push_back(o.odom_topic);
-  rosbag::View view(bag, rosbag::TopicQuery(read_topics));
-  for (const auto& m : view)
-  {
-    checkInterrupted();
-    const double clock = m.getTime().toSec();
-    if (const auto s = m.instantiate<sensor_msgs::LaserScan>())
-    {
-      const double t = s->header.stamp.toSec();
-      core::ScanData scan;
-      const std::string why = toScanData(*s, &scan);
-      if (!why.empty())
-      {
-        drops.drop(m.getTopic(), t, why);
-        continue;
-      }
-      bool reset = false;
-      if (!gate(&scan_gate, t, clock, m.getTopic(), &drops, &reset))
-        continue;
-      if (reset)
-      {
-        process(true);  // the old timeline's scans, with the old odometry
-        slam.reset();
-        odometry = core::OdometryBuffer();
-        odom_gate.reset();
-        ++resets;
-      }
-      pending.emplace_back(t, std::move(scan));
-    }
-    else if (const auto od = m.instantiate<nav_msgs::Odometry>())
-      addOdometry(od->header.stamp.toSec(),
-                  core::Pose2(od->pose.pose.position.x, od->pose.pose.position.y, yawOf(od->pose.pose.orientation)),
-                  m.getTopic(), clock);
-    else if (const auto js = m.instantiate<sensor_msgs::JointState>())
-    {
-      // ESE 650 layout: FR FL RR RL cumulative wheel angles [rad]; left = mean(FL, RL), right = mean(FR, RR).
-      const double t = js->header.stamp.toSec();
-      if (js->position.size() < 4)
-      {
-        drops.drop(m.getTopic(), t, "fewer than 4 wheel positions");
-        continue;
-      }
-      if (!last_wheel_angles.empty())
-      {
-        const auto d = [&](int i) { return (js->position[i] - last_wheel_angles[i]) * o.wheel_radius; };
-        if (!wheels.addEncoders(t, 0.5 * (d(1) + d(3)), 0.5 * (d(0) + d(2))))
-        {
-          drops.drop(m.getTopic(), t, "wheel angles not finite or stamp not after the previous");
-          continue;
-        }
-      }
-      last_wheel_angles.assign(js->position.begin(), js->position.begin() + 4);
-      addOdometry(t, wheels.pose(), m.getTopic(), clock);
-    }
-    else if (const auto imu = m.instantiate<sensor_msgs::Imu>())
-    {
-      if (!wheels.addGyro(imu->header.stamp.toSec(), imu->angular_velocity.z))
-        drops.drop(m.getTopic(), imu->header.stamp.toSec(), "gyro rate not finite or stamp not after the previous");
-    }
-    process(false);
-  }
-  process(true);
+  replay(bag, read_topics, feed, process);
+  const int resets = pipeline.restarts();
+  const core::GridSlam& slam = pipeline.filter();
+  const double seconds = pipeline.secondsFilter(), worst = pipeline.worstSeconds();
   if (!o.odometry_only && scans == 0)
     throw std::runtime_error(o.bag_path + ": no scan of " + o.scan_topic + " was used (" +
                              std::to_string(drops.count()) + " messages dropped; is there odometry on " +
                              (use_wheels ? o.wheels_topic : o.odom_topic) + "?); nothing written");
-  if (odometry.empty() && scans == 0)
+  if (!have_odometry && scans == 0)
     throw std::runtime_error(o.bag_path + ": no usable odometry; nothing written");
 
   if (out.enabled())
@@ -712,7 +633,7 @@ int runGrid(const Options& o)
                 p.theta * 180.0 / M_PI, slam.map().tileCount());
     std::printf("  filter time %.2f s, %.3f ms per scan (worst %.1f ms), %d particles\n", seconds,
                 1e3 * seconds / std::max(1, scans), 1e3 * worst, gc.particles);
-    if (gc.mode == core::GridSlamMode::kRbpf)
+    if (gc.mode == core::GridSlamMode::kRbpf && !o.odometry_only)
       std::printf("  scan matcher: %.1f poses scored per particle and processed scan\n",
                   static_cast<double>(evaluations) / std::max(1, processed) / std::max(1, gc.particles));
     if (use_wheels && o.imu_weight > 0.0)

@@ -120,41 +120,41 @@ TEST(TrunkDetectorFaults, ATrunkWithDropoutsIsStillOneTrunk)
 
 TEST(GridSlamFaults, AStandingRobotAddsNothing)
 {
-  for (const GridSlamMode mode : { GridSlamMode::kCourse, GridSlamMode::kRbpf })
+  for (const GridSlamMode mode : { GridSlamMode::kSingleMap, GridSlamMode::kRbpf })
   {
     GridSlamConfig c;
     c.mode = mode;
     c.particles = 5;
-    GridSlam slam(c);
+    const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
     const Pose2 parked(1.0, 0.5, 0.3);
     const ScanData scan = grid_test_world::simulateScan(parked);
-    slam.update(parked, scan, Pose2(), 0.0);
+    slam->update(parked, scan, Pose2(), 0.0);
     std::vector<std::int8_t> before, after;
     int w, h;
     MapOrigin o;
-    slam.map().exportProbabilities(&before, &w, &h, &o);
-    const std::vector<GridParticle> particles = slam.particles();
+    slam->map().exportProbabilities(&before, &w, &h, &o);
+    const std::vector<GridParticle> particles = slam->particles();
     // 2000 scans of the parked robot (odometry jitters by a millimetre): the map and the particles stay as they are.
     for (int i = 1; i <= 2000; ++i)
     {
       const Pose2 jitter(parked.x + 0.001 * std::sin(i), parked.y, parked.theta + 0.001 * std::cos(i));
-      EXPECT_TRUE(slam.update(jitter, scan, Pose2(), 0.025 * i).skipped);
+      EXPECT_TRUE(slam->update(jitter, scan, Pose2(), 0.025 * i).skipped);
     }
-    slam.map().exportProbabilities(&after, &w, &h, &o);
+    slam->map().exportProbabilities(&after, &w, &h, &o);
     EXPECT_EQ(before, after);
-    ASSERT_EQ(slam.particles().size(), particles.size());
+    ASSERT_EQ(slam->particles().size(), particles.size());
     for (std::size_t i = 0; i < particles.size(); ++i)
-      EXPECT_EQ(slam.particles()[i].pose.x, particles[i].pose.x);
+      EXPECT_EQ(slam->particles()[i].pose.x, particles[i].pose.x);
     // The pose still follows the odometry in between.
-    const Pose2 moved = slam.poseAt(Pose2(parked.x + 0.05, parked.y, parked.theta));
-    EXPECT_NEAR(std::hypot(moved.x - slam.mappingPose().x, moved.y - slam.mappingPose().y), 0.05, 1e-9);
+    const Pose2 moved = slam->poseAt(Pose2(parked.x + 0.05, parked.y, parked.theta));
+    EXPECT_NEAR(std::hypot(moved.x - slam->mappingPose().x, moved.y - slam->mappingPose().y), 0.05, 1e-9);
     // Moving past the threshold, or waiting past temporal_update, processes again.
-    EXPECT_FALSE(slam.update(Pose2(parked.x + 0.2, parked.y, parked.theta), scan, Pose2(), 60.0).skipped);
+    EXPECT_FALSE(slam->update(Pose2(parked.x + 0.2, parked.y, parked.theta), scan, Pose2(), 60.0).skipped);
     c.temporal_update = 5.0;
-    GridSlam timed(c);
-    timed.update(parked, scan, Pose2(), 0.0);
-    EXPECT_TRUE(timed.update(parked, scan, Pose2(), 4.0).skipped);
-    EXPECT_FALSE(timed.update(parked, scan, Pose2(), 5.5).skipped);
+    const std::unique_ptr<GridSlam> timed = GridSlam::create(c);
+    timed->update(parked, scan, Pose2(), 0.0);
+    EXPECT_TRUE(timed->update(parked, scan, Pose2(), 4.0).skipped);
+    EXPECT_FALSE(timed->update(parked, scan, Pose2(), 5.5).skipped);
   }
 }
 
@@ -163,7 +163,7 @@ TEST(ConfigFaults, ParticleCountsAreBounded)
   GridSlamConfig g;
   g.particles = 10000000;
   EXPECT_NE(g.validate().find("particles must be in 1..5000"), std::string::npos) << g.validate();
-  EXPECT_THROW(GridSlam{ g }, std::invalid_argument);
+  EXPECT_THROW(GridSlam::create(g), std::invalid_argument);
   g.particles = GridSlamConfig::kMaxParticles;
   EXPECT_TRUE(g.validate().empty());
   g.linear_update = -1.0;

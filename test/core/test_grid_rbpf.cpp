@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "grid_test_world.h"
+#include <memory>
+
 #include "rbpf_slam/core/grid_slam.h"
 #include "rbpf_slam/core/occupancy_grid.h"
 #include "rbpf_slam/core/scan_matcher.h"
@@ -192,11 +194,11 @@ RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5, double motion_w
   c.mode = GridSlamMode::kRbpf;
   c.seed = seed;
   c.particles = 10;
-  c.resampling = ResamplingMethod::kLowVariance;
-  c.resample_neff_ratio = neff_ratio;
+  c.resampling.method = ResamplingMethod::kLowVariance;
+  c.resampling.neff_ratio = neff_ratio;
   c.proposal_motion_weight = motion_weight;
   c.linear_update = c.angular_update = 0.0;  // every scan: the algorithm itself (thresholds: test_faults.cpp)
-  GridSlam slam(c);
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
   const std::vector<Pose2> path = truePath();
   Random odo_noise(99);
   Pose2 odom = path.front();
@@ -209,22 +211,22 @@ RbpfRun runRoomRbpf(std::uint64_t seed, double neff_ratio = 0.5, double motion_w
       const Pose2 d = between(path[i - 1], path[i]);
       odom = odom * Pose2(d.x * 1.02, d.y, d.theta + 0.02 * std::hypot(d.x, d.y) + odo_noise.gaussian(0.002));
     }
-    const GridSlamStep step = slam.update(odom, simulateScan(path[i] * sensor), sensor);
-    r.poses.push_back(slam.mappingPose());
+    const GridSlamStep step = slam->update(odom, simulateScan(path[i] * sensor), sensor);
+    r.poses.push_back(slam->mappingPose());
     r.resampled.push_back(step.resampled);
     r.neff.push_back(step.neff);
     std::vector<Pose2> ps;
-    for (const auto& p : slam.particles())
+    for (const auto& p : slam->particles())
       ps.push_back(p.pose);
     r.particles.push_back(ps);
-    r.worst_error = std::max(r.worst_error, std::hypot(slam.mappingPose().x - path[i].x, slam.mappingPose().y - path[i].y));
+    r.worst_error = std::max(r.worst_error, std::hypot(slam->mappingPose().x - path[i].x, slam->mappingPose().y - path[i].y));
   }
-  r.final_error = std::hypot(slam.mappingPose().x - path.back().x, slam.mappingPose().y - path.back().y);
+  r.final_error = std::hypot(slam->mappingPose().x - path.back().x, slam->mappingPose().y - path.back().y);
   r.odometry_error = std::hypot(odom.x - path.back().x, odom.y - path.back().y);
   int w, h;
   MapOrigin o;
-  slam.map().exportProbabilities(&r.map, &w, &h, &o);
-  r.history = slam.bestTrajectory();
+  slam->map().exportProbabilities(&r.map, &w, &h, &o);
+  r.history = slam->bestTrajectory();
   EXPECT_EQ(r.history.size(), path.size());
   return r;
 }
@@ -302,24 +304,24 @@ TEST(GridRbpf, ResamplingIsSkippedWhenNeffIsAboveTheThreshold)
   c.motion = OdometryMotionNoise{ 0.0, 0.0, 0.0, 0.0 };
   c.proposal_sigma_xy = 0.0;
   c.proposal_sigma_theta = 0.0;
-  GridSlam slam(c);
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
   const Pose2 p0(0.0, 0.0, 0.0), p1(0.05, 0.0, 0.0);
-  slam.update(p0, simulateScan(p0), Pose2());
-  const GridSlamStep s = slam.update(p1, simulateScan(p1), Pose2());
+  slam->update(p0, simulateScan(p0), Pose2());
+  const GridSlamStep s = slam->update(p1, simulateScan(p1), Pose2());
   EXPECT_NEAR(s.neff, 5.0, 1e-9);
   EXPECT_FALSE(s.resampled);
-  for (const auto& p : slam.particles())
+  for (const auto& p : slam->particles())
   {
     EXPECT_NEAR(p.weight, 0.2, 1e-12);
-    EXPECT_NEAR(p.pose.x, slam.particles()[0].pose.x, 1e-12);
+    EXPECT_NEAR(p.pose.x, slam->particles()[0].pose.x, 1e-12);
   }
   // Each particle has its own map; untouched-by-anyone tiles stay shared between them.
-  EXPECT_EQ(&slam.particleMap(0), &slam.map());
+  EXPECT_EQ(&slam->particleMap(0), &slam->map());
 }
 
 TEST(GridRbpf, ParsesTheMode)
 {
-  GridSlamMode m = GridSlamMode::kCourse;
+  GridSlamMode m = GridSlamMode::kSingleMap;
   EXPECT_TRUE(parseGridSlamMode("rbpf", &m));
   EXPECT_EQ(m, GridSlamMode::kRbpf);
   EXPECT_FALSE(parseGridSlamMode("gmapping", &m));

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "rbpf_slam/core/evaluation.h"
+#include <memory>
+
 #include "rbpf_slam/core/grid_slam.h"
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/random.h"
@@ -68,8 +70,8 @@ RunResult runRoom(std::uint64_t seed, ResamplingMethod method)
   GridSlamConfig c;
   c.seed = seed;
   c.particles = 30;
-  c.resampling = method;
-  GridSlam slam(c);
+  c.resampling.method = method;
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
   const std::vector<Pose2> path = truePath();
   // Odometry drifts: 2 % too long and 0.02 rad/m of heading.
   Random odo_noise(99);
@@ -83,17 +85,17 @@ RunResult runRoom(std::uint64_t seed, ResamplingMethod method)
       const Pose2 d = between(path[i - 1], path[i]);
       odom = odom * Pose2(d.x * 1.02, d.y, d.theta + 0.02 * std::hypot(d.x, d.y) + odo_noise.gaussian(0.002));
     }
-    slam.update(odom, simulateScan(path[i] * sensor), sensor);
-    r.poses.push_back(slam.mappingPose());
+    slam->update(odom, simulateScan(path[i] * sensor), sensor);
+    r.poses.push_back(slam->mappingPose());
   }
   // Odometry starts at the true start pose and the map frame is the odometry frame: compare directly.
   const Pose2& truth_final = path.back();
-  r.final_error = std::hypot(slam.mappingPose().x - truth_final.x, slam.mappingPose().y - truth_final.y);
+  r.final_error = std::hypot(slam->mappingPose().x - truth_final.x, slam->mappingPose().y - truth_final.y);
   r.odometry_error = std::hypot(odom.x - truth_final.x, odom.y - truth_final.y);
-  EXPECT_EQ(slam.particles().size(), 30u);
+  EXPECT_EQ(slam->particles().size(), 30u);
   int w, h;
   MapOrigin o;
-  slam.map().exportProbabilities(&r.map, &w, &h, &o);
+  slam->map().exportProbabilities(&r.map, &w, &h, &o);
   return r;
 }
 }  // namespace
@@ -127,9 +129,14 @@ TEST(GridSlam, ValidatesItsConfiguration)
   c = GridSlamConfig();
   c.limits.range_max = 0.1;
   EXPECT_NE(c.validate().find("range_max"), std::string::npos);
-  EXPECT_THROW(GridSlam{ c }, std::invalid_argument);
-  GridSlamMode m;
-  EXPECT_TRUE(parseGridSlamMode("course", &m));
+  EXPECT_THROW(GridSlam::create(c), std::invalid_argument);
+  GridSlamMode m = GridSlamMode::kRbpf;
+  EXPECT_TRUE(parseGridSlamMode("single_map", &m));
+  EXPECT_EQ(m, GridSlamMode::kSingleMap);
+  m = GridSlamMode::kRbpf;
+  EXPECT_TRUE(parseGridSlamMode("course", &m));  // the former name stays accepted
+  EXPECT_EQ(m, GridSlamMode::kSingleMap);
+  EXPECT_STREQ(gridSlamModeName(m), "single_map");
   EXPECT_FALSE(parseGridSlamMode("gmapping", &m));
 }
 
@@ -137,44 +144,44 @@ TEST(GridSlam, RefusesNonFinitePosesAndKeepsItsState)
 {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  for (const GridSlamMode mode : { GridSlamMode::kCourse, GridSlamMode::kRbpf })
+  for (const GridSlamMode mode : { GridSlamMode::kSingleMap, GridSlamMode::kRbpf })
   {
     GridSlamConfig c;
     c.mode = mode;
     c.particles = 5;
-    GridSlam slam(c);
+    const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
     const std::vector<Pose2> path = truePath();
     const ScanData scan = simulateScan(path[0]);
     // Before the first scan: nothing starts.
-    EXPECT_THROW(slam.update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
-    EXPECT_FALSE(slam.initialised());
-    slam.update(path[0], scan, Pose2());
-    ASSERT_TRUE(slam.initialised());
-    const std::size_t tiles = slam.map().tileCount();
+    EXPECT_THROW(slam->update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_FALSE(slam->initialised());
+    slam->update(path[0], scan, Pose2());
+    ASSERT_TRUE(slam->initialised());
+    const std::size_t tiles = slam->map().tileCount();
     // After it: every non-finite pose or angle is refused and changes nothing.
     const Pose2 moved(path[0].x + 0.5, path[0].y, path[0].theta);
-    EXPECT_THROW(slam.update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
-    EXPECT_THROW(slam.update(Pose2(0.0, -inf, 0.0), scan, Pose2()), std::invalid_argument);
-    EXPECT_THROW(slam.update(Pose2(0.0, 0.0, nan), scan, Pose2()), std::invalid_argument);
-    EXPECT_THROW(slam.update(moved, scan, Pose2(0.1, nan, 0.0)), std::invalid_argument);
+    EXPECT_THROW(slam->update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam->update(Pose2(0.0, -inf, 0.0), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam->update(Pose2(0.0, 0.0, nan), scan, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam->update(moved, scan, Pose2(0.1, nan, 0.0)), std::invalid_argument);
     ScanData bad_angles = scan;
     bad_angles.angle_increment = nan;
-    EXPECT_THROW(slam.update(moved, bad_angles, Pose2()), std::invalid_argument);
+    EXPECT_THROW(slam->update(moved, bad_angles, Pose2()), std::invalid_argument);
     try
     {
-      slam.update(Pose2(nan, 1.0, 2.0), scan, Pose2());
+      slam->update(Pose2(nan, 1.0, 2.0), scan, Pose2());
     }
     catch (const std::invalid_argument& e)
     {
       EXPECT_NE(std::string(e.what()).find("odometry pose is not finite"), std::string::npos) << e.what();
     }
-    EXPECT_EQ(slam.lastOdometry().x, path[0].x);
-    EXPECT_EQ(slam.map().tileCount(), tiles);
-    for (const auto& p : slam.particles())
+    EXPECT_EQ(slam->lastOdometry().x, path[0].x);
+    EXPECT_EQ(slam->map().tileCount(), tiles);
+    for (const auto& p : slam->particles())
       EXPECT_TRUE(std::isfinite(p.pose.x) && std::isfinite(p.pose.y) && std::isfinite(p.pose.theta));
     // And the next good scan is processed as usual.
-    EXPECT_NO_THROW(slam.update(moved, simulateScan(moved), Pose2()));
-    EXPECT_EQ(slam.lastOdometry().x, moved.x);
+    EXPECT_NO_THROW(slam->update(moved, simulateScan(moved), Pose2()));
+    EXPECT_EQ(slam->lastOdometry().x, moved.x);
   }
 }
 

@@ -35,7 +35,8 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.delete_evidence, defaults.delete_evidence);
   EXPECT_EQ(read.confirm_observations, defaults.confirm_observations);
   EXPECT_EQ(read.drop_unconfirmed_leaving_scope, defaults.drop_unconfirmed_leaving_scope);
-  EXPECT_EQ(read.resample_threshold, defaults.resample_threshold);
+  EXPECT_EQ(read.resampling.method, defaults.resampling.method);
+  EXPECT_EQ(read.resampling.neff_ratio, defaults.resampling.neff_ratio);
   EXPECT_EQ(read.roughening, defaults.roughening);
   EXPECT_EQ(read.roughening_sigma_xy, defaults.roughening_sigma_xy);
   EXPECT_EQ(read.roughening_sigma_theta, defaults.roughening_sigma_theta);
@@ -49,6 +50,43 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
                 k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
                 k == "time_jump_threshold")
         << "unexpected key " << k;
+}
+
+TEST(FastSlamConfigFile, ResamplingKeysAndTheDeprecatedThresholdName)
+{
+  const std::string path = std::string(::testing::TempDir()) + "fastslam_resampling.yaml";
+  {
+    std::ofstream(path) << "resampling: multinomial\nresample_threshold: 0.25\n";
+    io::YamlParamSource params(path);
+    core::FastSlamConfig c;
+    io::readFastSlamConfig(params, &c);
+    EXPECT_EQ(c.resampling.method, core::ResamplingMethod::kMultinomial);
+    EXPECT_EQ(c.resampling.neff_ratio, 0.25);  // the former name is still read...
+    ASSERT_EQ(params.notices().size(), 1u);    // ...with a notice naming both keys
+    EXPECT_NE(params.notices()[0].find("resample_threshold"), std::string::npos);
+    EXPECT_NE(params.notices()[0].find("resample_neff_ratio"), std::string::npos);
+    EXPECT_TRUE(params.unusedKeys().empty());
+  }
+  {
+    std::ofstream(path) << "resample_neff_ratio: 0.75\nresample_threshold: 0.25\n";
+    io::YamlParamSource params(path);
+    core::FastSlamConfig c;
+    io::readFastSlamConfig(params, &c);
+    EXPECT_EQ(c.resampling.neff_ratio, 0.75);  // the new name wins
+    EXPECT_EQ(params.notices().size(), 1u);
+  }
+  {
+    std::ofstream(path) << "resample_neff_ratio: 0.5\n";
+    io::YamlParamSource params(path);
+    core::FastSlamConfig c;
+    io::readFastSlamConfig(params, &c);
+    EXPECT_TRUE(params.notices().empty());
+  }
+  std::ofstream(path) << "resampling: stratified\n";
+  io::YamlParamSource bad(path);
+  core::FastSlamConfig c;
+  EXPECT_THROW(io::readFastSlamConfig(bad, &c), std::runtime_error);
+  std::remove(path.c_str());
 }
 
 TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)

@@ -18,8 +18,8 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.mode, defaults.mode);
   EXPECT_EQ(read.particles, defaults.particles);
   EXPECT_EQ(read.seed, defaults.seed);
-  EXPECT_EQ(read.resampling, defaults.resampling);
-  EXPECT_EQ(read.resample_neff_ratio, defaults.resample_neff_ratio);
+  EXPECT_EQ(read.resampling.method, defaults.resampling.method);
+  EXPECT_EQ(read.resampling.neff_ratio, defaults.resampling.neff_ratio);
   EXPECT_EQ(read.correlation_gain, defaults.correlation_gain);
   EXPECT_EQ(read.score_beam_step, defaults.score_beam_step);
   EXPECT_EQ(read.motion.alpha1, defaults.motion.alpha1);

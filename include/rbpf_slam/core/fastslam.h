@@ -78,8 +78,8 @@ struct FastSlamConfig
   // track that did not make it (a trunk-like object glimpsed once at the scope's edge), not a tree.
   bool drop_unconfirmed_leaving_scope = true;
 
-  // Resampling.
-  double resample_threshold = 0.5;  ///< resample when Neff < threshold * N
+  // Resampling (the skeleton's policy): low-variance resampling when Neff < resample_neff_ratio * N.
+  ResamplingPolicy resampling;
   bool roughening = false;          ///< jitter resampled poses (the study did; bends the factorisation)
   double roughening_sigma_xy = 0.01;     ///< [m]
   double roughening_sigma_theta = 0.002; ///< [rad]

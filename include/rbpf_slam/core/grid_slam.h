@@ -2,11 +2,11 @@
 #define RBPF_SLAM_CORE_GRID_SLAM_H
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/history_chain.h"
 #include "rbpf_slam/core/occupancy_grid.h"
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/pose2.h"
@@ -18,20 +18,23 @@ namespace rbpf_slam
 namespace core
 {
 /**
- * @brief The grid SLAM methods: `course` (one map, the best particle maps) and `rbpf` (
- * GMapping-like, each particle owns its map, scan-matched proposal, likelihood-field weights).
+ * @brief The grid SLAM methods: `single_map` (one map, written from the best particle's pose; particles weighted
+ * by the correlation of their scan with it) and `rbpf` (GMapping-like: each particle owns its map, scan-matched
+ * proposal, likelihood-field weights).
  */
 enum class GridSlamMode
 {
-  kCourse,
+  kSingleMap,
   kRbpf
 };
+/** @brief "single_map" (also accepted by its former name "course") or "rbpf"; false for anything else. */
 bool parseGridSlamMode(const std::string& name, GridSlamMode* mode);
+const char* gridSlamModeName(GridSlamMode mode);
 
-/** @brief Configuration of GridSlam; defaults are the course's method (see README "Grid SLAM"). */
+/** @brief Configuration of GridSlam; the defaults are those of the single-map method. */
 struct GridSlamConfig
 {
-  GridSlamMode mode = GridSlamMode::kCourse;
+  GridSlamMode mode = GridSlamMode::kSingleMap;
   /// Upper bound of `particles`: each particle owns a map (tens of MB apiece on a building in rbpf mode).
   static constexpr int kMaxParticles = 5000;
   int particles = 30;
@@ -39,8 +42,8 @@ struct GridSlamConfig
   /// Noise of each odometry increment (one per scan). An accuracy class for indoor wheel odometry on a
   /// flat floor: 5 % of a rotation, 0.01 rad per metre, 2 % of the distance; not fitted to a log.
   OdometryMotionNoise motion{ 0.05, 0.01, 0.02, 0.01 };
-  ResamplingMethod resampling = ResamplingMethod::kMultinomial;  ///< the course's
-  double resample_neff_ratio = 0.5;  ///< resample when Neff < ratio * particles
+  /// Multinomial resampling when Neff < resample_neff_ratio * particles (rbpf's configuration takes low-variance).
+  ResamplingPolicy resampling{ ResamplingMethod::kMultinomial, 0.5 };
   /// Log-weight added per scan end point that falls on an occupied cell of the map (the correlation);
   /// the weights are the softmax of the summed correlation.
   double correlation_gain = 1.0;
@@ -100,24 +103,18 @@ struct GridSlamStep
 };
 
 /**
- * @brief Grid SLAM. `rbpf` mode: every particle owns its map (copy-on-write by tiles: copying a particle copies
- * tile pointers, a scan clones only the tiles it writes); each particle's pose is sampled from the odometry
- * motion model, refined by hill-climbing scan matching against its own map, then drawn from a small Gaussian
- * around the match; its log-weight grows by likelihood_gain times the likelihood-field log-likelihood at the
- * match (GMapping's approximation of the proposal's normaliser); Neff < ratio * N resamples; every particle
- * inserts the scan in its own map; the best particle (largest weight) is the estimate.
- *
- * Course mode ("Odometry Based Mapping"): one log-odds map; each particle's pose moves by
- * the odometry increment with rot1-trans-rot2 noise; the weights grow by the correlation of the particle's
- * scan end points with the map (softmax normalisation); Neff < ratio * N resamples; the best particle's pose
- * updates the map. The map frame is the odometry frame as it was at the first scan (the particles start at the
- * first odometry pose).
+ * @brief Grid SLAM: the interface of both methods, and what they share. update() refuses non-finite input, applies
+ * the travel thresholds, starts the map(s) at the first scan (the map frame is the odometry frame as it was then:
+ * every particle starts at the first odometry pose, map -> odom starts as the identity) and hands every further
+ * scan to the method's step(); the methods weigh their particles and resample through the particle-filter
+ * skeleton (weighAndResample()). Make one with create().
  */
 class GridSlam
 {
 public:
-  /** @throws std::invalid_argument when config.validate() reports a problem. */
-  explicit GridSlam(const GridSlamConfig& config);
+  /** @brief The method config.mode names. @throws std::invalid_argument when config.validate() reports a problem. */
+  static std::unique_ptr<GridSlam> create(const GridSlamConfig& config);
+  virtual ~GridSlam() = default;
 
   /**
    * @brief One scan: @p odometry is the robot's odometry pose at the scan's stamp [s] @p stamp (used by
@@ -133,6 +130,8 @@ public:
    * travelled since the last processed scan (that pose itself when @p odometry is the last processed one).
    */
   Pose2 poseAt(const Pose2& odometry) const { return mapping_pose_ * (last_odometry_.inverse() * odometry); }
+  /** @brief map -> odom: the mapping pose against the odometry pose it was estimated at. */
+  Pose2 mapToOdom() const { return mapping_pose_ * last_odometry_.inverse(); }
 
   /** @brief Forgets everything (map, particles); the next scan starts a new map. Same seed as built. */
   void reset();
@@ -142,27 +141,21 @@ public:
   /** @brief The particle with the largest weight. */
   const GridParticle& best() const;
   /**
-   * @brief The particle whose pose last updated the map (before any resampling) - its pose. In rbpf mode, the
-   * best particle's pose (largest weight at the last update).
+   * @brief The pose that last updated the map: single_map, the best particle's before any resampling; rbpf, the
+   * best particle's (largest weight at the last update).
    */
   const Pose2& mappingPose() const { return mapping_pose_; }
-  /** @brief The map: course mode's one map; in rbpf mode the best particle's (the one of mappingPose()). */
-  const OccupancyGrid& map() const
-  {
-    return config_.mode == GridSlamMode::kRbpf && !maps_.empty() ? maps_[best_index_] : map_;
-  }
-  /** @brief rbpf mode: particle @p i's map (course mode: the one map). */
-  const OccupancyGrid& particleMap(std::size_t i) const
-  {
-    return config_.mode == GridSlamMode::kRbpf ? maps_.at(i) : map_;
-  }
+  /** @brief The map: single_map's one map; rbpf, the best particle's (the one of mappingPose()). */
+  virtual const OccupancyGrid& map() const = 0;
+  /** @brief Particle @p i's map (single_map: the one map). */
+  virtual const OccupancyGrid& particleMap(std::size_t i) const = 0;
   /**
-   * @brief rbpf mode: the poses of the best particle's history, one per update() since the first scan (its
-   * ancestors' poses before resampling); course mode: empty.
+   * @brief rbpf: the poses of the best particle's history, one per processed scan since the first (its ancestors'
+   * poses before resampling); single_map: empty.
    */
-  std::vector<Pose2> bestTrajectory() const;
+  virtual std::vector<Pose2> bestTrajectory() const { return {}; }
   const GridSlamConfig& config() const { return config_; }
-  /** @brief The odometry pose of the last scan. */
+  /** @brief The odometry pose of the last processed scan. */
   const Pose2& lastOdometry() const { return last_odometry_; }
 
   /**
@@ -175,26 +168,33 @@ public:
   static void scanEndPoints(const ScanData& scan, const ScanLimits& limits, int step,
                             std::vector<std::pair<double, double>>* end_points);
 
-private:
-  GridSlamStep updateRbpf(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor);
-  /** @brief A pose of a particle's history; ancestors shared between particles, released iteratively. */
-  using TrajectoryNode = HistoryNode<Pose2>;
+protected:
+  explicit GridSlam(const GridSlamConfig& config);
+  /** @brief The method's maps back to none (called by reset()). */
+  virtual void resetMaps() = 0;
+  /** @brief The first scan, every particle at @p odometry: starts the map(s); returns the beams mapped. */
+  virtual int startMaps(const Pose2& odometry, const ScanData& scan, const Pose2& sensor) = 0;
+  /** @brief Every further scan above the travel thresholds, the odometry increment @p u since the last one. */
+  virtual GridSlamStep step(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor) = 0;
+  /**
+   * @brief The skeleton's weighting step on log_weights_ (each particle's previous log-weight plus its scan's
+   * log-likelihood): sets the particles' weights, runs @p before_resampling (the particles as weighed), and
+   * resamples when Neff is low (particles_ rebuilt; the method rebuilds its own per-particle state from the
+   * returned keep).
+   */
+  WeightingStep weighParticles(const std::function<void(const WeightingStep&)>& before_resampling);
 
   GridSlamConfig config_;
   Random random_;
   std::vector<GridParticle> particles_;
   std::vector<double> log_weights_, weights_;
-  OccupancyGrid map_;
+  Pose2 mapping_pose_;
+  std::vector<std::pair<double, double>> end_points_;
+
+private:
   bool initialised_ = false;
   Pose2 last_odometry_;  ///< of the last processed scan
   double last_stamp_ = 0.0;
-  Pose2 mapping_pose_;
-  std::vector<std::pair<double, double>> end_points_;
-  // rbpf mode
-  ScanMatcher matcher_;
-  std::vector<OccupancyGrid> maps_;  // one per particle
-  std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
-  std::size_t best_index_ = 0;
 };
 
 }  // namespace core

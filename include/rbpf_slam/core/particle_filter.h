@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_PARTICLE_FILTER_H
 #define RBPF_SLAM_CORE_PARTICLE_FILTER_H
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,60 @@ bool parseResamplingMethod(const std::string& name, ResamplingMethod* method);
 const char* resamplingMethodName(ResamplingMethod method);
 /** @brief Indices of the particles to keep by @p method. */
 std::vector<int> resample(const std::vector<double>& weights, ResamplingMethod method, Random& random);
+
+/** @brief When and how the filter skeleton resamples (one policy for every filter). */
+struct ResamplingPolicy
+{
+  ResamplingMethod method = ResamplingMethod::kLowVariance;
+  double neff_ratio = 0.5;  ///< [-] resample when Neff < neff_ratio * particles (0: never, 1: at every update)
+
+  /** @brief Empty when valid, else a message naming the bad parameter. */
+  std::string validate() const;
+};
+
+/** @brief What one weighting step did. */
+struct WeightingStep
+{
+  double neff = 0.0;       ///< effective sample size of the normalised weights, before resampling
+  std::size_t best = 0;    ///< the particle of the largest normalised weight, before resampling (first of ties)
+  bool resampled = false;
+  std::vector<int> keep;   ///< when resampled: new particle n copies old particle keep[n]
+};
+
+/**
+ * @brief The step every particle filter of the package shares after it has scored its particles: normalises
+ * @p log_weights (in place; the normalised weights into @p weights), computes Neff and, when it is below
+ * policy.neff_ratio * N, draws the survivors with policy.method; the weights are then uniform again. The caller
+ * rebuilds its per-particle state with applyResampling(step.keep). @p before_resampling, when given, runs after
+ * the weights are normalised and before any resampling (e.g. to write the scan into the maps of the particles as
+ * they were weighed, once per particle rather than once per copy).
+ */
+WeightingStep weighAndResample(std::vector<double>* log_weights, std::vector<double>* weights,
+                               const ResamplingPolicy& policy, Random& random,
+                               const std::function<void(const WeightingStep&)>& before_resampling = nullptr);
+
+/**
+ * @brief Rebuilds per-particle state after resampling: element n becomes the old element keep[n]. The last copy
+ * of an element takes it by move, the others copy it (a copy-on-write map then shares its storage).
+ */
+template <typename T>
+void applyResampling(std::vector<T>* items, const std::vector<int>& keep)
+{
+  std::vector<int> last_use(items->size(), -1);
+  for (std::size_t n = 0; n < keep.size(); ++n)
+    last_use[static_cast<std::size_t>(keep[n])] = static_cast<int>(n);
+  std::vector<T> next;
+  next.reserve(keep.size());
+  for (std::size_t n = 0; n < keep.size(); ++n)
+  {
+    T& src = (*items)[static_cast<std::size_t>(keep[n])];
+    if (last_use[static_cast<std::size_t>(keep[n])] == static_cast<int>(n))
+      next.push_back(std::move(src));
+    else
+      next.push_back(src);
+  }
+  items->swap(next);
+}
 
 /** @brief Weighted mean and covariance of particle poses (x, y, heading). */
 struct PoseMoments

@@ -90,6 +90,43 @@ private:
   bool have_last_ = false;
 };
 
+/**
+ * @brief The stamp rule for a pipeline's two streams (odometry and its sensor): each stream's stamps must
+ * increase; a real jump back on either one starts a new timeline for both, so that the other stream's next
+ * message does not look like a second jump.
+ */
+class TimelineGate
+{
+public:
+  enum Stream
+  {
+    kOdometry = 0,
+    kSensor = 1
+  };
+  explicit TimelineGate(double threshold = 1.0) : gates_{ StampGate(threshold), StampGate(threshold) } {}
+  /** @brief StampGate::check() on @p stream; on kReset both streams restart here and restarts() counts it. */
+  StampVerdict check(Stream stream, double stamp, double clock = NAN)
+  {
+    const StampVerdict v = gates_[stream].check(stamp, clock);
+    if (v == StampVerdict::kReset)
+    {
+      gates_[0].reset();
+      gates_[1].reset();
+      gates_[stream].check(stamp);
+      ++restarts_;
+    }
+    return v;
+  }
+  /** @brief The stream's previous accepted stamp (0 before any). */
+  double last(Stream stream) const { return gates_[stream].last(); }
+  double threshold() const { return gates_[0].threshold(); }
+  int restarts() const { return restarts_; }
+
+private:
+  StampGate gates_[2];
+  int restarts_ = 0;
+};
+
 }  // namespace core
 }  // namespace rbpf_slam
 

@@ -1,7 +1,6 @@
 #ifndef RBPF_SLAM_ROS_FASTSLAM_NODE_H
 #define RBPF_SLAM_ROS_FASTSLAM_NODE_H
 
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -18,10 +17,7 @@
 
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/stamp_gate.h"
-#include "rbpf_slam/core/odometry_buffer.h"
-#include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {
@@ -46,10 +42,11 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
  * @brief FastSLAM over tree trunks (core::FastSlam) on ROS topics, relative to @p nh:
  *
  * - subscribes `odom` (nav_msgs/Odometry, buffered by stamp) and `trunks` (rbpf_slam/TrunkArray in the
- *   sensor frame, e.g. from TrunkExtraction). An array is processed once odometry covers its stamp (or
- *   after `~odom_timeout` with a warning): prediction by the odometry increment since the previous
- *   array (interpolated at the stamp), then the update with the trunks as range-bearing observations of
- *   the sensor, whose planar pose on `~base_frame` comes from TF.
+ *   sensor frame, e.g. from TrunkExtraction) and feeds them to core::TrunkSlamPipeline, the pipeline the bag
+ *   runner runs too: an array is processed once odometry covers its sweep (or after `~odom_timeout` with a
+ *   warning): prediction by the odometry increment since the previous array (interpolated at the sweep's
+ *   middle), then the update with the trunks as range-bearing observations of the sensor, whose pose on
+ *   `~base_frame` comes from TF.
  * - publishes TF `map -> odom` (REP-105), `pose` (PoseWithCovarianceStamped: the weighted mean and its
  *   covariance), `particles` (PoseArray), `path` (the best particle's poses), `landmark_array`
  *   (TrunkArray in the map frame, id = landmark id, method METHOD_GIVEN) and `landmarks` (MarkerArray,
@@ -58,8 +55,8 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
  * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV).
  *
  * Each TrunkArray updates the filter at its sweep's middle: core::sweepObservations() carries every trunk
- * from its own instant in the sweep (sweep_period) and corrects the lever arm of the removed tilt
- * (tilt_roll, tilt_pitch, the sensor's height on base_link from TF).
+ * from its own instant in the sweep (sweep_period, sweep_start_angle, sweep_span) and corrects the lever arm of
+ * the removed tilt (tilt_roll, tilt_pitch, the sensor's height on base_link from TF).
  */
 class FastSlamRos
 {
@@ -73,41 +70,29 @@ private:
   void onTimer(const ros::WallTimerEvent& event);
   bool onSaveInventory(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
 
-  /** @brief Processes the waiting arrays that odometry covers (or that waited too long). Lock held. */
+  /** @brief Runs the pipeline on what odometry covers (or what waited ~odom_timeout) and publishes. Lock held. */
   void processPending();
-  void processArray(const rbpf_slam::TrunkArray& msg);
+  /** @brief A TrunkArray as the pipeline's sweep (the sensor's mount from TF); false (warned) without TF. */
+  bool toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sweep);
   /** @brief sensor -> base_link (planar) from TF, cached per frame; false when unavailable. */
   bool sensorPose(const std::string& frame, core::Pose2* pose);
   void publish(const ros::Time& stamp, const core::Pose2& odom_pose);
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
   bool writeInventory(const std::string& path, std::string* message);
-  /** @brief The stamp rule (core::StampGate) for one stream: false (warned) when the message is dropped; a real
-   * jump back restarts the filter first. Lock held. */
-  bool admit(core::StampGate* gate, const char* stream, const ros::Time& stamp);
-  /** @brief Time jumped back (looped bag, restarted simulation): forgets the map, odometry and waiting arrays. */
-  void restart(const char* stream, double stamp, double previous);
+  /** @brief Says what the pipeline's stamp rule made of a message: drops (the first of each kind, then throttled)
+   * and restarts. Lock held. */
+  void report(core::StampVerdict verdict, const char* stream, const ros::Time& stamp);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;
   FastSlamRosConfig config_;
-  std::unique_ptr<core::FastSlam> filter_;
-
   std::mutex mutex_;
-  core::OdometryBuffer odometry_;
-  struct Pending
-  {
-    rbpf_slam::TrunkArray::ConstPtr msg;
-    ros::WallTime arrival;
-  };
-  std::deque<Pending> pending_;
-  bool initialized_ = false;
-  core::Pose2 last_odom_pose_;
-  ros::Time last_trunks_stamp_;
-  core::StampGate trunks_gate_, odometry_gate_;
-  std::size_t resets_ = 0, dropped_ = 0;
+  /// The FastSLAM pipeline the bag runner runs too (core::TrunkSlamPipeline): stamps, odometry, filter.
+  std::unique_ptr<core::TrunkSlamPipeline> pipeline_;
+  int published_timeline_ = 0;
+  std::size_t dropped_ = 0;
   std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
-  ros::Time last_processed_stamp_;
   std::string sensor_frame_;
   core::Pose2 sensor_pose_;
   double sensor_height_ = 0.0;  ///< [m] of the sensor above base_link (lever arm of a tilted body)

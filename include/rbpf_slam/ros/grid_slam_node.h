@@ -16,8 +16,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
-#include "rbpf_slam/core/grid_slam.h"
-#include "rbpf_slam/core/stamp_gate.h"
+#include "rbpf_slam/core/grid_slam_pipeline.h"
 
 namespace rbpf_slam
 {
@@ -40,7 +39,7 @@ struct GridSlamRosConfig
 void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg);
 
 /**
- * @brief Grid SLAM (core::GridSlam, course mode) on ROS topics, relative to @p nh:
+ * @brief Grid SLAM (core::GridSlamPipeline, either method) on ROS topics, relative to @p nh:
  *
  * - subscribes `scan` (sensor_msgs/LaserScan, REP-117); odometry comes from TF `odom -> base_link` at
  *   the scan's stamp (a scan waits up to `~tf_timeout` for it), the scanner's mount from TF
@@ -66,7 +65,7 @@ private:
   void processPending();
   void processScan(const sensor_msgs::LaserScan& msg, const core::Pose2& odom_pose, const core::Pose2& sensor);
   void publishMap(const ros::Time& stamp);
-  void publishPoses(const ros::Time& stamp, const core::Pose2& odom_pose);
+  void publishPoses(const ros::Time& stamp, const core::GridPipelineUpdate& update);
   /** @brief Planar transform parent <- child at @p stamp; false (no warning) when not available. */
   bool lookup(const std::string& parent, const std::string& child, const ros::Time& stamp, core::Pose2* pose,
               std::string* error);
@@ -75,7 +74,8 @@ private:
   std::string name_;
   GridSlamRosConfig config_;
   core::GridSlamConfig filter_config_;
-  std::unique_ptr<core::GridSlam> filter_;
+  /// The grid SLAM pipeline the bag runner runs too (stamps, odometry at each scan, filter).
+  std::unique_ptr<core::GridSlamPipeline> pipeline_;
   std::mutex mutex_;
 
   struct Pending
@@ -86,10 +86,9 @@ private:
   std::deque<Pending> pending_;
   ros::Time last_scan_stamp_;
   ros::Time last_map_stamp_;
-  core::StampGate stamp_gate_;
   std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
   std::set<std::string> warned_reasons_;  ///< reasons for dropped scans said once already
-  std::size_t updates_ = 0, skipped_ = 0, dropped_ = 0, resets_ = 0;
+  std::size_t updates_ = 0, skipped_ = 0, dropped_ = 0;
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

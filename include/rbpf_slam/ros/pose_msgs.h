@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/Quaternion.h>
@@ -80,6 +81,20 @@ geometry_msgs::PoseArray particleCloud(const ros::Time& stamp, const std::string
 }
 
 /** @brief Appends @p pose to @p path (restamped), dropping the oldest poses beyond @p max_poses. */
+/** @brief The planar transform @p parent -> @p child (e.g. map -> odom, REP-105) as a TF message. */
+inline geometry_msgs::TransformStamped planarTransform(const ros::Time& stamp, const std::string& parent,
+                                                      const std::string& child, const core::Pose2& pose)
+{
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = stamp;
+  tf.header.frame_id = parent;
+  tf.child_frame_id = child;
+  tf.transform.translation.x = pose.x;
+  tf.transform.translation.y = pose.y;
+  tf.transform.rotation = quaternionOfYaw(pose.theta);
+  return tf;
+}
+
 inline void appendToPath(nav_msgs::Path* path, const ros::Time& stamp, const std::string& frame,
                          const core::Pose2& pose, int max_poses)
 {

@@ -69,6 +69,17 @@ inline std::string toPlanarScan(const sensor_msgs::LaserScan& msg, core::PlanarS
   return "";
 }
 
+/**
+ * @brief How long a scan took from its first beam to its last [s]: time_increment apart; 0 when the driver does
+ * not say (every beam at the stamp).
+ */
+inline double scanPeriod(const sensor_msgs::LaserScan& msg)
+{
+  if (!(std::isfinite(msg.time_increment) && msg.time_increment > 0.0f) || msg.ranges.size() < 2)
+    return 0.0;
+  return static_cast<double>(msg.time_increment) * static_cast<double>(msg.ranges.size() - 1);
+}
+
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_ROS_SCAN_CONVERSIONS_H
