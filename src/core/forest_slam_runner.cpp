@@ -32,10 +32,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   std::vector<std::unique_ptr<TrunkSlamPipeline>> pipelines;
   for (const auto& v : variants)
   {
-    TrunkDetectorConfig dc = v.detector;
-    if (dc.sensor_height <= 0.0)
-      dc.sensor_height = sc.lidar3d.mount.z;  // what TF says on a robot
-    pipelines.emplace_back(new TrunkSlamPipeline(dc, v.filter));
+    pipelines.emplace_back(new TrunkSlamPipeline(v.detector, v.filter));  // sensor height from the mount
   }
   const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
   const double period = 1.0 / sc.lidar3d.rate;

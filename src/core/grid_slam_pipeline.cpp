@@ -9,6 +9,11 @@ namespace rbpf_slam
 {
 namespace core
 {
+namespace
+{
+constexpr double kStampTolerance = 1e-6;  ///< [s] stamps this close count as the same instant (OdometryBuffer's)
+}  // namespace
+
 GridSlamPipeline::GridSlamPipeline(const GridSlamConfig& config, const PipelineTiming& timing)
   : timing_(timing), filter_(GridSlam::create(config)), gate_(timing.time_jump_threshold)
 {
@@ -81,6 +86,9 @@ std::vector<GridPipelineUpdate> GridSlamPipeline::process(double now, bool flush
     const auto t0 = std::chrono::steady_clock::now();
     try
     {
+      // No odometry before the scan: its pose would be a guess (TF refuses to extrapolate into the past too).
+      if (front.stamp < odometry_.earliest() - kStampTolerance)
+        throw std::invalid_argument("the scan is older than the first odometry");
       u.step = filter_->update(u.odometry, front.scan, front.sensor, front.stamp);
     }
     catch (const std::exception& e)  // refused before anything changed (GridSlam::update)

@@ -95,6 +95,8 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
   const auto t0 = std::chrono::steady_clock::now();
+  if (!(detector_->config().sensor_height > 0.0) && mount.z > 0.0)  // as the extraction nodelet does from TF
+    detector_->setConfig(withMountHeight(detector_->config(), mount.z));
   TrunkDetectorStats stats;
   TrunkSweep sweep;
   sweep.stamp = stamp;
@@ -124,6 +126,13 @@ StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const Plana
   enqueue(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
   return v;
+}
+
+TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z)
+{
+  if (!(config.sensor_height > 0.0) && std::isfinite(mount_z) && mount_z > 0.0)
+    config.sensor_height = mount_z;
+  return config;
 }
 
 SweepGeometry scanGeometry(const PlanarScan& scan)

@@ -128,7 +128,7 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
   std::lock_guard<std::mutex> lock(mutex_);
   const auto& p = msg->pose.pose;
   const core::StampVerdict v = pipeline_->addOdometry(
-      msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)), ros::Time::now().toSec());
+      msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)), clockForStamps());
   report(v, "odometry", msg->header.stamp);
   processPending();
 }
@@ -140,7 +140,7 @@ void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
   if (!toSweep(*msg, &sweep))
     return;
   const std::size_t dropped_before = pipeline_->droppedPending();
-  const core::StampVerdict v = pipeline_->addTrunks(std::move(sweep), ros::Time::now().toSec(),
+  const core::StampVerdict v = pipeline_->addTrunks(std::move(sweep), clockForStamps(),
                                                     ros::WallTime::now().toSec());
   report(v, "trunks", msg->header.stamp);
   if (pipeline_->droppedPending() > dropped_before)  // no odometry at all: the waiting arrays do not grow without bound
@@ -187,8 +187,8 @@ void FastSlamRos::report(core::StampVerdict verdict, const char* stream, const r
     return;
   if (verdict == core::StampVerdict::kReset)
   {
-    ROS_WARN("%s: %s stamped %.3f: time jumped back by more than ~time_jump_threshold %.2f s; the filter restarts "
-             "with a new map (reset %d, after %zu updates; the old map is gone unless saved)",
+    ROS_WARN("%s: %s stamped %.3f, more than ~time_jump_threshold %.2f s before the previous one: time jumped back; "
+             "the filter restarts with a new map (reset %d, after %zu updates; the old map is gone unless saved)",
              name_.c_str(), stream, stamp.toSec(), config_.time_jump_threshold, pipeline_->restarts(), updates_);
     return;
   }

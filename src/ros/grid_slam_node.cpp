@@ -109,7 +109,7 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   // The stamp rule at arrival (the pipeline's, as offline): a late or future scan must not wait for its TF.
-  const core::StampVerdict verdict = pipeline_->admitScan(msg->header.stamp.toSec(), ros::Time::now().toSec());
+  const core::StampVerdict verdict = pipeline_->admitScan(msg->header.stamp.toSec(), clockForStamps());
   if (verdict == core::StampVerdict::kReset)
   {
     // A looped bag or a restarted simulation: a new map rather than two timelines mixed. The TF listener clears
@@ -129,11 +129,11 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     // The first drop of each kind is always said; repeats at most every 5 s.
     if (warned_verdicts_.insert(static_cast<int>(verdict)).second)
       ROS_WARN("%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
-               msg->header.stamp.toSec(), last_scan_stamp_.toSec(), ros::Time::now().toSec(),
+               msg->header.stamp.toSec(), last_scan_stamp_.toSec(), clockForStamps(),
                core::stampVerdictName(verdict), dropped_);
     else
       ROS_WARN_THROTTLE(5.0, "%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)",
-                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), ros::Time::now().toSec(),
+                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), clockForStamps(),
                         core::stampVerdictName(verdict), dropped_);
     return;
   }

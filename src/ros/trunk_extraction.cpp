@@ -172,16 +172,15 @@ TrunkExtraction::TrunkExtraction(ros::NodeHandle nh, ros::NodeHandle pnh)
   const RosParamSource params(pnh_);
   core::TrunkDetectorConfig config = readCoreConfig<core::TrunkDetectorConfig>(params, &io::readTrunkDetectorConfig);
   readKey(params, "level_frame", &level_frame_);
+  readKey(params, "base_frame", &base_frame_);
   readKey(params, "tf_timeout", &tf_timeout_);
   readKey(params, "debug_report_address", &debug_report_address_);
   requireNonNegative(pnh_, "tf_timeout", tf_timeout_);
   warnUnknownKeys(params);
   detector_.reset(new core::TrunkDetector(config));
-  if (!level_frame_.empty())
-  {
-    tf_buffer_.reset(new tf2_ros::Buffer());
-    tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
-  }
+  // TF: levelling (~level_frame) and, while ~sensor_height is 0 (unknown), the sensor's height on ~base_frame.
+  tf_buffer_.reset(new tf2_ros::Buffer());
+  tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
 
   // The server loads (and clamps) the parameters itself; give it exactly the configuration read above,
   // so the YAML values win over the .cfg defaults, before the callback is attached.
@@ -231,9 +230,33 @@ bool TrunkExtraction::anyOutputSubscribed() const
          stats_pub_.getNumSubscribers() > 0;
 }
 
+void TrunkExtraction::takeSensorHeightFromTf(const std::string& frame)
+{
+  if (detector_->config().sensor_height > 0.0 || base_frame_.empty() || frame == sensor_height_frame_)
+    return;
+  geometry_msgs::TransformStamped t;
+  try
+  {
+    t = tf_buffer_->lookupTransform(base_frame_, frame, ros::Time(0));
+  }
+  catch (const tf2::TransformException& e)
+  {
+    ROS_DEBUG_THROTTLE(5.0, "%s: no transform %s -> %s yet (%s); sensor height unknown", name_.c_str(), frame.c_str(),
+                       base_frame_.c_str(), e.what());
+    return;
+  }
+  sensor_height_frame_ = frame;  // asked once per frame: a mount below base_link leaves the height unknown
+  const core::TrunkDetectorConfig config = core::withMountHeight(detector_->config(), t.transform.translation.z);
+  if (config.sensor_height == detector_->config().sensor_height)
+    return;
+  detector_->setConfig(config);
+  ROS_INFO("%s: sensor height %.2f m (%s on %s from TF; ~sensor_height 0 = unknown)", name_.c_str(),
+           config.sensor_height, frame.c_str(), base_frame_.c_str());
+}
+
 Eigen::Matrix3d TrunkExtraction::levelRotation(const std::string& frame, const ros::Time& stamp)
 {
-  if (!tf_buffer_)
+  if (level_frame_.empty())
     return Eigen::Matrix3d::Identity();
   geometry_msgs::TransformStamped t;
   try
@@ -292,6 +315,7 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   double band_height = 1.0;
   {
     std::lock_guard<std::mutex> lock(detector_mutex_);
+    takeSensorHeightFromTf(msg->header.frame_id);
     band_height = detector_->config().max_height - detector_->config().min_height;
     try
     {

@@ -369,8 +369,7 @@ int runFastSlam(const Options& o)
   if (!staticMount(bag, o.base_frame, lidar_frame, &mount))
     throw std::runtime_error(o.bag_path + ": no " + o.base_frame + " -> " + lidar_frame + " transform on /tf_static");
 
-  core::TrunkDetectorConfig dc;
-  dc.sensor_height = mount.z;
+  core::TrunkDetectorConfig dc;  // sensor height 0 (unknown): the pipeline takes the mount's, as the nodelet does
   core::FastSlamConfig fc;
   loadYaml(o.extraction_config_path, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, &dc); });
   loadYaml(o.config_path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });

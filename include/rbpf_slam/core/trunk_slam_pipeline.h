@@ -36,6 +36,12 @@ struct SweepGeometry
   double span = 2.0 * M_PI;
 };
 
+/**
+ * @brief @p config with the sensor's height above the ground taken from its mount: where the configuration
+ * leaves it unknown (0), the sensor's height @p mount_z on base_link stands for it (base_link on the ground).
+ */
+TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z);
+
 /** @brief The sweep geometry of a 2D scan: from angle_min through its last beam. */
 SweepGeometry scanGeometry(const PlanarScan& scan);
 

@@ -18,6 +18,16 @@ namespace rbpf_slam
 // constructor, so the nodelet fails to load and a node exits non-zero) on a value of the wrong type or out of
 // range, naming the key; keys that nothing read are warned by name (warnUnknownKeys).
 
+/**
+ * @brief The node's clock for the stamp rule's future test [s]: ros::Time::now(), or NaN while simulated time has
+ * not started (no /clock yet), so that the first messages of a bag played with --clock are not taken as early.
+ */
+inline double clockForStamps()
+{
+  const ros::Time now = ros::Time::now();
+  return now.isZero() ? NAN : now.toSec();
+}
+
 /** @brief Reads `~seed` (an int; negative values are reinterpreted as unsigned). */
 inline std::uint64_t readSeed(const RosParamSource& params, int default_seed = 0)
 {

@@ -58,6 +58,9 @@ private:
   void onReconfigure(rbpf_slam::TrunkExtractionConfig& dyn, std::uint32_t level);
   /** @brief Rotation from @p frame to a level frame with the sensor's heading; identity if unavailable. */
   Eigen::Matrix3d levelRotation(const std::string& frame, const ros::Time& stamp);
+  /** @brief While the sensor height is unknown (0), the z of @p frame on ~base_frame from TF, as the bag runner
+   * takes it (core::withMountHeight). Detector lock held. */
+  void takeSensorHeightFromTf(const std::string& frame);
   bool anyOutputSubscribed() const;
   /** @brief Reports a dropped input on ~stats (no TrunkArray is published for it). */
   void publishDropped(const std_msgs::Header& header, const char* input, const std::string& why);
@@ -68,6 +71,8 @@ private:
   ros::NodeHandle nh_, pnh_;
   std::string name_;  ///< for log messages: the private namespace
   std::string level_frame_;
+  std::string base_frame_ = "base_link";
+  std::string sensor_height_frame_;  ///< the frame whose mount was looked up for the sensor height
   double tf_timeout_ = 0.05;
   bool debug_report_address_ = false;
 

@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""rostest node: the nodelets and the bag runner run one pipeline per filter.
+
+Beside node_vs_offline.test (trunk extraction + FastSLAM and grid SLAM in one manager, simulated time): records a
+short simulated forest drive (3D lidar) and a short indoor drive (2D scanner), runs slam_bag on each, plays each
+bag into the nodes with rosbag play --clock, and compares the nodes' path (the estimate at every update) with
+slam_bag's estimate.tum: the same number of poses, the same stamps, the same positions within TOLERANCE.
+"""
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from nav_msgs.msg import Path
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TOLERANCE = 1e-3  # [m], [rad]: the same code on the same data; only TF's interpolation differs (grid odometry)
+
+
+def read_tum(path):
+    rows = []
+    with open(path) as f:
+        for line in f:
+            v = [float(x) for x in line.split()]
+            rows.append((v[0], v[1], v[2], 2.0 * math.atan2(v[6], v[7])))
+    return rows
+
+
+def path_rows(msg):
+    return [(p.header.stamp.to_sec(), p.pose.position.x, p.pose.position.y,
+             2.0 * math.atan2(p.pose.orientation.z, p.pose.orientation.w)) for p in msg.poses]
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+class NodeVsOffline(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.mkdtemp(prefix='rbpf_nvo_')
+        cls.lock = threading.Lock()
+        cls.paths = {}
+
+        def keep(name):
+            def on_path(msg):
+                with cls.lock:
+                    cls.paths[name] = msg
+            return on_path
+        cls.subs = [rospy.Subscriber('fastslam/path', Path, keep('fastslam'), queue_size=5),
+                    rospy.Subscriber('grid_slam/path', Path, keep('grid'), queue_size=5)]
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def record(self, name, world_args, waypoints):
+        wp = os.path.join(self.dir, name + '.txt')
+        with open(wp, 'w') as f:
+            f.write(waypoints)
+        bag = os.path.join(self.dir, name + '.bag')
+        subprocess.run(['rosrun', 'rbpf_slam', 'record_scenario'] + world_args +
+                       ['--drive', wp, '--seed', '1', '--out', bag, '--quiet'], check=True,
+                       stdout=subprocess.DEVNULL)
+        return bag
+
+    def offline(self, bag, args):
+        out = os.path.join(self.dir, os.path.basename(bag) + '.out')
+        subprocess.run(['rosrun', 'rbpf_slam', 'slam_bag', '--bag', bag, '--seed', '3', '--out', out, '--quiet'] + args,
+                       check=True)
+        return read_tum(os.path.join(out, 'estimate.tum'))
+
+    def play(self, bag, topics, name, expected):
+        with self.lock:
+            self.paths.pop(name, None)
+        subprocess.run(['rosbag', 'play', '--clock', '-q', '-r', '1', bag, '--topics'] + topics, check=True,
+                       stdout=subprocess.DEVNULL)
+        deadline = time.time() + 20.0
+        while time.time() < deadline:
+            with self.lock:
+                msg = self.paths.get(name)
+            if msg is not None and len(msg.poses) >= expected:
+                break
+            time.sleep(0.2)
+        time.sleep(1.0)  # a straggler would show as an extra pose
+        with self.lock:
+            msg = self.paths.get(name)
+        self.assertIsNotNone(msg, 'no path from the %s node' % name)
+        return path_rows(msg)
+
+    def compare(self, name, node, offline):
+        self.assertGreater(len(offline), 20)
+        self.assertEqual(len(node), len(offline), '%s: %d poses from the node, %d offline' %
+                         (name, len(node), len(offline)))
+        worst = 0.0
+        for a, b in zip(node, offline):
+            self.assertAlmostEqual(a[0], b[0], delta=1e-6, msg='%s: stamps differ' % name)
+            worst = max(worst, math.hypot(a[1] - b[1], a[2] - b[2]), abs(wrap(a[3] - b[3])))
+        rospy.loginfo('%s: %d poses, node vs slam_bag at most %.2e m / rad apart', name, len(node), worst)
+        self.assertLess(worst, TOLERANCE, '%s: node and slam_bag differ by %.4f' % (name, worst))
+
+    def test_fastslam_node_runs_the_offline_pipeline(self):
+        bag = self.record('forest', ['--world', os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml')],
+                          '0 0\n8 0\n')
+        offline = self.offline(bag, ['--filter', 'fastslam', '--extraction-config',
+                                     os.path.join(ROOT, 'config', 'trunk_extraction.yaml'),
+                                     '--config', os.path.join(ROOT, 'config', 'fastslam.yaml')])
+        node = self.play(bag, ['/points', '/odom', '/tf', '/tf_static'], 'fastslam', len(offline))
+        self.compare('fastslam', node, offline)
+
+    def test_grid_node_runs_the_offline_pipeline(self):
+        bag = self.record('indoor', ['--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml')],
+                          '3 0\n6 0\n7 1\n')
+        offline = self.offline(bag, ['--filter', 'grid', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml')])
+        node = self.play(bag, ['/scan', '/odom', '/tf', '/tf_static'], 'grid', len(offline))
+        self.compare('grid', node, offline)
+
+
+if __name__ == '__main__':
+    rospy.init_node('node_vs_offline_check')
+    rostest.rosrun('rbpf_slam', 'node_vs_offline', NodeVsOffline)
