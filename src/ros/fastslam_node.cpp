@@ -37,24 +37,10 @@ namespace
 FastSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   FastSlamRosConfig c;
-  const ros::NodeHandle& pnh = params.nodeHandle();
-  readKey(params, "map_frame", &c.map_frame);
-  readKey(params, "odom_frame", &c.odom_frame);
-  readKey(params, "base_frame", &c.base_frame);
+  readSlamRosConfig(params, &c);
   readKey(params, "odom_timeout", &c.odom_timeout);
-  readKey(params, "transform_tolerance", &c.transform_tolerance);
-  readKey(params, "publish_tf", &c.publish_tf);
   readKey(params, "inventory_path", &c.inventory_path);
-  readKey(params, "max_path_poses", &c.max_path_poses);
-  readKey(params, "time_jump_threshold", &c.time_jump_threshold);
-  requireNonNegative(pnh, "odom_timeout", c.odom_timeout);
-  requireNonNegative(pnh, "transform_tolerance", c.transform_tolerance);
-  requirePositive(pnh, "time_jump_threshold", c.time_jump_threshold);
-  if (c.max_path_poses < 1)
-    throw invalidParameter(pnh, "max_path_poses", "must be >= 1");
-  requireFrame(pnh, "map_frame", c.map_frame);
-  requireFrame(pnh, "odom_frame", c.odom_frame);
-  requireFrame(pnh, "base_frame", c.base_frame);
+  requireNonNegative(params.nodeHandle(), "odom_timeout", c.odom_timeout);
   return c;
 }
 

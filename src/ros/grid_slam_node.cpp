@@ -34,25 +34,12 @@ GridSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   GridSlamRosConfig c;
   const ros::NodeHandle& pnh = params.nodeHandle();
-  readKey(params, "map_frame", &c.map_frame);
-  readKey(params, "odom_frame", &c.odom_frame);
-  readKey(params, "base_frame", &c.base_frame);
+  readSlamRosConfig(params, &c);
   readKey(params, "tf_timeout", &c.tf_timeout);
-  readKey(params, "transform_tolerance", &c.transform_tolerance);
   readKey(params, "map_update_interval", &c.map_update_interval);
-  readKey(params, "publish_tf", &c.publish_tf);
   readKey(params, "map_path", &c.map_path);
-  readKey(params, "max_path_poses", &c.max_path_poses);
-  readKey(params, "time_jump_threshold", &c.time_jump_threshold);
   requireNonNegative(pnh, "tf_timeout", c.tf_timeout);
-  requireNonNegative(pnh, "transform_tolerance", c.transform_tolerance);
   requireNonNegative(pnh, "map_update_interval", c.map_update_interval);
-  requirePositive(pnh, "time_jump_threshold", c.time_jump_threshold);
-  if (c.max_path_poses < 1)
-    throw std::runtime_error(pnh.resolveName("max_path_poses") + " must be >= 1");
-  requireFrame(pnh, "map_frame", c.map_frame);
-  requireFrame(pnh, "odom_frame", c.odom_frame);
-  requireFrame(pnh, "base_frame", c.base_frame);
   return c;
 }
 

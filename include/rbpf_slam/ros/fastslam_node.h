@@ -18,21 +18,15 @@
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam
 {
 /** @brief The parameters of FastSlamRos besides the filter's own (core::FastSlamConfig). */
-struct FastSlamRosConfig
+struct FastSlamRosConfig : SlamRosConfig
 {
-  std::string map_frame = "map";
-  std::string odom_frame = "odom";
-  std::string base_frame = "base_link";
   double odom_timeout = 0.5;          ///< [s] wall time an array waits for odometry covering it
-  double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the array
-  bool publish_tf = true;
   std::string inventory_path = "~/.ros/tree_inventory.csv";
-  int max_path_poses = 100000;        ///< oldest poses of `path` are dropped beyond this
-  double time_jump_threshold = 1.0;   ///< [s] see core::StampGate: a larger jump back restarts the filter
 };
 
 /** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */

@@ -17,22 +17,16 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "rbpf_slam/core/grid_slam_pipeline.h"
+#include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam
 {
 /** @brief The parameters of GridSlamRos besides the filter's own (core::GridSlamConfig). */
-struct GridSlamRosConfig
+struct GridSlamRosConfig : SlamRosConfig
 {
-  std::string map_frame = "map";
-  std::string odom_frame = "odom";
-  std::string base_frame = "base_link";
   double tf_timeout = 0.5;            ///< [s] wall time a scan waits for odom -> base_link at its stamp
-  double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the scan
   double map_update_interval = 2.0;   ///< [s] of scan time between publications of `map`
-  bool publish_tf = true;
   std::string map_path = "~/.ros/grid_map.yaml";  ///< ~save_map writes here (and the .pgm beside it)
-  int max_path_poses = 100000;
-  double time_jump_threshold = 1.0;  ///< [s] see core::StampGate
 };
 
 /** @brief The core's grid as a nav_msgs/OccupancyGrid (-1 unknown, 0..100), header left to the caller. */

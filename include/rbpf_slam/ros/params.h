@@ -67,6 +67,38 @@ inline void requirePositive(const ros::NodeHandle& pnh, const char* key, double 
     throw invalidParameter(pnh, key, "must be a finite number > 0, not " + std::to_string(value));
 }
 
+/** @brief The parameters both SLAM nodes share: REP-105 frames, map -> odom publication, path length, time jumps. */
+struct SlamRosConfig
+{
+  std::string map_frame = "map";
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the update
+  bool publish_tf = true;
+  int max_path_poses = 100000;        ///< oldest poses of `path` are dropped beyond this
+  double time_jump_threshold = 1.0;   ///< [s] see core::StampGate: a larger jump back restarts the filter
+};
+
+/** @brief Reads and checks the SlamRosConfig keys (a bad value throws, naming the key). */
+inline void readSlamRosConfig(const RosParamSource& params, SlamRosConfig* c)
+{
+  const ros::NodeHandle& pnh = params.nodeHandle();
+  readKey(params, "map_frame", &c->map_frame);
+  readKey(params, "odom_frame", &c->odom_frame);
+  readKey(params, "base_frame", &c->base_frame);
+  readKey(params, "transform_tolerance", &c->transform_tolerance);
+  readKey(params, "publish_tf", &c->publish_tf);
+  readKey(params, "max_path_poses", &c->max_path_poses);
+  readKey(params, "time_jump_threshold", &c->time_jump_threshold);
+  requireNonNegative(pnh, "transform_tolerance", c->transform_tolerance);
+  requirePositive(pnh, "time_jump_threshold", c->time_jump_threshold);
+  if (c->max_path_poses < 1)
+    throw invalidParameter(pnh, "max_path_poses", "must be >= 1");
+  requireFrame(pnh, "map_frame", c->map_frame);
+  requireFrame(pnh, "odom_frame", c->odom_frame);
+  requireFrame(pnh, "base_frame", c->base_frame);
+}
+
 /**
  * @brief A core configuration read with its io reader (e.g. io::readFastSlamConfig), and `~seed`. A wrong type
  * or an invalid value throws, naming the key: a node never starts half-configured or on defaults it was not
