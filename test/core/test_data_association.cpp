@@ -192,3 +192,27 @@ TEST(DataAssociation, NewTrunkOverlappingACandidateIsSuppressed)
   EXPECT_FALSE(a.overlapsCandidate(map, Eigen::Vector2d(5.55, 0.0), 0.2, 0.1));
   EXPECT_FALSE(a.overlapsCandidate(map, Eigen::Vector2d(5.45, 0.0), 0.2, 0.0));
 }
+
+TEST(DataAssociation, RepredictFromADrawnPoseRecomputesTheMatchedPairs)
+{
+  LandmarkMap map;
+  map.add(landmarkAt(5.0, 0.0, 0.1));
+  const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * 1e-4;
+  const std::vector<LandmarkObservation> obs{ observeFromOrigin(5.0, 0.0) };
+  DataAssociation a;
+  a.selectCandidates(map, Pose2(), Pose2(), VisibilityScope());
+  a.associate(map, obs, { R });
+  ASSERT_EQ(a.match(0), 0);
+  const double at_origin = a.logLikelihood(0, 0);
+  EXPECT_NEAR(a.innovation(0, 0).x(), 0.0, 1e-12);
+  // The pose drawn 0.1 m forward: the landmark is predicted at 4.9 m, the innovation is 0.1 m. S = H P H^T + R
+  // = diag(0.01 + 1e-4, 0.01 / 4.9^2 + 1e-4).
+  const double s_rr = 0.01 + 1e-4, s_bb = 0.01 / (4.9 * 4.9) + 1e-4;
+  a.repredict(map, Pose2(0.1, 0.0, 0.0), obs, { R }, false);
+  EXPECT_NEAR(a.candidates()[0].z.x(), 4.9, 1e-12);
+  EXPECT_NEAR(a.innovation(0, 0).x(), 0.1, 1e-12);
+  EXPECT_NEAR(a.innovationInverse(0, 0)(1, 1), 1.0 / s_bb, 1e-6);
+  EXPECT_EQ(a.logLikelihood(0, 0), at_origin);  // kept: the likelihood under the prior
+  a.repredict(map, Pose2(0.1, 0.0, 0.0), obs, { R }, true);
+  EXPECT_NEAR(a.logLikelihood(0, 0), -0.5 * 0.01 / s_rr - kLog2Pi - 0.5 * std::log(s_rr * s_bb), 1e-9);
+}

@@ -26,7 +26,7 @@ struct AssociationCandidate
   Eigen::Matrix2d A;          ///< H Sm H^T (+ pose_term): S = A + R of each observation
 };
 
-/** @brief Parameters of the gate and of the likelihood table. */
+/** @brief Parameters of the gate and of the likelihood table (FastSlamConfig's of the same meaning). */
 struct AssociationConfig
 {
   /// Squared Mahalanobis distance (2 dof) within which a landmark may take an observation.
@@ -76,8 +76,8 @@ public:
   void repredict(const LandmarkMap& map, const Pose2& sensor, const std::vector<LandmarkObservation>& obs,
                  const std::vector<Eigen::Matrix2d>& R, bool rescore);
 
+  /** @brief The candidates of the last selectCandidates(), in ascending map index. */
   const std::vector<AssociationCandidate>& candidates() const { return cand_; }
-  std::size_t observationCount() const { return n_obs_; }
   /** @brief Candidate matched to observation @p i, or -1. */
   int match(std::size_t i) const { return match_[i]; }
   /** @brief Candidate @p k took an observation. */

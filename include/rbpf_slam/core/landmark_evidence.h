@@ -12,7 +12,7 @@ namespace rbpf_slam
 {
 namespace core
 {
-/** @brief Parameters of a landmark's existence (log odds). */
+/** @brief Parameters of a landmark's existence (log odds; FastSlamConfig's evidence_* and the like). */
 struct EvidenceConfig
 {
   double hit = 1.0;           ///< added per match
