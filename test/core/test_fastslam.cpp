@@ -444,7 +444,9 @@ TEST(FastSlam, ProvisionalLandmarkLeavingTheScopeUnconfirmedIsDropped)
     ASSERT_EQ(m.size(), rule ? 1u : 2u);
     EXPECT_EQ(m[0].provisional && rule, false);
     if (rule)
+    {
       EXPECT_EQ(m[0].id, 1);
+    }
   }
 }
 

@@ -8,26 +8,20 @@
 
 #include <Eigen/Core>
 
+#include "rbpf_slam/core/data_association.h"
+#include "rbpf_slam/core/landmark_evidence.h"
 #include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/landmark_observation.h"
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/pose2.h"
 #include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/visibility_scope.h"
 
 namespace rbpf_slam
 {
 namespace core
 {
 struct TrunkObservation;
-
-/** @brief One range-bearing observation of a landmark centre, in the sensor frame. */
-struct LandmarkObservation
-{
-  double range = 0.0;    ///< [m]
-  double bearing = 0.0;  ///< [rad]
-  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  ///< of (range, bearing)
-  double radius = 0.0;           ///< [m] observed trunk radius (0: unknown)
-  double radius_variance = 0.0;  ///< [m^2] (0: unknown, the radius is not used)
-};
 
 /** @brief How each particle's pose is drawn at an update. */
 enum class PoseProposal
@@ -186,47 +180,48 @@ public:
   PoseMoments moments() const;
 
   /** @brief Gale-Shapley on a likelihood table (rows observations, columns landmarks; -inf = not allowed). */
-  static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood);
+  static std::vector<int> stableMatching(const std::vector<std::vector<double>>& log_likelihood)
+  {
+    return DataAssociation::stableMatching(log_likelihood);
+  }
 
 private:
-  /** @brief Buffers of one particle's update, kept between calls so that an update allocates nothing. */
+  /** @brief Buffers of one update, kept between calls so that an update allocates nothing. */
   struct Scratch
   {
-    struct Candidate
-    {
-      std::size_t index;
-      Eigen::Vector2d z;
-      Eigen::Matrix2d H;
-      Eigen::Matrix2d pose_term;  ///< Hx Sx Hx^T (Gaussian pose only)
-      Eigen::Matrix2d A;          ///< H Sm H^T (+ pose_term): S = A + R of each observation
-    };
-    std::vector<std::size_t> near;
-    std::vector<Candidate> cand;
-    std::vector<std::pair<double, std::size_t>> by_range;  ///< (predicted range, candidate), ascending
     std::vector<Eigen::Matrix2d> R;  ///< per observation, with the floor
     std::vector<double> log_new;     ///< per observation: the likelihood at the gate
-    std::vector<double> ll;          ///< observations x candidates, row-major (-inf: outside the gate)
-    std::vector<Eigen::Matrix2d> Si; ///< S^-1 of each gated pair, reused by the EKF update
-    std::vector<Eigen::Vector2d> v;  ///< innovation of each gated pair
-    std::vector<double> radius_term; ///< the radius's part of each gated pair's likelihood (Gaussian pose only)
-    std::vector<int> match, holder, free, prefs;
-    std::vector<std::size_t> next, prefs_begin, to_delete;
-    std::vector<char> seen;
     std::vector<char> dual_flags;  ///< per particle of the current update: pose from the dual proposal
   };
 
+  /**
+   * @brief One particle's update, step by step: candidates and data association (association_), the pose
+   * draw (Gaussian pose only), the map update by each observation, then the misses (evidence_).
+   */
   void updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
                       FastSlamUpdateStats* stats);
   /** @brief Pose carried as a Gaussian between updates (FastSLAM 2.0 or the mixture). */
   bool gaussianPose() const { return config_.proposal == PoseProposal::kFastSlam2 || config_.mixture_fraction > 0.0; }
+  /**
+   * @brief Pose draw step of a Gaussian-pose particle: draws the pose (drawPose), predicts the candidates
+   * again from it, and adds the mixture's weight correction to @p log_w or sets @p dual_weight (the weight of
+   * a dual sample under Thrun et al.'s dual weighting).
+   */
+  void drawPoseAndRepredict(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
+                            double* log_w, double* dual_weight);
   /**
    * @brief Draws the pose of a Gaussian-pose particle for the matched observations; returns the log of
    * the weight's correction (target over proposal density) for the mixture, 0 otherwise.
    */
   double drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
                   double* log_prior);
-  /** @brief stableMatching() on a row-major table, into scratch_.match. */
-  void stableMatchingFlat(const double* ll, std::size_t n_obs, std::size_t n_lm);
+  /**
+   * @brief Map update step: each observation, in order, updates its matched landmark (EKF, radius, evidence),
+   * or is ignored (it lost the matching, or would duplicate a known trunk), or starts a new landmark; its
+   * likelihood is added to @p log_w. @p sensor is the sensor's pose in the map frame.
+   */
+  void updateMap(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, double* log_w,
+                 FastSlamUpdateStats* stats);
 
   FastSlamConfig config_;
   std::vector<Particle> particles_;
@@ -234,6 +229,9 @@ private:
   int next_id_ = 0;
   std::vector<double> weights_;
   Scratch scratch_;
+  VisibilityScope scope_;
+  DataAssociation association_;
+  LandmarkEvidence evidence_;
 };
 
 }  // namespace core

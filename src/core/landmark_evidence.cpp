@@ -1,0 +1,88 @@
+#include "rbpf_slam/core/landmark_evidence.h"
+
+#include <algorithm>
+
+namespace rbpf_slam
+{
+namespace core
+{
+void LandmarkEvidence::initialize(Landmark* l) const
+{
+  l->observations = 1;
+  l->evidence = config_.hit;
+  l->provisional = config_.confirm_observations > 1;
+}
+
+void LandmarkEvidence::recordHit(Landmark* l) const
+{
+  ++l->observations;
+  l->evidence = std::min(config_.max, l->evidence + config_.hit);
+  if (l->observations >= config_.confirm_observations)
+    l->provisional = false;
+}
+
+MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandidate>& candidates,
+                                             const LandmarkMap& map, std::size_t k, const VisibilityScope& scope) const
+{
+  const AssociationCandidate& cd = candidates[k];
+  if (!scope.contains(cd.z))
+  {
+    // Just beyond the scope's far edge (the candidates reach a margin further): a provisional landmark here is
+    // leaving the scope unconfirmed (the sensor moves a few centimetres per update, so none jumps the ring).
+    // Landmarks outside the field of view or too near may come back into view as the robot turns or passes:
+    // they are kept.
+    if (config_.drop_unconfirmed_leaving_scope && scope.beyondFarEdge(cd.z) && map[cd.index].provisional)
+      return MissOutcome::kLeavingUnconfirmed;
+    return MissOutcome::kOutOfScope;
+  }
+  const double own_radius = map[cd.index].radius;
+  for (std::size_t m = 0; m < candidates.size(); ++m)
+  {
+    if (m == k)
+      continue;
+    if (occludedBy(cd.z.x(), cd.z.y(), own_radius, candidates[m].z.x(), candidates[m].z.y(),
+                   map[candidates[m].index].radius))
+      return MissOutcome::kHidden;
+  }
+  return MissOutcome::kMissed;
+}
+
+std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociation& association,
+                                          const VisibilityScope& scope)
+{
+  const std::vector<AssociationCandidate>& candidates = association.candidates();
+  to_delete_.clear();
+  for (std::size_t k = 0; k < candidates.size(); ++k)
+  {
+    if (association.taken(k))
+      continue;
+    switch (classifyUnseen(candidates, *map, k, scope))
+    {
+      case MissOutcome::kLeavingUnconfirmed:
+        to_delete_.push_back(candidates[k].index);
+        break;
+      case MissOutcome::kMissed:
+      {
+        bool remove = false;
+        map->modify(candidates[k].index, [&](Landmark& l) {
+          l.evidence -= config_.miss;
+          remove = l.evidence < config_.delete_below;
+        });
+        if (remove)
+          to_delete_.push_back(candidates[k].index);
+        break;
+      }
+      case MissOutcome::kOutOfScope:
+      case MissOutcome::kHidden:
+        break;
+    }
+  }
+  // Highest index first: remove() moves the last landmark into the hole, which must not be one still to go.
+  std::sort(to_delete_.rbegin(), to_delete_.rend());
+  for (std::size_t j : to_delete_)
+    map->remove(j);
+  return to_delete_.size();
+}
+
+}  // namespace core
+}  // namespace rbpf_slam
