@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
 
@@ -133,12 +134,8 @@ int main(int argc, char** argv)
     }
     core::TrunkDetector detector(cfg);
 
-    std::ofstream dump;
-    if (!dump_path.empty())
-    {
-      dump.open(dump_path);
-      dump << "scan,x,y,radius,points,method\n";  // each detection in the scanner frame [m]
-    }
+    std::ostringstream dump;  // written (atomically) after the last scan
+    dump << "scan,x,y,radius,points,method\n";  // each detection in the scanner frame [m]
     double heading = 213.0 * M_PI / 180.0;
     double prev_l = motors[0].at(1), prev_r = motors[0].at(5);
     int expected = 0, found = 0, found_expected = 0, false_pos = 0, scans_used = 0;
@@ -194,7 +191,7 @@ int main(int argc, char** argv)
       int found_here = 0, false_here = 0;
       for (const auto& o : obs)
       {
-        if (dump.is_open())
+        if (!dump_path.empty())
           dump << k << ',' << o.center.x() << ',' << o.center.y() << ',' << o.radius << ',' << o.num_points << ','
                << core::trunkMethodName(o.method) << '\n';
         const double wx = sx + std::cos(heading) * o.center.x() - std::sin(heading) * o.center.y();
@@ -231,6 +228,8 @@ int main(int argc, char** argv)
         std::printf("scan %3zu: %d in view, %d found, %d unmatched detections\n", k, expected_here, found_here,
                     false_here);
     }
+    if (!dump_path.empty())
+      io::writeFileAtomic(dump_path, dump.str());
     double mean = 0.0, sd = 0.0;
     for (double r : radii)
       mean += r;
