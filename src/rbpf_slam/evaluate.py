@@ -31,15 +31,50 @@ def read_tum(path):
     return data[:, 0], data[:, 1:3], yaw
 
 
-def read_map_csv(path, include_provisional=False):
-    """Landmarks of a runner's map.csv as an (n, 3) array x, y, radius."""
-    rows = []
+#: The columns of the package's one landmark CSV, in order (io::landmarksCsv writes it: slam_bag's map.csv,
+#: the FastSLAM node's tree inventory, fastslam_benchmark's maps): metres, dbh = 2 x the trunk radius.
+LANDMARK_COLUMNS = ('id', 'x', 'y', 'dbh', 'sigma_x', 'sigma_y', 'sigma_dbh', 'observations', 'provisional')
+
+
+def read_landmarks_csv(path):
+    """The landmark CSV (LANDMARK_COLUMNS) as a dict of numpy arrays, one per column ('id' and 'observations'
+    integers, 'provisional' booleans), plus 'radius' = dbh / 2. Columns after these are ignored; a missing
+    column or a malformed value is a ValueError naming the file (and the line)."""
     with open(path) as f:
-        for row in csv.DictReader(f):
-            if not include_provisional and row.get('provisional', '0') not in ('0', ''):
+        reader = csv.reader(f)
+        header = next(reader, None)
+        if header is None:
+            raise ValueError('%s: empty, expected the header %s' % (path, ','.join(LANDMARK_COLUMNS)))
+        header = [h.strip() for h in header]
+        missing = [c for c in LANDMARK_COLUMNS if c not in header]
+        if missing:
+            raise ValueError('%s: not a landmark CSV: no column %s (expected %s)'
+                             % (path, ', '.join(missing), ','.join(LANDMARK_COLUMNS)))
+        index = [header.index(c) for c in LANDMARK_COLUMNS]
+        rows = []
+        for row in reader:
+            if not row:
                 continue
-            rows.append((float(row['x']), float(row['y']), float(row['radius'])))
-    return np.array(rows, dtype=float).reshape(-1, 3)
+            try:
+                rows.append([float(row[i]) for i in index])
+            except (IndexError, ValueError):
+                raise ValueError('%s:%d: expected %d numbers (%s), got %r'
+                                 % (path, reader.line_num, len(header), ','.join(header), ','.join(row)))
+    data = np.array(rows, dtype=float).reshape(-1, len(LANDMARK_COLUMNS))
+    out = {c: data[:, k] for k, c in enumerate(LANDMARK_COLUMNS)}
+    for c in ('id', 'observations'):
+        out[c] = out[c].astype(int)
+    out['provisional'] = out['provisional'] != 0
+    out['radius'] = out['dbh'] / 2.0
+    return out
+
+
+def read_map_csv(path, include_provisional=False):
+    """Landmarks of a landmark CSV (a runner's map.csv) as an (n, 3) array x, y, radius; provisional ones
+    only with ``include_provisional``."""
+    m = read_landmarks_csv(path)
+    keep = np.ones(len(m['x']), dtype=bool) if include_provisional else ~m['provisional']
+    return np.column_stack([m['x'], m['y'], m['radius']])[keep].reshape(-1, 3)
 
 
 def interpolate(t, xy, yaw, tq):

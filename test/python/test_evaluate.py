@@ -82,3 +82,33 @@ def test_similarity_fit_recovers_scale():
     dst = 0.93 * src @ _rot(-1.1).T + np.array([0.5, 4.0])
     scale, r, t = ev.fit_similarity_2d(src, dst)
     assert scale == pytest.approx(0.93) and np.allclose(r, _rot(-1.1)) and np.allclose(t, [0.5, 4.0])
+
+
+def test_landmark_csv_reads_the_inventory_columns(tmp_path):
+    path = tmp_path / 'map.csv'
+    path.write_text('id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional\n'
+                    '3,1.5,-2.0,0.30,0.02,0.03,0.02,12,0\n'
+                    '4,5.0,5.0,0.10,0.10,0.10,0.05,1,1\n')
+    m = ev.read_landmarks_csv(str(path))
+    assert list(m['id']) == [3, 4] and list(m['observations']) == [12, 1]
+    assert list(m['provisional']) == [False, True]
+    assert m['radius'] == pytest.approx([0.15, 0.05]) and m['sigma_dbh'] == pytest.approx([0.02, 0.05])
+    assert ev.read_map_csv(str(path)).tolist() == [[1.5, -2.0, 0.15]]
+    assert ev.read_map_csv(str(path), include_provisional=True).shape == (2, 3)
+    path.write_text(','.join(ev.LANDMARK_COLUMNS) + '\n')
+    assert ev.read_map_csv(str(path)).shape == (0, 3)  # a map without trees
+
+
+def test_landmark_csv_errors_name_the_file_and_line(tmp_path):
+    old = tmp_path / 'old.csv'  # the columns of an earlier map.csv: radius instead of dbh
+    old.write_text('id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n0,1,2,0.1,0,0,0,1,0\n')
+    with pytest.raises(ValueError, match='old.csv: not a landmark CSV: no column dbh, sigma_dbh'):
+        ev.read_landmarks_csv(str(old))
+    bad = tmp_path / 'bad.csv'
+    bad.write_text(','.join(ev.LANDMARK_COLUMNS) + '\n0,1,2,0.2,0,0,0,1,0\n1,x,2,0.2,0,0,0,1,0\n')
+    with pytest.raises(ValueError, match='bad.csv:3: expected 9 numbers'):
+        ev.read_landmarks_csv(str(bad))
+    empty = tmp_path / 'empty.csv'
+    empty.write_text('')
+    with pytest.raises(ValueError, match='empty.csv: empty'):
+        ev.read_landmarks_csv(str(empty))
