@@ -20,6 +20,7 @@
 #include "rbpf_slam/core/path_follower.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
 
 using namespace rbpf_slam;
@@ -128,7 +129,7 @@ int main(int argc, char** argv)
     const core::ForestWorld world = io::loadForestWorld(world_path);
     core::ScenarioConfig scenario;
     std::string error;
-    scenario.drive = core::namedDrive(drive, &error);
+    scenario.drive = io::namedDrive(drive, &error);
     if (!error.empty())
       throw std::runtime_error(error);
     if (ideal)

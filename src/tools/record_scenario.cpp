@@ -20,6 +20,7 @@
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/sim_config.h"
+#include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
 #include "rbpf_slam/ros/sim_conversions.h"
 
@@ -134,7 +135,7 @@ int main(int argc, char** argv)
     }
     config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
     std::string error;
-    config.drive = core::namedDrive(drive, &error);
+    config.drive = io::namedDrive(drive, &error);
     if (config.drive.empty())
       throw std::runtime_error(error);
     std::shared_ptr<const core::OccupancyImage> image;
