@@ -1,5 +1,7 @@
 """Evaluation of an offline run against a bag's reference (the truth never enters the filter: the runner
-reads only sensor topics; this module reads the truth topics afterwards).
+reads only sensor topics; this module reads the truth topics afterwards). The package's one evaluator:
+evaluate_bag_run (evaluate) and trajectory_eval (trajectory_errors) use it, plot_forest_run its RPE, and it
+reads the package's one landmark CSV (read_landmarks_csv).
 
 Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 
