@@ -20,8 +20,10 @@ std::vector<Eigen::Vector2d> readWaypoints(const std::string& path)
   std::string line;
   for (int number = 1; std::getline(in, line); ++number)
   {
+    if (!line.empty() && line.back() == '\r')  // CRLF line ends
+      line.pop_back();
     const std::string body = line.substr(0, line.find('#'));
-    if (body.find_first_not_of(" \t\r") == std::string::npos)
+    if (body.find_first_not_of(" \t") == std::string::npos)
       continue;
     std::istringstream fields(body);
     double x = 0.0, y = 0.0;

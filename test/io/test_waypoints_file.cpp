@@ -46,6 +46,8 @@ TEST(WaypointsFile, ErrorsNameTheFileAndLine)
 {
   const std::string one = writeTemp("one.txt", "4 0\n8\n");
   EXPECT_EQ(errorOf(one), one + ":2: expected 'x y', got '8'");
+  const std::string crlf = writeTemp("crlf.txt", "4 0\r\n8\r\n");
+  EXPECT_EQ(errorOf(crlf), crlf + ":2: expected 'x y', got '8'");
   const std::string three = writeTemp("three.txt", "4 0 1\n");
   EXPECT_EQ(errorOf(three), three + ":1: expected 'x y', got '4 0 1'");
   const std::string word = writeTemp("word.txt", "1 2\n3 4\nstraight\n");
