@@ -53,6 +53,14 @@ def test_bad_tum_names_the_file(tmp_path):
         _load().main([str(tmp_path)])
 
 
+def test_a_map_not_in_the_landmark_csv_names_the_file(tmp_path):
+    _write_run(str(tmp_path))
+    with open(str(tmp_path / 'seed3_map.csv'), 'w') as f:  # the radius columns of an earlier map.csv
+        f.write('id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n0,1,2,0.2,0,0,0,9,0\n')
+    with pytest.raises(ValueError, match='seed3_map.csv: not a landmark CSV'):
+        _load().main([str(tmp_path)])
+
+
 def _write_summary(d, finals):
     values = ', '.join('%g' % v for v in finals)
     with open(os.path.join(d, 'summary.json'), 'w') as f:
