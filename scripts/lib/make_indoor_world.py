@@ -11,12 +11,16 @@ The origin is chosen so that the start pose of the loop is the world origin. The
 and the waypoints of the loop (world x y) in comment lines that parse as YAML once the leading '# ' is
 dropped; the script checks that they keep at least 0.8 m from every occupied cell before writing anything.
 
-Deterministic: the same files on every run. Pure Python 3 (3.8 or later), no third-party modules.
+Deterministic: the same files on every run. Pure Python 3 (3.8 or later), no third-party modules (the
+package's own atomic writer, src/rbpf_slam/atomic.py, writes the files).
 Usage: python3 scripts/lib/make_indoor_world.py OUT_DIR      (the repository uses config/worlds)
 """
 import math
 import os
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'src'))
+from rbpf_slam import atomic  # noqa: E402
 
 RESOLUTION = 0.05  # [m/cell]
 MARGIN = 1.0  # [m] unknown border around the building
@@ -259,13 +263,6 @@ def yaml_text(min_clearance, length):
     return '\n'.join(lines) + '\n'
 
 
-def write_atomic(path, data):
-    tmp = path + '.partial'
-    with open(tmp, 'wb') as f:
-        f.write(data)
-    os.replace(tmp, path)
-
-
 def main(argv):
     if len(argv) != 2:
         sys.stderr.write('usage: python3 %s OUT_DIR\n' % argv[0])
@@ -275,8 +272,8 @@ def main(argv):
         os.makedirs(out_dir)
     canvas = build()
     min_clearance, length = check(canvas)
-    write_atomic(os.path.join(out_dir, 'indoor.pgm'), canvas.pgm())
-    write_atomic(os.path.join(out_dir, 'indoor.yaml'), yaml_text(min_clearance, length).encode('ascii'))
+    atomic.write_bytes(os.path.join(out_dir, 'indoor.pgm'), canvas.pgm())
+    atomic.write_bytes(os.path.join(out_dir, 'indoor.yaml'), yaml_text(min_clearance, length).encode('ascii'))
     print('wrote %s/indoor.{pgm,yaml}: %d x %d cells, loop %.1f m, clearance >= %.2f m'
           % (out_dir, canvas.width, canvas.height, length, min_clearance))
     return 0

@@ -56,13 +56,13 @@ for t in "${built[@]}"; do
     # after the report's first line.
     first=$(grep -m1 -E "^SUMMARY: |runtime error:|^==[0-9]+==ERROR: " "$log")
     [ $rc -ne 124 ] || first="timed out after ${RBPF_SANITIZE_TIMEOUT:-3600} s"
-    python3 - "$RESULTS/rbpf_slam/sanitizer-$t.xml" "$t" "exit $rc: ${first:-see $log}" <<'EOF'
+    PYTHONPATH="$RBPF_ROOT/src" python3 - "$RESULTS/rbpf_slam/sanitizer-$t.xml" "$t" "exit $rc: ${first:-see $log}" <<'EOF'
 import sys
 from xml.sax.saxutils import quoteattr
+from rbpf_slam.atomic import write_text
 path, name, message = sys.argv[1:4]
-with open(path, 'w') as f:
-    f.write('<testsuite name=%s tests="1" failures="1"><testcase classname=%s name="sanitized_run">'
-            '<failure message=%s/></testcase></testsuite>\n' % (quoteattr(name), quoteattr(name), quoteattr(message)))
+write_text(path, '<testsuite name=%s tests="1" failures="1"><testcase classname=%s name="sanitized_run">'
+           '<failure message=%s/></testcase></testsuite>\n' % (quoteattr(name), quoteattr(name), quoteattr(message)))
 EOF
   fi
 done

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 namespace rbpf_slam
 {
@@ -89,46 +87,6 @@ std::vector<Eigen::Vector2d> loopDrive()
     path.emplace_back(cx + r * std::cos(a), r * std::sin(a));
   }
   path.emplace_back(30.0, 0.0);
-  return path;
-}
-
-std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* error)
-{
-  if (name == "straight")
-    return straightDrive();
-  if (name == "loop")
-    return loopDrive();
-  std::ifstream in(name);
-  if (!in)
-  {
-    if (error)
-      *error = "drive '" + name + "' is neither 'straight', 'loop' nor a readable waypoint file";
-    return {};
-  }
-  std::vector<Eigen::Vector2d> path;
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number)
-  {
-    const std::string body = line.substr(0, line.find('#'));
-    std::istringstream fields(body);
-    double x = 0.0, y = 0.0;
-    std::string rest;
-    if (!(fields >> x))
-    {
-      if (body.find_first_not_of(" \t\r") == std::string::npos)
-        continue;
-    }
-    else if ((fields >> y) && !(fields >> rest) && std::isfinite(x) && std::isfinite(y))
-    {
-      path.emplace_back(x, y);
-      continue;
-    }
-    if (error)
-      *error = name + ":" + std::to_string(number) + ": expected 'x y', got '" + line + "'";
-    return {};
-  }
-  if (path.empty() && error)
-    *error = name + ": no waypoints";
   return path;
 }
 

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
 #include <unistd.h>
 
@@ -39,40 +40,59 @@ bool makeDirectories(const std::string& dir)
   return true;
 }
 
+AtomicFile::AtomicFile(std::string path)
+  : path_(std::move(path)), temporary_(path_ + ".partial-" + std::to_string(static_cast<long>(::getpid())))
+{
+}
+
+AtomicFile::AtomicFile(AtomicFile&& other) noexcept
+  : path_(std::move(other.path_)), temporary_(std::move(other.temporary_)), pending_(other.pending_)
+{
+  other.pending_ = false;
+}
+
+AtomicFile::~AtomicFile()
+{
+  discard();
+}
+
+void AtomicFile::commit()
+{
+  if (!pending_)
+    throw std::runtime_error(path_ + ": nothing to rename into place");
+  if (std::rename(temporary_.c_str(), path_.c_str()) != 0)
+  {
+    const std::string reason = std::strerror(errno);
+    discard();
+    throw std::runtime_error(path_ + ": cannot rename the written file into place (" + reason + ")");
+  }
+  pending_ = false;
+}
+
+void AtomicFile::discard()
+{
+  if (pending_)
+    std::remove(temporary_.c_str());
+  pending_ = false;
+}
+
 void writeFilesAtomic(const std::vector<FileContent>& files)
 {
-  std::vector<std::string> temps;
-  const auto removeTemps = [&temps]() {
-    for (const auto& t : temps)
-      std::remove(t.c_str());
-  };
+  std::vector<AtomicFile> outputs;
+  outputs.reserve(files.size());
   for (const auto& f : files)
   {
-    const std::string tmp = f.first + ".partial-" + std::to_string(static_cast<long>(::getpid()));
-    temps.push_back(tmp);
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    outputs.emplace_back(f.first);
+    std::ofstream out(outputs.back().temporary(), std::ios::binary | std::ios::trunc);
     if (!out)
-    {
-      const std::string reason = std::strerror(errno);
-      removeTemps();
-      throw std::runtime_error(f.first + ": cannot write (" + reason + ")");
-    }
+      throw std::runtime_error(f.first + ": cannot write (" + std::strerror(errno) + ")");
     out.write(f.second.data(), static_cast<std::streamsize>(f.second.size()));
     out.close();
     if (!out)
-    {
-      removeTemps();
       throw std::runtime_error(f.first + ": write error (disk full?)");
-    }
   }
-  for (std::size_t i = 0; i < files.size(); ++i)
-    if (std::rename(temps[i].c_str(), files[i].first.c_str()) != 0)
-    {
-      const std::string reason = std::strerror(errno);
-      for (std::size_t j = i; j < temps.size(); ++j)
-        std::remove(temps[j].c_str());
-      throw std::runtime_error(files[i].first + ": cannot rename the written file into place (" + reason + ")");
-    }
+  for (auto& o : outputs)
+    o.commit();
 }
 
 }  // namespace io

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -50,21 +51,26 @@ void readTum(const std::string& path, std::vector<double>* stamps, std::vector<c
   }
 }
 
-void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)
-{
-  writeFileAtomic(path, landmarksCsv(landmarks));
-}
+const char* const kLandmarksCsvHeader = "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional";
 
 std::string landmarksCsv(const std::vector<core::Landmark>& landmarks)
 {
-  std::ostringstream out;
-  out.precision(9);
-  out << "id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n";
+  std::string csv = std::string(kLandmarksCsvHeader) + "\n";
+  char line[512];
   for (const auto& l : landmarks)
-    out << l.id << ',' << l.mean.x() << ',' << l.mean.y() << ',' << l.radius << ',' << std::sqrt(l.covariance(0, 0))
-        << ',' << std::sqrt(l.covariance(1, 1)) << ',' << std::sqrt(std::max(0.0, l.radius_variance)) << ','
-        << l.observations << ',' << (l.provisional ? 1 : 0) << '\n';
-  return out.str();
+  {
+    std::snprintf(line, sizeof(line), "%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d\n", l.id, l.mean.x(), l.mean.y(),
+                  2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
+                  std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
+                  l.observations, l.provisional ? 1 : 0);
+    csv += line;
+  }
+  return csv;
+}
+
+void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)
+{
+  writeFileAtomic(path, landmarksCsv(landmarks));
 }
 
 }  // namespace io

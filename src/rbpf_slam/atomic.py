@@ -82,6 +82,13 @@ def write_text(path, text):
             f.write(text)
 
 
+def write_bytes(path, data):
+    """Write a binary file atomically."""
+    with atomic_output(path) as tmp:
+        with open(tmp, 'wb') as f:
+            f.write(data)
+
+
 def write_json(path, data, **kwargs):
     """Write ``data`` as JSON atomically (``kwargs`` as for json.dump)."""
     write_text(path, json.dumps(data, **kwargs) + '\n')

@@ -10,7 +10,6 @@ import collections
 import errno
 import gzip
 import heapq
-import math
 import os
 import time
 import zlib
@@ -18,6 +17,7 @@ import zlib
 import numpy as np
 
 from rbpf_slam.atomic import UserError, atomic_output, check_output, run_tool
+from rbpf_slam.geometry import se2_between, se2_compose, wrap_angle  # noqa: F401  (cc.se2_*: the converters)
 
 #: A stamp this much earlier than the latest one before it is not a late clock but garbage (e.g. the
 #: uninitialised time stamps of some CARMEN lines): it is replaced, not pooled (see fix_stamps).
@@ -165,22 +165,7 @@ def require_fields(tokens, count, path, line, what, exact=True):
 # --- Planar kinematics (REP-103: metres, radians) -------------------------------------------------
 
 
-def wrap_angle(a):
-    """Angles wrapped to [-pi, pi)."""
-    return (np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi
-
-
-def se2_compose(a, b):
-    """a (+) b for poses (x, y, theta): b expressed in a's frame, put in a's parent frame."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], float(wrap_angle(a[2] + b[2])))
-
-
-def se2_between(a, b):
-    """The pose of b in a's frame: a^-1 (+) b."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    return (c * dx + s * dy, -s * dx + c * dy, float(wrap_angle(b[2] - a[2])))
+# wrap_angle, se2_compose and se2_between: rbpf_slam.geometry (imported above), shared with the evaluator.
 
 
 def integrate_arcs(ds, dtheta, pose0=(0.0, 0.0, 0.0)):

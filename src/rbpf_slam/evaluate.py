@@ -1,5 +1,7 @@
 """Evaluation of an offline run against a bag's reference (the truth never enters the filter: the runner
-reads only sensor topics; this module reads the truth topics afterwards).
+reads only sensor topics; this module reads the truth topics afterwards). The package's one evaluator:
+evaluate_bag_run (evaluate) and trajectory_eval (trajectory_errors) use it, plot_forest_run its RPE, and it
+reads the package's one landmark CSV (read_landmarks_csv).
 
 Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 
@@ -18,28 +20,66 @@ import math
 
 import numpy as np
 
+from rbpf_slam.geometry import se2_between, yaw_of
+
 
 def read_tum(path):
     """(t, xy, yaw) of a TUM file (t x y z qx qy qz qw)."""
-    data = np.loadtxt(path, ndmin=2)
+    try:
+        data = np.loadtxt(path, ndmin=2)
+    except ValueError as e:  # not numbers, or rows of different lengths
+        raise ValueError('%s: not a TUM trajectory (%s)' % (path, ' '.join(str(e).split())))
     if data.size == 0:
         raise ValueError('%s: empty trajectory' % path)
     if data.shape[1] != 8:
         raise ValueError('%s: expected 8 columns (TUM: t x y z qx qy qz qw), got %d' % (path, data.shape[1]))
-    qx, qy, qz, qw = data[:, 4], data[:, 5], data[:, 6], data[:, 7]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-    return data[:, 0], data[:, 1:3], yaw
+    return data[:, 0], data[:, 1:3], yaw_of(data[:, 4:8])
+
+
+#: The columns of the package's one landmark CSV, in order (io::landmarksCsv writes it: slam_bag's map.csv,
+#: the FastSLAM node's tree inventory, fastslam_benchmark's maps): metres, dbh = 2 x the trunk radius.
+LANDMARK_COLUMNS = ('id', 'x', 'y', 'dbh', 'sigma_x', 'sigma_y', 'sigma_dbh', 'observations', 'provisional')
+
+
+def read_landmarks_csv(path):
+    """The landmark CSV (LANDMARK_COLUMNS) as a dict of numpy arrays, one per column ('id' and 'observations'
+    integers, 'provisional' booleans), plus 'radius' = dbh / 2. Columns after these are ignored; a missing
+    column or a malformed value is a ValueError naming the file (and the line)."""
+    with open(path) as f:
+        reader = csv.reader(f)
+        header = next(reader, None)
+        if header is None:
+            raise ValueError('%s: empty, expected the header %s' % (path, ','.join(LANDMARK_COLUMNS)))
+        header = [h.strip() for h in header]
+        missing = [c for c in LANDMARK_COLUMNS if c not in header]
+        if missing:
+            raise ValueError('%s: not a landmark CSV: no column %s (expected %s)'
+                             % (path, ', '.join(missing), ','.join(LANDMARK_COLUMNS)))
+        index = [header.index(c) for c in LANDMARK_COLUMNS]
+        rows = []
+        for row in reader:
+            if not row:
+                continue
+            try:
+                rows.append([float(row[i]) for i in index])
+            except (IndexError, ValueError):
+                raise ValueError('%s:%d: expected %d numbers (%s), got %r'
+                                 % (path, reader.line_num, len(header), ','.join(header), ','.join(row)))
+    data = np.array(rows, dtype=float).reshape(-1, len(LANDMARK_COLUMNS))
+    out = {c: data[:, k] for k, c in enumerate(LANDMARK_COLUMNS)}
+    for c in ('id', 'observations'):
+        out[c] = out[c].astype(int)
+    out['provisional'] = out['provisional'] != 0
+    out['radius'] = out['dbh'] / 2.0
+    return out
 
 
 def read_map_csv(path, include_provisional=False):
-    """Landmarks of a runner's map.csv as an (n, 3) array x, y, radius."""
-    rows = []
-    with open(path) as f:
-        for row in csv.DictReader(f):
-            if not include_provisional and row.get('provisional', '0') not in ('0', ''):
-                continue
-            rows.append((float(row['x']), float(row['y']), float(row['radius'])))
-    return np.array(rows, dtype=float).reshape(-1, 3)
+    """Landmarks of a landmark CSV (a runner's map.csv) as an (n, 3) array x, y, radius; provisional ones
+    only with ``include_provisional``."""
+    m = read_landmarks_csv(path)
+    keep = np.ones(len(m['x']), dtype=bool) if include_provisional else ~m['provisional']
+    return np.column_stack([m['x'], m['y'], m['radius']])[keep].reshape(-1, 3)
 
 
 def interpolate(t, xy, yaw, tq):
@@ -68,6 +108,15 @@ def fit_rigid_2d(src, dst):
     return r, md - r @ ms
 
 
+def aligned_rmse(src, dst):
+    """ATE: the RMS [m] of the positions src (n, 2) after fit_rigid_2d onto their partners dst (n, 2)."""
+    src, dst = np.asarray(src, float).reshape(-1, 2), np.asarray(dst, float).reshape(-1, 2)
+    if not len(src):
+        return float('nan')
+    r, t = fit_rigid_2d(src, dst)
+    return float(np.sqrt(np.mean(np.sum((src @ r.T + t - dst) ** 2, axis=1))))
+
+
 def fit_similarity_2d(src, dst):
     """Scale s, rotation R and translation t minimising sum |s R src + t - dst|^2 (Umeyama)."""
     src, dst = np.asarray(src, float), np.asarray(dst, float)
@@ -78,18 +127,12 @@ def fit_similarity_2d(src, dst):
     return scale, r, md - scale * (r @ ms)
 
 
-def se2_between(a, b):
-    """SE(2) a^-1 * b for rows (x, y, yaw)."""
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([c * dx + s * dy, -s * dx + c * dy, math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))])
+def relative_pose_errors(estimate, truth, delta=1.0):
+    """The errors of each RPE pair (i, j), j the first pose >= delta metres of true travel after i: the SE(2)
+    error of the estimate's relative motion against the truth's (Kuemmerle et al. 2009, "On measuring the
+    accuracy of SLAM algorithms"). Rows (x, y, yaw), paired by index.
 
-
-def relative_pose_error(estimate, truth, delta=1.0):
-    """RPE over pose pairs (i, j) where j is the first pose >= delta metres of true travel after i: the SE(2)
-    error of the estimate's relative motion against the truth's. Rows (x, y, yaw), paired by index.
-
-    Returns (translation RMS [m], rotation RMS [deg], number of pairs); (nan, nan, 0) without a pair.
+    Returns arrays (translation errors [m], rotation errors [deg]), one element per pair.
     """
     estimate, truth = np.asarray(estimate, float), np.asarray(truth, float)
     if len(estimate) != len(truth):
@@ -106,7 +149,16 @@ def relative_pose_error(estimate, truth, delta=1.0):
         e = se2_between(se2_between(truth[i], truth[j]), se2_between(estimate[i], estimate[j]))
         trans.append(math.hypot(e[0], e[1]))
         rot.append(math.degrees(abs(e[2])))
-    if not trans:
+    return np.array(trans, dtype=float), np.array(rot, dtype=float)
+
+
+def relative_pose_error(estimate, truth, delta=1.0):
+    """RPE RMS over the pairs of relative_pose_errors.
+
+    Returns (translation RMS [m], rotation RMS [deg], number of pairs); (nan, nan, 0) without a pair.
+    """
+    trans, rot = relative_pose_errors(estimate, truth, delta)
+    if not len(trans):
         return float('nan'), float('nan'), 0
     return float(np.sqrt(np.mean(np.square(trans)))), float(np.sqrt(np.mean(np.square(rot)))), len(trans)
 
@@ -168,7 +220,7 @@ def score_map(features, trees, gate=0.5, duplicate_radius=1.0):
     return out
 
 
-def read_bag_truth(bag_path, odom_topic, landmarks_topic):
+def read_bag_truth(bag_path, odom_topic, landmarks_topic=None):
     """(t, xy, yaw or None) of the reference and the true landmarks (m, 3) or None, from a bag."""
     import rosbag
     ts, xy, yaw, has_orientation, marks = [], [], [], False, None
@@ -177,7 +229,7 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic):
     except (rosbag.ROSBagException, ValueError) as e:  # ValueError: e.g. a binary file that is no bag
         raise ValueError('%s: not a readable bag (%s)' % (bag_path, e))
     with bag:
-        for topic, msg, _ in bag.read_messages(topics=[odom_topic, landmarks_topic]):
+        for topic, msg, _ in bag.read_messages(topics=[t for t in (odom_topic, landmarks_topic) if t]):
             if topic == odom_topic:
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation
                 ts.append(msg.header.stamp.to_sec())
@@ -189,6 +241,51 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic):
     if not ts:
         raise ValueError('%s: no nav_msgs/Odometry on %s (the reference)' % (bag_path, odom_topic))
     return np.array(ts), np.array(xy), (np.array(yaw) if has_orientation else None), marks
+
+
+def match_by_stamp(t, ref_t, tolerance):
+    """Pairs of a trajectory's poses with the reference's by stamp (both sorted): for each stamp of ``t`` the
+    reference stamp nearest to it (the later one on a tie), kept where they are at most ``tolerance`` [s]
+    apart. Returns index arrays (into t, into ref_t) of the pairs."""
+    t, ref_t = np.asarray(t, float), np.asarray(ref_t, float)
+    if not len(t) or not len(ref_t):
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    right = np.clip(np.searchsorted(ref_t, t, side='right'), 0, len(ref_t) - 1)
+    left = np.clip(right - 1, 0, len(ref_t) - 1)
+    nearest = np.where(np.abs(ref_t[right] - t) <= np.abs(ref_t[left] - t), right, left)
+    keep = np.abs(ref_t[nearest] - t) <= tolerance
+    return np.flatnonzero(keep), nearest[keep]
+
+
+def trajectory_errors(run, ref, travel=1.0, tolerance=1e-3):
+    """The trajectory metrics of ``trajectory_eval``: ``run`` and ``ref`` are (t, xy, yaw) as read_tum returns
+    them (ref's yaw None: a reference of positions only), paired by match_by_stamp. Returns a dict: ``poses``
+    paired; ``ate``, the ATE RMS [m] after a rigid SE(2) fit (aligned_rmse); over the RPE pairs ``travel``
+    metres of reference travel apart (relative_pose_errors), ``rpe_pairs``, ``rpe_translation_mean`` /
+    ``_rms`` [m] and ``rpe_rotation_mean_deg`` / ``_rms_deg`` (None without reference headings). Values
+    without a pair are nan."""
+    i, j = match_by_stamp(run[0], ref[0], tolerance)
+    ref_yaw = ref[2] if ref[2] is not None else np.zeros(len(ref[0]))
+    trans, rot = relative_pose_errors(np.column_stack([run[1][i], run[2][i]]),
+                                      np.column_stack([ref[1][j], ref_yaw[j]]), travel)
+    nan = float('nan')
+
+    def mean(v):
+        return float(np.mean(v)) if len(v) else nan
+
+    def rms(v):
+        return float(np.sqrt(np.mean(np.square(v)))) if len(v) else nan
+    headings = ref[2] is not None
+    return {'poses': int(len(i)), 'ate': aligned_rmse(run[1][i], ref[1][j]), 'rpe_pairs': int(len(trans)),
+            'rpe_translation_mean': mean(trans), 'rpe_translation_rms': rms(trans),
+            'rpe_rotation_mean_deg': mean(rot) if headings else None,
+            'rpe_rotation_rms_deg': rms(rot) if headings else None}
+
+
+def tum_text(t, xy, yaw):
+    """A planar trajectory as TUM lines (t x y z qx qy qz qw; z = 0, rotation about z), as io::writeTum."""
+    return ''.join('%.12g %.12g %.12g 0 0 0 %.12g %.12g\n' % (ti, p[0], p[1], math.sin(0.5 * a), math.cos(0.5 * a))
+                   for ti, p, a in zip(t, xy, yaw))
 
 
 def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=None, point_offset=(0.0, 0.0),

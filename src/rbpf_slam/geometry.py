@@ -1,4 +1,6 @@
 """Small numpy helpers for poses and point clouds read from bags (no ROS imports at module level)."""
+import math
+
 import numpy as np
 
 # sensor_msgs/PointField datatypes -> numpy
@@ -24,6 +26,24 @@ def cloud_to_array(msg):
     if len(msg.data) < n * msg.point_step:
         raise ValueError('point cloud data is shorter than width x height x point_step')
     return np.frombuffer(msg.data, dtype=dtype, count=n)
+
+
+def wrap_angle(a):
+    """Angles wrapped to [-pi, pi)."""
+    return (np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi
+
+
+def se2_compose(a, b):
+    """a (+) b for planar poses (x, y, theta): b expressed in a's frame, put in a's parent frame."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], float(wrap_angle(a[2] + b[2])))
+
+
+def se2_between(a, b):
+    """The pose of b in a's frame: a^-1 (+) b, for planar poses (x, y, theta); theta in [-pi, pi)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return (c * dx + s * dy, -s * dx + c * dy, float(wrap_angle(b[2] - a[2])))
 
 
 def quaternion_to_matrix(q):

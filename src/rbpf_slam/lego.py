@@ -18,9 +18,9 @@ Files (text, mm and rad, CRLF line ends are fine), in one directory:
 * ``robot_arena_landmarks.txt``: ``L C x y r``, the true cylinders: ``ground_truth/landmarks``
   (rbpf_slam/TrunkArray with their radius and index as id, latched).
 
-Calibration constants of the course, stated once here and nowhere fitted: 0.349 mm of track per tick,
-track width 155 mm, scanner 30 mm ahead of the robot centre, start pose of the scanner
-(1850 mm, 1897 mm, 213 deg) in the arena.
+Calibration constants of the course (0.349 mm of track per tick, track width 155 mm, scanner 30 mm ahead
+of the robot centre, start pose of the scanner (1850 mm, 1897 mm, 213 deg) in the arena, ...) are stated
+once, in config/lego/robot.yaml, which lego_trunks reads too; :func:`read_robot` loads it.
 
 Frames: odometry starts at the identity (``odom`` = where the robot starts). The truth is expressed in
 ``map`` = the robot centre's start pose (``--truth-frame start``, the default: the frame where a SLAM
@@ -34,15 +34,52 @@ import numpy as np
 
 from rbpf_slam import convert_common as cc
 
-TICK = 0.349e-3                 # [m] of track per motor tick
-TRACK = 0.155                   # [m] track width
-SCANNER_X = 0.030               # [m] scanner ahead of the robot centre
-SCANNER_YAW = -0.0698132        # [rad] scanner mounting angle (-4 deg)
-BEAM_INCREMENT = 0.006135923151543  # [rad] 2 pi / 1024
-RANGE_MIN = 0.020               # [m] readings below are invalid
-RANGE_MAX = 5.6                 # [m] (the readings reach 2.5 m; a Hokuyo URG-04LX-like scanner's maximum)
-START_SCANNER_POSE = (1.850, 1.897, math.radians(213.0))  # [m, m, rad] in the arena
-CYLINDER_RADIUS = 0.055         # [m] nominal; the landmark file states each radius
+#: The robot's constants (metres, radians): config/lego/robot.yaml of this package.
+ROBOT_FILE = os.path.join('config', 'lego', 'robot.yaml')
+
+_ROBOT_KEYS = ('tick', 'track', 'scanner_x', 'scanner_yaw', 'beam_increment', 'range_min', 'range_max',
+               'start_scanner_pose', 'cylinder_radius')
+
+
+def robot_file():
+    """Path of config/lego/robot.yaml: in the source tree beside this module, else in the package's share
+    folder (rospkg)."""
+    here = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', ROBOT_FILE))
+    if os.path.exists(here):
+        return here
+    import rospkg
+    return os.path.join(rospkg.RosPack().get_path('rbpf_slam'), ROBOT_FILE)
+
+
+def read_robot(path=None):
+    """The LEGO robot's constants as a dict (the keys of config/lego/robot.yaml; start_scanner_pose as a tuple
+    x [m], y [m], yaw [rad]). A missing key or value that is not a number is a ValueError naming the file."""
+    import yaml
+    path = path or robot_file()
+    with open(path) as f:
+        data = yaml.safe_load(f) or {}
+    missing = [k for k in _ROBOT_KEYS if k not in data]
+    if missing:
+        raise ValueError('%s: missing key(s) %s' % (path, ', '.join(missing)))
+    try:
+        robot = {k: float(data[k]) for k in _ROBOT_KEYS if k != 'start_scanner_pose'}
+        pose = data['start_scanner_pose']
+        robot['start_scanner_pose'] = (float(pose['x']), float(pose['y']), math.radians(float(pose['yaw_deg'])))
+    except (TypeError, KeyError, ValueError) as e:
+        raise ValueError('%s: a value is not a number or start_scanner_pose lacks x, y, yaw_deg (%s)' % (path, e))
+    return robot
+
+
+_ROBOT = read_robot()
+TICK = _ROBOT['tick']                       # [m] of track per motor tick
+TRACK = _ROBOT['track']                     # [m] track width
+SCANNER_X = _ROBOT['scanner_x']             # [m] scanner ahead of the robot centre
+SCANNER_YAW = _ROBOT['scanner_yaw']         # [rad] scanner mounting angle
+BEAM_INCREMENT = _ROBOT['beam_increment']   # [rad]
+RANGE_MIN = _ROBOT['range_min']             # [m] readings below are invalid
+RANGE_MAX = _ROBOT['range_max']             # [m]
+START_SCANNER_POSE = _ROBOT['start_scanner_pose']  # [m, m, rad] in the arena
+CYLINDER_RADIUS = _ROBOT['cylinder_radius']  # [m] nominal; the landmark file states each radius
 
 EXAMPLE = """
 Example:

@@ -27,6 +27,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "rbpf_slam/io/fastslam_config.h"
+#include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
@@ -421,33 +422,23 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
     *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
     return false;
   }
-  std::size_t trees = 0;
-  std::string csv = "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations\n";
-  char line[256];
+  std::vector<core::Landmark> trees;
   if (pipeline_->initialized())
   {
     const core::Particle& best = pipeline_->filter().best();
     for (std::size_t i = 0; i < best.map.size(); ++i)
-    {
-      const core::Landmark& l = best.map[i];
-      std::snprintf(line, sizeof(line), "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", l.id, l.mean.x(), l.mean.y(),
-                    2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
-                    std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
-                    l.observations);
-      csv += line;
-      ++trees;
-    }
+      trees.push_back(best.map[i]);
   }
   try
   {
-    io::writeFileAtomic(target, csv);
+    io::writeLandmarksCsv(target, trees);
   }
   catch (const std::exception& e)
   {
     *message = e.what();
     return false;
   }
-  *message = std::to_string(trees) + " trees written to " + target;
+  *message = std::to_string(trees.size()) + " trees written to " + target;
   return true;
 }
 

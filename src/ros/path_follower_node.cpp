@@ -8,6 +8,7 @@
 #include <nav_msgs/Path.h>
 #include <std_msgs/Bool.h>
 
+#include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam
@@ -25,7 +26,7 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   readKey(params, "frame", &frame);
   warnUnknownKeys(params);
   std::string error;
-  std::vector<Eigen::Vector2d> path = core::namedDrive(drive, &error);
+  std::vector<Eigen::Vector2d> path = io::namedDrive(drive, &error);
   if (path.empty())
     throw invalidParameter(pnh, "drive", error);
   requirePositive(pnh, "speed", config.speed);

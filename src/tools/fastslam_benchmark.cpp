@@ -11,7 +11,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 #include <sys/stat.h>
 #include <string>
@@ -19,7 +18,9 @@
 
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/path_follower.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
 
 using namespace rbpf_slam;
@@ -128,7 +129,7 @@ int main(int argc, char** argv)
     const core::ForestWorld world = io::loadForestWorld(world_path);
     core::ScenarioConfig scenario;
     std::string error;
-    scenario.drive = core::namedDrive(drive, &error);
+    scenario.drive = io::namedDrive(drive, &error);
     if (!error.empty())
       throw std::runtime_error(error);
     if (ideal)
@@ -230,11 +231,12 @@ int main(int argc, char** argv)
           io::writeTum(base + "_odometry.tum", r.stamps, r.odometry);
           io::writeTum(base + "_truth.tum", r.stamps, r.truth);
           io::writeLandmarksCsv(base + "_map.csv", r.landmarks);
-          std::ofstream trees(base + "_trees.csv");
+          std::ostringstream trees;
           trees << "x,y,radius,seen\n";
           for (std::size_t t = 0; t < r.trees.size(); ++t)
             trees << r.trees[t].position.x() << ',' << r.trees[t].position.y() << ',' << r.trees[t].radius << ','
                   << (r.tree_seen[t] ? 1 : 0) << '\n';
+          io::writeFileAtomic(base + "_trees.csv", trees.str());
         }
       }
     }
@@ -260,7 +262,7 @@ int main(int argc, char** argv)
       if (!out_dir.empty())
       {
         const std::string dir = series.size() == 1 ? out_dir : out_dir + "/" + q.label;
-        std::ofstream js(dir + "/summary.json");
+        std::ostringstream js;
         js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << q.particles
            << ", \"method\": \"" << q.method << "\", \"proposal\": \"" << q.proposal << "\", \"mixture\": " << mixture
            << ", \"odometry_noise\": " << odometry_noise << ", \"first_seed\": " << first_seed
@@ -271,6 +273,7 @@ int main(int argc, char** argv)
            << jsonStats("duplicates", q.dup) << ",\n " << jsonStats("spurious", q.spur) << ",\n "
            << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << ",\n "
            << jsonStats("filter_rate_hz", q.filter_rate, false) << "}\n";
+        io::writeFileAtomic(dir + "/summary.json", js.str());
         std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
       }
       std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "

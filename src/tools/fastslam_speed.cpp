@@ -221,8 +221,7 @@ int main(int argc, char** argv)
           const core::ForestWorld world =
               io::loadForestWorld(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/" + name + ".yaml");
           core::ForestSlamRunConfig cfg;
-          std::string error;
-          cfg.scenario.drive = core::namedDrive("straight", &error);
+          cfg.scenario.drive = core::straightDrive();
           core::parseTrunkMethod(method, &cfg.detector.method);
           cfg.filter.particles = 100;
           cfg.filter.proposal = proposal;

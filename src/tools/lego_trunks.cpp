@@ -2,17 +2,18 @@
 // cylinders of radius 55 mm). Per scan: cylinders found against those that the reference pose says are in
 // view, and the radius estimates. Prints a summary (and per-scan lines with --verbose).
 //
-//   rosrun rbpf_slam lego_trunks [--data DIR] [--method circle|centroid] [--verbose]
+//   rosrun rbpf_slam lego_trunks [--data DIR] [--robot YAML] [--method circle|centroid] [--verbose]
 //
 //   --dump CSV writes every detection (scan index, centre in the scanner frame, radius, points, method).
+//   --robot YAML: the robot's constants (default config/lego/robot.yaml of the package, which lego_to_bag
+//   reads too: tick, track width, the scanner's offset and mounting angle, beam step, valid ranges, start pose).
 //
 // Layout (see ../shared/data/README.md): robot4_scan.txt "S ts n r0 ... r(n-1)" [mm], beam i at
-// (i - 330) * 0.006135923151543 - 0.0698132 rad, ranges below 20 mm invalid; robot4_reference.txt
-// "P ts x y" [mm] (overhead camera); robot4_motors.txt "M ts left . . . right ..." cumulative ticks
-// (0.349 mm per tick, track 155 mm); robot_arena_landmarks.txt "L C x y r". Start pose (1850, 1897, 213 deg);
-// the scanner sits 30 mm ahead of the robot centre. The heading for "in view" comes from the wheel ticks
-// (the reference has positions only), replaced by the reference's direction of travel where the robot drives
-// straight (the ticks' heading drifts).
+// (i - n/2) * beam_increment + scanner_yaw rad, ranges below range_min invalid; robot4_reference.txt
+// "P ts x y" [mm] (overhead camera); robot4_motors.txt "M ts left . . . right ..." cumulative ticks;
+// robot_arena_landmarks.txt "L C x y r". The heading for "in view" comes from the wheel ticks (the reference
+// has positions only), replaced by the reference's direction of travel where the robot drives straight (the
+// ticks' heading drifts).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,9 +22,11 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
 
@@ -31,13 +34,37 @@ using namespace rbpf_slam;
 
 namespace
 {
-constexpr double kTicksToMm = 0.349;
-constexpr double kTrackMm = 155.0;
-constexpr double kScannerOffsetMm = 30.0;
-constexpr double kBeamStep = 0.006135923151543;
-constexpr double kMountAngle = -0.0698132;
 constexpr double kGate = 0.3;  // [m] a detection within this of a true cylinder is that cylinder (ranges here run ~0.1 m short)
 constexpr double kInViewRange = 2.5;  // [m] cylinders nearer than this inside the field of view count as in view
+
+/** @brief The robot's constants of config/lego/robot.yaml [m, rad]. */
+struct LegoRobot
+{
+  double tick = 0.0, track = 0.0, scanner_x = 0.0, scanner_yaw = 0.0, beam_increment = 0.0, range_min = 0.0,
+         range_max = 0.0, start_yaw = 0.0;
+};
+
+LegoRobot readRobot(const std::string& path)
+{
+  const io::YamlParamSource params(path);
+  LegoRobot robot;
+  double start_yaw_deg = 0.0;
+  const std::pair<const char*, double*> keys[] = {
+    { "tick", &robot.tick },
+    { "track", &robot.track },
+    { "scanner_x", &robot.scanner_x },
+    { "scanner_yaw", &robot.scanner_yaw },
+    { "beam_increment", &robot.beam_increment },
+    { "range_min", &robot.range_min },
+    { "range_max", &robot.range_max },
+    { "start_scanner_pose/yaw_deg", &start_yaw_deg },
+  };
+  for (const auto& k : keys)
+    if (!params.get(k.first, k.second))
+      throw std::runtime_error(path + ": missing key '" + k.first + "'");
+  robot.start_yaw = start_yaw_deg * M_PI / 180.0;
+  return robot;
+}
 
 std::vector<std::vector<double>> readRecords(const std::string& path, char tag, int skip)
 {
@@ -78,6 +105,7 @@ std::vector<std::vector<double>> readRecords(const std::string& path, char tag, 
 int main(int argc, char** argv)
 {
   std::string dir = "../shared/data/brenner_lego";
+  std::string robot_path = RBPF_SLAM_SOURCE_DIR "/config/lego/robot.yaml";
   std::string method;
   std::string config_path, dump_path;
   bool verbose = false;
@@ -86,6 +114,8 @@ int main(int argc, char** argv)
     const std::string a = argv[i];
     if (a == "--data" && i + 1 < argc)
       dir = argv[++i];
+    else if (a == "--robot" && i + 1 < argc)
+      robot_path = argv[++i];
     else if (a == "--method" && i + 1 < argc)
       method = argv[++i];
     else if (a == "--config" && i + 1 < argc)
@@ -96,12 +126,16 @@ int main(int argc, char** argv)
       verbose = true;
     else
     {
-      std::fprintf(stderr, "usage: %s [--data DIR] [--config YAML] [--method circle|centroid] [--dump CSV] [--verbose]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--data DIR] [--robot YAML] [--config YAML] [--method circle|centroid] [--dump CSV] "
+                   "[--verbose]\n",
+                   argv[0]);
       return 2;
     }
   }
   try
   {
+    const LegoRobot robot = readRobot(robot_path);
     const auto scans = readRecords(dir + "/robot4_scan.txt", 'S', 0);
     const auto refs = readRecords(dir + "/robot4_reference.txt", 'P', 0);
     const auto motors = readRecords(dir + "/robot4_motors.txt", 'M', 0);
@@ -133,13 +167,9 @@ int main(int argc, char** argv)
     }
     core::TrunkDetector detector(cfg);
 
-    std::ofstream dump;
-    if (!dump_path.empty())
-    {
-      dump.open(dump_path);
-      dump << "scan,x,y,radius,points,method\n";  // each detection in the scanner frame [m]
-    }
-    double heading = 213.0 * M_PI / 180.0;
+    std::ostringstream dump;  // written (atomically) after the last scan
+    dump << "scan,x,y,radius,points,method\n";  // each detection in the scanner frame [m]
+    double heading = robot.start_yaw;
     double prev_l = motors[0].at(1), prev_r = motors[0].at(5);
     int expected = 0, found = 0, found_expected = 0, false_pos = 0, scans_used = 0;
     std::vector<double> radii;
@@ -147,30 +177,30 @@ int main(int argc, char** argv)
     for (std::size_t k = 0; k < n; ++k)
     {
       // Heading from the wheel ticks (positions from the reference).
-      const double l = (motors[k].at(1) - prev_l) * kTicksToMm, r = (motors[k].at(5) - prev_r) * kTicksToMm;
+      const double l = (motors[k].at(1) - prev_l) * robot.tick, r = (motors[k].at(5) - prev_r) * robot.tick;  // [m]
       prev_l = motors[k].at(1);
       prev_r = motors[k].at(5);
-      heading += (r - l) / kTrackMm;
+      heading += (r - l) / robot.track;
       // Where the reference moves, its direction of travel is the better heading (the ticks drift).
       if (k > 0 && k + 1 < n)
       {
         const double dx = refs[k + 1].at(1) - refs[k - 1].at(1), dy = refs[k + 1].at(2) - refs[k - 1].at(2);
-        if (std::hypot(dx, dy) > 40.0 && std::abs(r - l) < 0.5 * std::abs(r + l))
+        if (std::hypot(dx, dy) > 40.0 && std::abs(r - l) < 0.5 * std::abs(r + l))  // [mm] of the reference
           heading = std::atan2(dy, dx);
       }
-      const double sx = (refs[k].at(1) + kScannerOffsetMm * std::cos(heading)) / 1000.0;
-      const double sy = (refs[k].at(2) + kScannerOffsetMm * std::sin(heading)) / 1000.0;
+      const double sx = refs[k].at(1) / 1000.0 + robot.scanner_x * std::cos(heading);
+      const double sy = refs[k].at(2) / 1000.0 + robot.scanner_x * std::sin(heading);
 
       core::PlanarScan scan;
       const int beams = static_cast<int>(scans[k].at(1));
-      scan.angle_min = (0 - 330) * kBeamStep + kMountAngle;
-      scan.angle_increment = kBeamStep;
-      scan.range_min = 0.02;
-      scan.range_max = 20.0;
+      scan.angle_min = -(beams / 2) * robot.beam_increment + robot.scanner_yaw;
+      scan.angle_increment = robot.beam_increment;
+      scan.range_min = robot.range_min;
+      scan.range_max = robot.range_max;
       for (int b = 0; b < beams && 2 + b < static_cast<int>(scans[k].size()); ++b)
       {
-        const double mm = scans[k][static_cast<std::size_t>(2 + b)];
-        scan.ranges.push_back(mm < 20.0 ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(mm / 1000.0));
+        const double m = scans[k][static_cast<std::size_t>(2 + b)] / 1000.0;
+        scan.ranges.push_back(m < robot.range_min ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(m));
       }
       core::TrunkDetectorStats st;
       const auto obs = detector.detectScan(scan, &st);
@@ -194,7 +224,7 @@ int main(int argc, char** argv)
       int found_here = 0, false_here = 0;
       for (const auto& o : obs)
       {
-        if (dump.is_open())
+        if (!dump_path.empty())
           dump << k << ',' << o.center.x() << ',' << o.center.y() << ',' << o.radius << ',' << o.num_points << ','
                << core::trunkMethodName(o.method) << '\n';
         const double wx = sx + std::cos(heading) * o.center.x() - std::sin(heading) * o.center.y();
@@ -231,6 +261,8 @@ int main(int argc, char** argv)
         std::printf("scan %3zu: %d in view, %d found, %d unmatched detections\n", k, expected_here, found_here,
                     false_here);
     }
+    if (!dump_path.empty())
+      io::writeFileAtomic(dump_path, dump.str());
     double mean = 0.0, sd = 0.0;
     for (double r : radii)
       mean += r;

@@ -17,8 +17,10 @@
 
 #include "rbpf_slam/core/occupancy_image.h"
 #include "rbpf_slam/core/scenario.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/sim_config.h"
+#include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
 #include "rbpf_slam/ros/sim_conversions.h"
 
@@ -118,8 +120,6 @@ int main(int argc, char** argv)
     return 2;
   }
 
-  const std::string slash = out.find('/') == std::string::npos ? "" : out.substr(0, out.find_last_of('/') + 1);
-  const std::string tmp = slash + "." + out.substr(slash.size()) + ".partial";
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   try
@@ -135,7 +135,7 @@ int main(int argc, char** argv)
     }
     config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
     std::string error;
-    config.drive = core::namedDrive(drive, &error);
+    config.drive = io::namedDrive(drive, &error);
     if (config.drive.empty())
       throw std::runtime_error(error);
     std::shared_ptr<const core::OccupancyImage> image;
@@ -160,7 +160,8 @@ int main(int argc, char** argv)
 
     const SimFrames frames;
     const double base = 1000.0;
-    rosbag::Bag bag(tmp, rosbag::bagmode::Write);
+    io::AtomicFile output(out);  // removed again if the recording does not complete
+    rosbag::Bag bag(output.temporary(), rosbag::bagmode::Write);
     bag.setCompression(rosbag::compression::LZ4);
     tf2_msgs::TFMessage statics;
     statics.transforms = { toStaticTf(config.sim.lidar3d.mount, frames.base, frames.lidar3d, 0.0, base),
@@ -229,8 +230,7 @@ int main(int argc, char** argv)
     truth_path.header.stamp = toRosTime(scenario.simulator().time(), base);
     bag.write("/ground_truth/path", truth_path.header.stamp, truth_path);
     bag.close();
-    if (std::rename(tmp.c_str(), out.c_str()) != 0)
-      throw std::runtime_error("cannot rename " + tmp + " to " + out);
+    output.commit();
     if (!quiet)
       progress(scenario.simulator().time(), expected, true);
 
@@ -247,7 +247,6 @@ int main(int argc, char** argv)
   }
   catch (const std::exception& e)
   {
-    std::remove(tmp.c_str());
     if (!quiet)
       std::fprintf(stderr, "\n");
     std::fprintf(stderr, "record_scenario: %s; no bag written\n", e.what());

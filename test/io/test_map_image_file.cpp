@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "rbpf_slam/io/map_image_file.h"
+#include "temp_files.h"
 
 using rbpf_slam::core::MapOrigin;
 using rbpf_slam::core::OccupancyImage;
@@ -22,20 +23,10 @@ namespace
 {
 std::string tempDir()
 {
-  char pattern[] = "/tmp/rbpf_map_image_XXXXXX";
-  const char* dir = mkdtemp(pattern);
-  if (dir == nullptr)
-  {
-    throw std::runtime_error("mkdtemp failed");
-  }
-  return dir;
+  return temp_files::makeDir("rbpf_map_image");
 }
 
-void writeFile(const std::string& path, const std::string& text)
-{
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-}
+using temp_files::writeFile;
 
 std::string errorOf(const std::string& yaml)
 {

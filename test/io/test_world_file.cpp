@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "rbpf_slam/io/world_file.h"
+#include "temp_files.h"
 
 using rbpf_slam::core::ForestWorld;
 using rbpf_slam::core::TrunkSpec;
@@ -98,13 +98,7 @@ std::vector<std::string> shippedWorlds()
   return worlds;
 }
 
-std::string readFile(const std::string& path)
-{
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using temp_files::readFile;
 
 const char* const kMinimalYamlTrees = "trees: [[1, 2, 0.2], [5, 6, 0.3, 12]]\n";
 }  // namespace

@@ -13,6 +13,7 @@ import pytest
 from bagcheck import built_tool
 
 rosbag = pytest.importorskip('rosbag')
+from rbpf_slam import evaluate as ev  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WORLD = os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml')
@@ -71,9 +72,9 @@ def test_final_pose_is_near_the_truth_and_beats_dead_reckoning(bags):
     dr = np.hypot(*(odom - truth))
     assert dr > 1.0, 'this seed should drift (dead reckoning %.2f m)' % dr
     assert err < 0.3, 'final error %.3f m (dead reckoning %.2f m)' % (err, dr)
-    with open(os.path.join(out, 'map.csv')) as f:
-        rows = f.read().strip().splitlines()[1:]
-    assert 12 <= len(rows) <= 20, '%d landmarks for 16 trees (14 come into the scope)' % len(rows)
+    trees = ev.read_landmarks_csv(os.path.join(out, 'map.csv'))  # the evaluators' reader of the one landmark CSV
+    assert 12 <= len(trees['x']) <= 20, '%d landmarks for 16 trees (14 come into the scope)' % len(trees['x'])
+    assert (trees['dbh'] > 0).all() and (trees['observations'] >= 1).all()
 
 
 def test_missing_bag_is_a_clear_error(tmp_path):

@@ -5,6 +5,7 @@
   where they are.
 - The truth stays out: a simulated indoor drive and the same bag with every ground-truth topic stripped give
   byte-identical output.
+- trajectory_eval scores the run's TUM files against the bag's reference (the package's one evaluator).
 """
 import filecmp
 import importlib.machinery
@@ -86,15 +87,21 @@ def test_ese650_lidar_path_on_a_hokuyo_file(tmp_path, capsys):
     assert plot.main([out, '--out', png]) == 0 and os.path.getsize(png) > 1000
 
 
-def test_grid_truth_stripped_gives_identical_output(tmp_path):
+def _record_indoor_drive(tmp_path, name):
+    """A simulated 8 m drive along the indoor world's south corridor (seed 2), recorded to tmp_path/name."""
     wp = tmp_path / 'wp.txt'
     wp.write_text('4 0\n8 0\n')
     start = tmp_path / 'start.yaml'
     start.write_text('start: {x: 0.0, y: 0.0, yaw_deg: 0.0}\n')
-    full = str(tmp_path / 'full.bag')
+    bag = str(tmp_path / name)
     subprocess.run([_tool('record_scenario'), '--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml'),
-                    '--config', str(start), '--drive', str(wp), '--seed', '2', '--no-points', '--out', full,
+                    '--config', str(start), '--drive', str(wp), '--seed', '2', '--no-points', '--out', bag,
                     '--quiet'], check=True, stdout=subprocess.DEVNULL)
+    return bag
+
+
+def test_grid_truth_stripped_gives_identical_output(tmp_path):
+    full = _record_indoor_drive(tmp_path, 'full.bag')
     stripped = str(tmp_path / 'stripped.bag')
     with rosbag.Bag(full) as src, rosbag.Bag(stripped, 'w') as dst:
         for topic, msg, t in src.read_messages(raw=True):
@@ -109,3 +116,41 @@ def test_grid_truth_stripped_gives_identical_output(tmp_path):
     for name in ('estimate.tum', 'odometry.tum', 'map.pgm', 'map.yaml'):
         assert filecmp.cmp(os.path.join(outs[0], name), os.path.join(outs[1], name), shallow=False), name
     assert len(np.loadtxt(os.path.join(outs[0], 'estimate.tum'), ndmin=2)) > 100
+
+
+def test_trajectory_eval_scores_a_run_against_the_bags_reference(tmp_path):
+    bag = _record_indoor_drive(tmp_path, 'indoor.bag')
+    out = str(tmp_path / 'run')
+    subprocess.run([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--out', out, '--seed', '5', '--quiet'],
+                   check=True)
+    reference = str(tmp_path / 'reference.tum')
+    files = [os.path.join(out, 'estimate.tum'), os.path.join(out, 'odometry.tum')]
+    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, '--tolerance', '0.011', '--write-reference', reference]
+                       + files, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].split() == ['trajectory', 'poses', 'RPE', 'm', 'RPE', 'deg', 'RPErms', 'm', 'RPErms', 'deg',
+                                'ATE', 'm']
+    rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in lines[1:]}
+    assert sorted(rows) == sorted(files)
+    scans = len(np.loadtxt(files[0], ndmin=2))
+    est, odo = rows[files[0]], rows[files[1]]
+    assert scans - 2 <= est[0] <= scans, 'scan poses matched to a reference pose within 11 ms'
+    assert 0.0 < est[5] < 0.1, 'ATE after the fit [m]'
+    assert 0.0 < est[1] <= est[3] < 0.1, 'RPE mean <= RMS [m]'
+    assert odo[0] == est[0] and odo[5] > 0.0
+    # The reference written is the bag's /ground_truth/odom, pose for pose.
+    with rosbag.Bag(bag) as b:
+        truth = [(m.header.stamp.to_sec(), m.pose.pose.position.x, m.pose.pose.position.y)
+                 for _, m, _ in b.read_messages(topics=['/ground_truth/odom'])]
+    written = np.loadtxt(reference, ndmin=2)
+    assert written.shape == (len(truth), 8)
+    assert np.allclose(written[:, :3], truth, atol=1e-9)
+    # A bag without that topic, or a file that is no trajectory: one line, exit 1.
+    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, '--truth', '/nope'] + files,
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 1 and r.stderr.strip().splitlines() == [
+        'trajectory_eval: %s: no nav_msgs/Odometry on /nope (the reference)' % bag], r.stderr
+    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, os.path.join(out, 'map.yaml')],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and 'map.yaml' in r.stderr, r.stderr

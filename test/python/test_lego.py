@@ -1,11 +1,12 @@
 """lego_to_bag: odometry from track ticks, scans, truth frames; malformed logs; the real robot4 logs."""
 import math
 import os
+import subprocess
 
 import numpy as np
 import pytest
 
-from bagcheck import (assert_stamps_monotonic, connection_latched, data_path, frames_of, pose2, read_bag,
+from bagcheck import (assert_stamps_monotonic, built_tool, connection_latched, data_path, frames_of, pose2, read_bag,
                       run_main, static_transforms)
 from rbpf_slam import convert_common as cc
 from rbpf_slam import lego
@@ -40,6 +41,31 @@ def test_arena_to_start_frame():
     sx, sy = lego.arena_to_start(1.850, 1.897)
     assert (sx, sy) == pytest.approx((0.030, 0.0), abs=1e-12)
     assert start[2] == pytest.approx(math.radians(213.0))
+
+
+def test_the_robot_constants_come_from_the_one_robot_file(tmp_path):
+    assert lego.robot_file().endswith(os.path.join('config', 'lego', 'robot.yaml'))
+    robot = lego.read_robot()
+    assert (lego.TICK, lego.TRACK, lego.SCANNER_X, lego.SCANNER_YAW) == (
+        robot['tick'], robot['track'], robot['scanner_x'], robot['scanner_yaw'])
+    assert robot['start_scanner_pose'] == pytest.approx((1.850, 1.897, math.radians(213.0)))
+    bad = tmp_path / 'robot.yaml'
+    bad.write_text('tick: 0.000349\ntrack: 0.155\n')
+    with pytest.raises(ValueError, match='robot.yaml: missing key.*scanner_x'):
+        lego.read_robot(str(bad))
+
+
+def test_lego_trunks_reads_the_robot_file(tmp_path):
+    """The C++ tool takes its constants from the same file as the converter (--robot: another one)."""
+    d = write_logs(tmp_path / 'logs')
+    r = subprocess.run([built_tool('lego_trunks'), '--data', d], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       universal_newlines=True)
+    assert r.returncode == 0 and '2 scans' in r.stdout, r.stdout + r.stderr
+    bad = tmp_path / 'robot.yaml'
+    bad.write_text('tick: 0.000349\n')
+    r = subprocess.run([built_tool('lego_trunks'), '--data', d, '--robot', str(bad)], stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 1 and r.stderr.strip() == "lego_trunks: %s: missing key 'track'" % bad, r.stderr
 
 
 def write_logs(d, motors=None, scans=None, reference=None, landmarks=None):

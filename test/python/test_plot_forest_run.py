@@ -28,8 +28,8 @@ def _write_run(d):
     with open(os.path.join(d, 'seed3_trees.csv'), 'w') as f:
         f.write('x,y,radius,seen\n1,2,0.2,1\n3,-2,0.15,0\n')
     with open(os.path.join(d, 'seed3_map.csv'), 'w') as f:
-        f.write('id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n0,1.02,2.0,0.19,0.01,0.01,0.005,9,0\n'
-                '1,5,5,0.1,0.1,0.1,0.05,1,1\n')
+        f.write('id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional\n0,1.02,2.0,0.38,0.01,0.01,0.01,9,0\n'
+                '1,5,5,0.2,0.1,0.1,0.1,1,1\n')
 
 
 def test_writes_a_png(tmp_path):
@@ -50,6 +50,14 @@ def test_bad_tum_names_the_file(tmp_path):
     with open(str(tmp_path / 'seed3_truth.tum'), 'w') as f:
         f.write('0 1 2\n')
     with pytest.raises(ValueError, match='seed3_truth.tum'):
+        _load().main([str(tmp_path)])
+
+
+def test_a_map_not_in_the_landmark_csv_names_the_file(tmp_path):
+    _write_run(str(tmp_path))
+    with open(str(tmp_path / 'seed3_map.csv'), 'w') as f:  # the radius columns of an earlier map.csv
+        f.write('id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n0,1,2,0.2,0,0,0,9,0\n')
+    with pytest.raises(ValueError, match='seed3_map.csv: not a landmark CSV'):
         _load().main([str(tmp_path)])
 
 

@@ -15,6 +15,7 @@ import rospy
 import rostest
 import tf2_ros
 from nav_msgs.msg import Odometry
+from rbpf_slam import evaluate
 from rbpf_slam.msg import TrunkArray
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
@@ -116,12 +117,17 @@ class FastSlamPipelineCheck(unittest.TestCase):
         self.assertTrue(res.success, res.message)
         with open(path) as f:
             lines = f.read().splitlines()
-        self.assertEqual(lines[0], 'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations')
+        self.assertEqual(lines[0], 'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional')
         self.assertGreaterEqual(len(lines), 4)
         for line in lines[1:]:
             cols = line.split(',')
-            self.assertEqual(len(cols), 8)
+            self.assertEqual(len(cols), 9)
             self.assertGreater(float(cols[3]), 0.0)
+            self.assertIn(cols[8], ('0', '1'))
+        # The evaluators' reader takes the inventory as it takes slam_bag's map.csv.
+        trees = evaluate.read_landmarks_csv(path)
+        self.assertEqual(len(trees['x']), len(lines) - 1)
+        self.assertTrue((trees['radius'] > 0.0).all())
 
 
 if __name__ == '__main__':

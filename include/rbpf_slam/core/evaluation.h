@@ -41,33 +41,12 @@ struct MapScore
 MapScore scoreMap(const std::vector<MapPoint>& trees, const std::vector<bool>& tree_seen,
                   const std::vector<MapPoint>& features, double gate = 0.5, double duplicate_radius = 1.0);
 
-/** @brief RMS of position differences of two equally long trajectories (no alignment: the start is known). */
+/**
+ * @brief RMS of position differences of two equally long trajectories (no alignment: the start is known), for
+ * the in-process simulator runs. Runs on bags are scored by the package's one evaluator, rbpf_slam.evaluate
+ * (evaluate_bag_run, trajectory_eval: ATE after a rigid fit, RPE).
+ */
 double absoluteTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vector<Pose2>& truth);
-
-/**
- * @brief The rigid SE(2) transform T minimising sum |T(estimate_i) - reference_i|^2 over the positions
- * (closed form: centroids and the cross-covariance's angle). Identity for fewer than 2 pairs.
- */
-Pose2 fitRigid2d(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference);
-
-/** @brief ATE RMS [m] of the positions after fitRigid2d() (an unknown start pose or frame). */
-double alignedTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference);
-
-/**
- * @brief Relative pose error over pose pairs (i, j) where j is the first pose at least @p travel metres of
- * travel (along the reference path) after i: the difference of the relative motions estimate_i^-1 estimate_j
- * and reference_i^-1 reference_j (Kümmerle et al. 2009, "On measuring the accuracy of SLAM algorithms").
- */
-struct RelativePoseError
-{
-  int pairs = 0;
-  double translation_mean = 0.0;  ///< [m] mean |Δt|
-  double translation_rms = 0.0;   ///< [m]
-  double rotation_mean = 0.0;     ///< [rad] mean |Δθ|
-  double rotation_rms = 0.0;      ///< [rad]
-};
-RelativePoseError relativePoseError(const std::vector<Pose2>& estimate, const std::vector<Pose2>& reference,
-                                    double travel = 1.0);
 
 }  // namespace core
 }  // namespace rbpf_slam

@@ -58,9 +58,6 @@ std::vector<Eigen::Vector2d> straightDrive(double length = 30.0);
  */
 std::vector<Eigen::Vector2d> loopDrive();
 
-/** @brief Drive by name: "straight", "loop", or a waypoint file path (`x y` per line, start frame). */
-std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* error);
-
 }  // namespace core
 }  // namespace rbpf_slam
 

@@ -25,12 +25,17 @@ void writeTum(const std::string& path, const std::vector<double>& stamps, const 
 void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses);
 
 /**
- * @brief Landmarks as CSV: id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional (metres).
- * @throws std::runtime_error naming the file.
+ * @brief The one landmark CSV of the package (slam_bag's map.csv, the FastSLAM node's tree inventory,
+ * fastslam_benchmark's maps; rbpf_slam.evaluate.read_landmarks_csv reads it back): a header line
+ * kLandmarksCsvHeader, then one line per landmark: id, centre x and y [m], dbh (trunk diameter, 2 r) [m], the
+ * standard deviations of x, y and dbh [m], the number of observations, and provisional (1 until the filter
+ * confirmed the landmark, else 0).
  */
-void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks);
-/** @brief What writeLandmarksCsv writes. */
+extern const char* const kLandmarksCsvHeader;
+/** @brief The CSV text of @p landmarks (with the header). */
 std::string landmarksCsv(const std::vector<core::Landmark>& landmarks);
+/** @brief Writes landmarksCsv() atomically. @throws std::runtime_error naming the file. */
+void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks);
 
 }  // namespace io
 }  // namespace rbpf_slam
