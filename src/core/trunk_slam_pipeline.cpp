@@ -18,59 +18,27 @@ double since(std::chrono::steady_clock::time_point t0)
 
 TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
                                      const PipelineTiming& timing)
-  : detector_config_(detector)
+  : SensorPipeline(timing)
+  , detector_config_(detector)
   , filter_config_(filter)
-  , timing_(timing)
   , detector_(new TrunkDetector(detector))
   , filter_(new FastSlam(filter))
-  , gate_(timing.time_jump_threshold)
 {
 }
 
-void TrunkSlamPipeline::restart()
+void TrunkSlamPipeline::resetFilter()
 {
-  // The old timeline's sweeps with the old timeline's odometry; then everything starts over, seeds included, so
-  // that each timeline is reproducible on its own.
-  for (PipelineUpdate& u : process(NAN, true))
-  {
-    u.timeline = gate_.restarts() - 1;
-    flushed_.push_back(std::move(u));
-  }
+  // Filter and detector start over with their seeds, so that each timeline is reproducible on its own.
   detector_.reset(new TrunkDetector(detector_config_));
   filter_.reset(new FastSlam(filter_config_));
-  odometry_ = OdometryBuffer();
   initialized_ = false;
   last_odometry_ = Pose2();
 }
 
-StampVerdict TrunkSlamPipeline::addOdometry(double stamp, const Pose2& pose, double clock)
+void TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
 {
-  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.theta))
-    return StampVerdict::kInvalid;
-  const StampVerdict v = gate_.check(TimelineGate::kOdometry, stamp, clock);
-  if (v == StampVerdict::kReset)
-    restart();
-  if (v == StampVerdict::kAccept || v == StampVerdict::kReset)
-    odometry_.add(stamp, pose);
-  return v;
-}
-
-StampVerdict TrunkSlamPipeline::admitSensor(double stamp, double clock)
-{
-  const StampVerdict v = gate_.check(TimelineGate::kSensor, stamp, clock);
-  if (v == StampVerdict::kReset)
-    restart();
-  return v;
-}
-
-void TrunkSlamPipeline::enqueue(TrunkSweep sweep, double arrival)
-{
-  pending_.push_back({ std::move(sweep), arrival });
-  while (pending_.size() > timing_.max_pending)
-  {
-    pending_.pop_front();
-    ++dropped_pending_;
-  }
+  const double start = sweep.stamp, end = sweep.stamp + sweep.period;
+  enqueue(std::move(sweep), start, end, arrival);
 }
 
 StampVerdict TrunkSlamPipeline::addTrunks(TrunkSweep sweep, double clock, double arrival)
@@ -84,7 +52,7 @@ StampVerdict TrunkSlamPipeline::addTrunks(TrunkSweep sweep, double clock, double
     sweep.tilt_roll = 0.0;
   if (!std::isfinite(sweep.tilt_pitch))
     sweep.tilt_pitch = 0.0;
-  enqueue(std::move(sweep), arrival);
+  enqueueSweep(std::move(sweep), arrival);
   return v;
 }
 
@@ -105,7 +73,7 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   sweep.trunks = detector_->detect(points, Eigen::Matrix3d::Identity(), &stats);
   sweep.tilt_roll = stats.tilt_roll;
   sweep.tilt_pitch = stats.tilt_pitch;
-  enqueue(std::move(sweep), arrival);
+  enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
   return v;
 }
@@ -123,7 +91,7 @@ StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const Plana
   sweep.mount = mount;
   sweep.trunks = detector_->detectScan(scan);
   sweep.geometry = scanGeometry(scan);
-  enqueue(std::move(sweep), arrival);
+  enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
   return v;
 }
@@ -177,10 +145,10 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
   return obs;
 }
 
-PipelineUpdate TrunkSlamPipeline::update(Pending p, bool covered)
+PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
 {
   const auto t0 = std::chrono::steady_clock::now();
-  const TrunkSweep& sw = p.sweep;
+  const TrunkSweep& sw = sweep;
   const double t_mid = sw.stamp + 0.5 * sw.period;
   const Pose2 odom_mid = odometry_.at(t_mid);
   if (!initialized_)
@@ -201,34 +169,10 @@ PipelineUpdate TrunkSlamPipeline::update(Pending p, bool covered)
   u.stamp = t_mid;
   u.odometry = odom_mid;
   u.estimate = filter_->best().pose;
-  u.timeline = gate_.restarts();
   u.odometry_covered = covered;
-  u.trunks = std::move(p.sweep.trunks);
+  u.trunks = std::move(sweep.trunks);
   seconds_filter_ += since(t0);
   return u;
-}
-
-std::vector<PipelineUpdate> TrunkSlamPipeline::process(double now, bool flush)
-{
-  std::vector<PipelineUpdate> done;
-  done.swap(flushed_);
-  while (!pending_.empty() && !odometry_.empty())
-  {
-    const Pending& front = pending_.front();
-    const bool covered = odometry_.covers(front.sweep.stamp + front.sweep.period);
-    const bool waited = std::isfinite(now) && std::isfinite(front.arrival) &&
-                        now - front.arrival >= timing_.odometry_wait;
-    if (!covered && !waited && !flush)
-      break;
-    Pending p = std::move(pending_.front());
-    pending_.pop_front();
-    const double t_mid = p.sweep.stamp + 0.5 * p.sweep.period;
-    done.push_back(update(std::move(p), covered));
-    // Odometry older than what the next sweep needs is no longer kept.
-    const double keep_from = pending_.empty() ? t_mid : std::min(t_mid, pending_.front().sweep.stamp);
-    odometry_.dropBefore(keep_from - timing_.odometry_margin);
-  }
-  return done;
 }
 
 }  // namespace core
