@@ -103,3 +103,23 @@ TEST(GroundModel, CellKeysOfNegativeIndicesDiffer)
   EXPECT_NE(packCell(-1, 5), packCell(0, 5));
   EXPECT_EQ(packCell(-3, -7), packCell(-3, -7));
 }
+
+TEST(GroundModel, AFarOffPointGivesTheSameGroundNearTheSensor)
+{
+  // A stray return kilometres away spreads the sweep over millions of cells: the model then keeps its cells in a
+  // hash map instead of a grid, with the same heights.
+  std::vector<Eigen::Vector3d> pts;
+  addGround(&pts, -6.0, 6.0, -6.0, 6.0, [](double x, double y) { return -1.8 + 0.1 * std::sin(x) * std::cos(y); });
+  for (double z = -1.0; z < 1.0; z += 0.1)
+    pts.emplace_back(2.5, -3.5, z);
+  std::vector<Eigen::Vector3d> with_stray = pts;
+  with_stray.emplace_back(4000.0, -3000.0, 50.0);
+  GroundModel grid(1.0, 1.8, 0.35), sparse(1.0, 1.8, 0.35);
+  grid.build(pts);
+  sparse.build(with_stray);
+  for (std::size_t i = 0; i < pts.size(); i += 7)
+    EXPECT_EQ(grid.heightUnder(i, pts[i].x(), pts[i].y()), sparse.heightUnder(i, pts[i].x(), pts[i].y())) << i;
+  for (double x = -7.0; x < 7.0; x += 0.9)
+    EXPECT_EQ(grid.heightAt(x, 0.3 * x), sparse.heightAt(x, 0.3 * x)) << x;
+  EXPECT_EQ(sparse.heightAt(4000.2, -2999.9), 50.0f);
+}

@@ -29,20 +29,31 @@ public:
    */
   GroundModel(double cell, double sensor_height, double max_slope);
 
-  /** @brief The lowest point of every cell the points fall in. */
+  /** @brief The lowest point of every cell the points fall in; remembers each point's cell for heightUnder(). */
   void build(const std::vector<Eigen::Vector3d>& points);
 
   /** @brief Ground height [m] at (x, y); +infinity where no cell around has points and no cap applies. */
   double heightAt(double x, double y);
 
+  /** @brief heightAt(x, y) for the @p i-th point given to build(), at (x, y), without finding its cell again. */
+  double heightUnder(std::size_t i, double x, double y);
+
 private:
-  std::int64_t key(double x, double y) const;
+  double heightOfCell(std::int64_t ix, std::int64_t iy, double x, double y);
 
   double cell_;
   double sensor_height_;
   double max_slope_;
-  std::unordered_map<std::int64_t, float> lowest_;  ///< lowest z per cell
-  std::unordered_map<std::int64_t, float> ground_;  ///< heightAt() per cell, as asked
+  // A dense grid over the points' cells with a margin of one cell: the lowest z per cell (+inf where empty) and
+  // heightAt() per cell as asked (NaN until then). Sweeps spread over more cells than a real lidar sees use the
+  // hash maps instead.
+  std::int64_t ix0_ = 0, iy0_ = 0, nx_ = 0, ny_ = 0;
+  bool dense_ = false;
+  std::vector<float> lowest_grid_;
+  std::vector<float> ground_grid_;
+  std::vector<std::int64_t> point_cell_;  ///< per point of build(): ix, iy
+  std::unordered_map<std::int64_t, float> lowest_;
+  std::unordered_map<std::int64_t, float> ground_;
 };
 
 /**
@@ -55,7 +66,7 @@ std::int64_t packCell(std::int64_t ix, std::int64_t iy);
 
 /**
  * @brief The points whose height above the local ground lies in [min_height, max_height] [m], in their order, as
- * single precision.
+ * single precision. @p ground was built from these @p points.
  */
 std::vector<Eigen::Vector3f> selectHeightBand(const std::vector<Eigen::Vector3d>& points, GroundModel* ground,
                                               double min_height, double max_height);
