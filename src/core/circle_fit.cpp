@@ -27,20 +27,24 @@ constexpr double kRefineConverged = 1e-6;      // [m] a step this short ends the
 constexpr double kMinDistance = 1e-9;          // [m] a point this close to the centre has no direction
 }  // namespace
 
-bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vector2d* center, double* radius)
+namespace
+{
+/** The algebraic fit on the x and y of any points (2D, or 3D projected horizontally). */
+template <typename Point>
+bool fitCircleAlgebraicXY(const std::vector<Point>& points, Eigen::Vector2d* center, double* radius)
 {
   if (points.size() < 3)
     return false;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (const auto& q : points)
-    mean += q;
+    mean += Eigen::Vector2d(q.x(), q.y());
   mean /= static_cast<double>(points.size());
   // About the mean, so that the normal equations stay well conditioned far from the sensor.
   Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   for (const auto& q0 : points)
   {
-    const Eigen::Vector2d q = q0 - mean;
+    const Eigen::Vector2d q = Eigen::Vector2d(q0.x(), q0.y()) - mean;
     const Eigen::Vector3d row(q.x(), q.y(), 1.0);
     const double z = q.squaredNorm();
     A += row * row.transpose();
@@ -55,6 +59,18 @@ bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vecto
     return false;
   *radius = std::sqrt(r2);
   return true;
+}
+}  // namespace
+
+bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vector2d* center, double* radius)
+{
+  return fitCircleAlgebraicXY(points, center, radius);
+}
+
+bool fitCircleAlgebraicProjected(const std::vector<Eigen::Vector3d>& points, Eigen::Vector2d* center,
+                                 double* radius)
+{
+  return fitCircleAlgebraicXY(points, center, radius);
 }
 
 int countCircleInliers(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& center, double radius,
@@ -166,7 +182,8 @@ bool refineCircle(const std::vector<Eigen::Vector2d>& points, const CircleRefine
 }
 
 bool circleCovariance(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& center, double radius,
-                      const Eigen::Matrix3d& information, const CircleRefineParams& params, Eigen::Matrix3d* covariance)
+                      const Eigen::Matrix3d& information, const CircleRefineParams& params,
+                      Eigen::Matrix3d* covariance)
 {
   const double prior_w = 1.0 / (params.radius_sigma * params.radius_sigma);
   const double sigma2 = params.range_sigma * params.range_sigma;

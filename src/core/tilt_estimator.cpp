@@ -34,18 +34,15 @@ bool isUsable(const TrunkCandidate& c, const TiltEstimatorParams& params)
 {
   if (c.points.size() < kMinPoints)
     return false;
-  std::vector<Eigen::Vector2d> p2;
-  p2.reserve(c.points.size());
-  for (const auto& q : c.points)
-    p2.emplace_back(q.x(), q.y());
   Eigen::Vector2d kc;
   double kr = 0.0;
-  return fitCircleAlgebraic(p2, &kc, &kr) && kr >= params.min_radius && kr <= params.max_radius &&
-         kc.norm() > p2.front().norm() - params.max_radius;
+  return fitCircleAlgebraicProjected(c.points, &kc, &kr) && kr >= params.min_radius && kr <= params.max_radius &&
+         kc.norm() > c.points.front().head<2>().norm() - params.max_radius;
 }
 }  // namespace
 
-Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candidates, const TiltEstimatorParams& params)
+Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candidates,
+                                       const TiltEstimatorParams& params)
 {
   std::vector<const TrunkCandidate*> usable;
   for (const auto& c : candidates)
@@ -60,15 +57,12 @@ Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candid
     TrunkState t;
     const double z_mid = c->zMid();
     const std::size_t stride = std::max<std::size_t>(1, c->points.size() / kMaxPointsPerTrunk);
-    std::vector<Eigen::Vector2d> p2;
+    t.p.reserve(c->points.size() / stride + 1);
     for (std::size_t i = 0; i < c->points.size(); i += stride)
-    {
       t.p.emplace_back(c->points[i].x(), c->points[i].y(), c->points[i].z() - z_mid);
-      p2.emplace_back(c->points[i].x(), c->points[i].y());
-    }
     Eigen::Vector2d kc;
     double kr = 0.0;
-    if (!fitCircleAlgebraic(p2, &kc, &kr))
+    if (!fitCircleAlgebraicProjected(t.p, &kc, &kr))
       continue;
     t.phi = Eigen::Vector3d(kc.x(), kc.y(), kr);
     ts.push_back(std::move(t));
@@ -77,14 +71,14 @@ Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candid
   const double huber = kHuberSigmas * sigma;
   const double prior = 1.0 / (kPriorSigma * kPriorSigma);
   Eigen::Vector2d theta(0.0, 0.0);
+  std::vector<Eigen::Matrix3d> Hff(ts.size()), Hff_inv(ts.size());
+  std::vector<Eigen::Matrix<double, 2, 3>> Htf(ts.size());
+  std::vector<Eigen::Vector3d> gf(ts.size());
   for (int it = 0; it < kIterations && ts.size() >= 2; ++it)
   {
     // Normal equations of (tilt, every trunk's cylinder), with the cylinders eliminated: S dtheta = rhs.
     Eigen::Matrix2d S = Eigen::Matrix2d::Identity() * prior * sigma * sigma;
     Eigen::Vector2d rhs = -prior * sigma * sigma * theta;
-    std::vector<Eigen::Matrix3d> Hff(ts.size());
-    std::vector<Eigen::Matrix<double, 2, 3>> Htf(ts.size());
-    std::vector<Eigen::Vector3d> gf(ts.size());
     for (std::size_t k = 0; k < ts.size(); ++k)
     {
       Eigen::Matrix2d Htt = Eigen::Matrix2d::Zero();
@@ -109,7 +103,8 @@ Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candid
         gf[k] += w * jf * res;
       }
       Hff[k].diagonal().array() += kRegularizer;
-      const Eigen::Matrix3d inv = Hff[k].inverse();
+      Hff_inv[k] = Hff[k].inverse();
+      const Eigen::Matrix3d& inv = Hff_inv[k];
       S += Htt - Htf[k] * inv * Htf[k].transpose();
       rhs += -gt + Htf[k] * inv * gf[k];
     }
@@ -118,7 +113,7 @@ Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candid
       break;
     theta += dtheta;
     for (std::size_t k = 0; k < ts.size(); ++k)
-      ts[k].phi += Hff[k].inverse() * (-gf[k] - Htf[k].transpose() * dtheta);
+      ts[k].phi += Hff_inv[k] * (-gf[k] - Htf[k].transpose() * dtheta);
     if (theta.norm() > std::tan(params.max_tilt))
       return Eigen::Vector2d::Zero();  // implausible: keep the input's levelling
     if (dtheta.norm() < kConverged)

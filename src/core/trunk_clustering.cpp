@@ -273,7 +273,8 @@ bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance)
   const int count = static_cast<int>(scan.ranges.size());
   // The first informative beam from `beam` on in direction `step` is nearer than r by more than the tolerance.
   const auto nearer = [&](int beam, int step, double r) {
-    while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+    while (beam >= 0 && beam < count &&
+           isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
       beam += step;
     if (beam < 0 || beam >= count)
       return false;

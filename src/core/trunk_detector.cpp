@@ -233,7 +233,8 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   std::vector<TrunkObservation> out;
   st->input_points = static_cast<int>(scan.ranges.size());
 
-  const std::vector<ScanArc> arcs = splitScanIntoArcs(scan, cfg.cluster_tolerance, cfg.range_offset, &st->finite_points);
+  const std::vector<ScanArc> arcs =
+      splitScanIntoArcs(scan, cfg.cluster_tolerance, cfg.range_offset, &st->finite_points);
   st->clusters = static_cast<int>(arcs.size());
   st->band_points = st->finite_points;
 

@@ -12,6 +12,7 @@ using rbpf_slam::core::circleInliers;
 using rbpf_slam::core::CircleRefineParams;
 using rbpf_slam::core::countCircleInliers;
 using rbpf_slam::core::fitCircleAlgebraic;
+using rbpf_slam::core::fitCircleAlgebraicProjected;
 using rbpf_slam::core::Random;
 using rbpf_slam::core::ransacCircle;
 using rbpf_slam::core::RansacCircleParams;
@@ -45,6 +46,21 @@ TEST(CircleFit, AlgebraicFitIsExactWithoutNoise)
   EXPECT_NEAR(c.x(), 7.0, 1e-9);
   EXPECT_NEAR(c.y(), -3.0, 1e-9);
   EXPECT_NEAR(r, 0.25, 1e-9);
+}
+
+TEST(CircleFit, AlgebraicFitOf3DPointsIsThatOfTheirProjection)
+{
+  Random rnd(9);
+  const auto p2 = arc({ -5.0, 2.0 }, 0.3, -0.4, 0.9, 40, 0.01, rnd);
+  std::vector<Eigen::Vector3d> p3;
+  for (const auto& q : p2)
+    p3.emplace_back(q.x(), q.y(), rnd.uniform(-1.5, 0.5));
+  Eigen::Vector2d c2, c3;
+  double r2 = 0.0, r3 = 0.0;
+  ASSERT_TRUE(fitCircleAlgebraic(p2, &c2, &r2));
+  ASSERT_TRUE(fitCircleAlgebraicProjected(p3, &c3, &r3));
+  EXPECT_EQ(c2, c3);
+  EXPECT_EQ(r2, r3);
 }
 
 TEST(CircleFit, AlgebraicFitRefusesTooFewPoints)

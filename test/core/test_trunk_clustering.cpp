@@ -109,7 +109,8 @@ TEST(TrunkClustering, SeparateGroupsAreSeparateClustersAndHeightDoesNotSplit)
   // A trunk's rings 0.4 m apart in height (one cluster), a second trunk 0.5 m away, a small bush further off.
   for (int ring = 0; ring < 5; ++ring)
     for (int k = 0; k < 30; ++k)
-      pts.emplace_back(5.0f + 0.2f * std::cos(2.4f + 0.05f * k), 0.2f * std::sin(2.4f + 0.05f * k), -1.2f + 0.4f * ring);
+      pts.emplace_back(5.0f + 0.2f * std::cos(2.4f + 0.05f * k), 0.2f * std::sin(2.4f + 0.05f * k),
+                       -1.2f + 0.4f * ring);
   for (int k = 0; k < 30; ++k)
     pts.emplace_back(5.0f + 0.2f * std::cos(2.4f + 0.05f * k), 0.9f + 0.2f * std::sin(2.4f + 0.05f * k), -0.8f);
   for (int i = 0; i < 5; ++i)

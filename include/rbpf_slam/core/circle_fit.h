@@ -18,6 +18,10 @@ namespace core
  */
 bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vector2d* center, double* radius);
 
+/** @brief fitCircleAlgebraic() on the points' horizontal projection (z ignored). */
+bool fitCircleAlgebraicProjected(const std::vector<Eigen::Vector3d>& points, Eigen::Vector2d* center,
+                                 double* radius);
+
 /** @brief Number of points whose distance to the circle, |‖p − c‖ − r|, is at most @p threshold [m]. */
 int countCircleInliers(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& center, double radius,
                        double threshold);
@@ -74,7 +78,8 @@ bool refineCircle(const std::vector<Eigen::Vector2d>& points, const CircleRefine
  * @return false when the covariance is not finite.
  */
 bool circleCovariance(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& center, double radius,
-                      const Eigen::Matrix3d& information, const CircleRefineParams& params, Eigen::Matrix3d* covariance);
+                      const Eigen::Matrix3d& information, const CircleRefineParams& params,
+                      Eigen::Matrix3d* covariance);
 
 }  // namespace core
 }  // namespace rbpf_slam

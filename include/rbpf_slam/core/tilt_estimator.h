@@ -32,7 +32,8 @@ struct TiltEstimatorParams
  * the tilt.
  * @return (0, 0) with fewer than two usable candidates or an implausible estimate.
  */
-Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candidates, const TiltEstimatorParams& params);
+Eigen::Vector2d estimateTiltFromTrunks(const std::vector<TrunkCandidate>& candidates,
+                                       const TiltEstimatorParams& params);
 
 }  // namespace core
 }  // namespace rbpf_slam
