@@ -1,0 +1,75 @@
+#ifndef RBPF_SLAM_CORE_TRUNK_FIT_H
+#define RBPF_SLAM_CORE_TRUNK_FIT_H
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/trunk_clustering.h"
+#include "rbpf_slam/core/trunk_detector.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief A trunk fitted to one cluster's horizontal projection (sensor at the origin). */
+struct TrunkFit
+{
+  bool ok = false;  ///< false when the least squares failed
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();          ///< [m]
+  double radius = 0.0;                                       ///< [m]
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of (cx, cy, r) [m^2]
+  int inliers = 0;         ///< points within the RANSAC threshold of the circle (all points for a centroid)
+  double arc_angle = 0.0;  ///< [rad] angle the inliers subtend at the centre
+  TrunkMethod method = TrunkMethod::kCircle;
+};
+
+/**
+ * @brief The forestry study's method: the centre of the visible points, the radius half their extent across the
+ * line of sight. Its covariance adds the method's own error (about half a radius, towards the sensor) to the
+ * spread of the mean.
+ */
+TrunkFit fitTrunkCentroid(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
+
+/**
+ * @brief A circle: the algebraic fit when it already explains nearly every point, else RANSAC; the arc fallback
+ * (a centre one prior radius behind the arc's middle) when neither gives a circle behind the points or there are
+ * too few points. Then least squares on the inliers, the inliers chosen again around the refined circle and
+ * refined once more. The method is kArc for few points or a narrow arc (the prior then carries the radius).
+ */
+TrunkFit fitTrunkCircle(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
+
+/** @brief fitTrunkCentroid() or fitTrunkCircle(), as config.method says. */
+TrunkFit fitTrunk(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
+
+/** @brief Why a fitted cluster is not a trunk. */
+enum class TrunkRejection : std::uint8_t
+{
+  kNone = 0,     ///< accepted
+  kShape = 1,    ///< the fit failed, or the centre is outside the range limits
+  kRadius = 2,   ///< radius outside the limits
+  kInliers = 3,  ///< too few points on the circle
+};
+
+/** @brief Accepts or rejects a fit of @p num_points points against the configured limits. */
+TrunkRejection checkTrunkFit(const TrunkFit& fit, int num_points, const TrunkDetectorConfig& config);
+
+/** @brief Bumps the stats counter of a rejection (none for kNone). */
+void countRejection(TrunkRejection rejection, TrunkDetectorStats* stats);
+
+/**
+ * @brief Verticality: the centroids of the candidate's lower and upper halves, after levelling, sit above each other
+ * within what config.max_tilt allows (a lying branch or a slanted bush does not).
+ * @param levelled the candidate's points projected horizontally after levelling, in the order of candidate.points
+ */
+bool isUpright(const TrunkCandidate& candidate, const std::vector<Eigen::Vector2d>& levelled,
+               const TrunkDetectorConfig& config);
+
+/** @brief The observation of an accepted fit; @p height [m] of its centre above the sensor. */
+TrunkObservation toTrunkObservation(const TrunkFit& fit, int num_points, double height);
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_TRUNK_FIT_H

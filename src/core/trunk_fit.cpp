@@ -1,0 +1,253 @@
+// One cluster's trunk: centroid or circle fit, acceptance, verticality, the observation.
+#include "rbpf_slam/core/trunk_fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "rbpf_slam/core/circle_fit.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kCleanFraction = 0.95;  // [-] an algebraic circle explaining this share of the points needs no RANSAC
+constexpr double kCentroidBias = 0.5;    // [radii] the centroid's own error, towards the sensor
+constexpr double kCentroidFloor = 1e-4;  // [m^2] (1 cm)^2 added to the centroid's variance
+constexpr int kMinHalfPoints = 3;        // [points] each half of a cluster needs this many for the verticality test
+constexpr double kFullCoverage = 0.5 * kPi;  // [rad] an arc this wide counts as fully covered in the score
+
+Eigen::Vector2d meanOf(const std::vector<Eigen::Vector2d>& points)
+{
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& q : points)
+    mean += q;
+  return mean / static_cast<double>(points.size());
+}
+
+CircleRefineParams refineParams(const TrunkDetectorConfig& config)
+{
+  CircleRefineParams p;
+  p.range_sigma = config.range_sigma;
+  p.radius_prior = config.arc_radius_prior;
+  p.radius_sigma = config.arc_radius_sigma;
+  return p;
+}
+
+/**
+ * The circle to refine: the algebraic fit or RANSAC when either gives a trunk-sized circle behind the points (a
+ * trunk's visible side faces the sensor), with have_circle set; else the algebraic fit on all points, else the arc
+ * fallback, both with have_circle false (every point is then an inlier).
+ */
+void initialCircle(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& mean,
+                   const TrunkDetectorConfig& config, Eigen::Vector2d* center, double* radius, bool* have_circle)
+{
+  const int n = static_cast<int>(points.size());
+  *center = mean + mean.normalized() * config.arc_radius_prior;
+  *radius = config.arc_radius_prior;
+  *have_circle = false;
+  if (n < config.min_fit_points)
+    return;
+  const auto behindAndSized = [&](const Eigen::Vector2d& c, double r) {
+    return c.norm() > mean.norm() && r >= config.min_radius && r <= config.max_radius;
+  };
+  // A clean cluster (the algebraic fit on all points already explains nearly all of them) needs no RANSAC; the
+  // robust sampler is for clusters with clutter in them.
+  Eigen::Vector2d kc;
+  double kr = 0.0;
+  const bool algebraic = fitCircleAlgebraic(points, &kc, &kr) && behindAndSized(kc, kr);
+  if (algebraic && countCircleInliers(points, kc, kr, config.ransac_threshold) >= kCleanFraction * n)
+  {
+    *center = kc;
+    *radius = kr;
+    *have_circle = true;
+    return;
+  }
+  RansacCircleParams ransac;
+  ransac.min_radius = config.min_radius;
+  ransac.max_radius = config.max_radius;
+  ransac.threshold = config.ransac_threshold;
+  ransac.max_iterations = config.ransac_iterations;
+  Eigen::Vector2d rc;
+  double rr = 0.0;
+  if (ransacCircle(points, ransac, &rc, &rr) && rc.norm() > mean.norm())
+  {
+    *center = rc;
+    *radius = rr;
+    *have_circle = true;
+    return;
+  }
+  if (algebraic)
+  {
+    *center = kc;
+    *radius = kr;
+  }
+}
+}  // namespace
+
+TrunkFit fitTrunkCentroid(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
+{
+  TrunkFit fit;
+  const int n = static_cast<int>(points.size());
+  const Eigen::Vector2d mean = meanOf(points);
+  // Radius: half the widest extent across the line of sight.
+  const Eigen::Vector2d across = Eigen::Vector2d(-mean.y(), mean.x()).normalized();
+  double lo = 1e9, hi = -1e9;
+  for (const auto& q : points)
+  {
+    const double s = across.dot(q);
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+  }
+  fit.center = mean;
+  fit.radius = 0.5 * (hi - lo);
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const auto& q : points)
+    scatter += (q - mean) * (q - mean).transpose();
+  fit.covariance.setZero();
+  const double bias = kCentroidBias * fit.radius;
+  fit.covariance.topLeftCorner<2, 2>() =
+      scatter / (static_cast<double>(n) * n) + Eigen::Matrix2d::Identity() * (bias * bias + kCentroidFloor);
+  fit.covariance(2, 2) = std::pow(bias + config.range_sigma, 2);
+  fit.inliers = n;
+  fit.arc_angle = 0.0;
+  fit.method = TrunkMethod::kCentroid;
+  fit.ok = true;
+  return fit;
+}
+
+TrunkFit fitTrunkCircle(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
+{
+  TrunkFit fit;
+  const int n = static_cast<int>(points.size());
+  const Eigen::Vector2d mean = meanOf(points);
+  Eigen::Vector2d c;
+  double r = 0.0;
+  bool have_circle = false;
+  initialCircle(points, mean, config, &c, &r, &have_circle);
+
+  // Least squares on the inliers of the initial circle (all points when there is none).
+  std::vector<Eigen::Vector2d> in = have_circle ? circleInliers(points, c, r, config.ransac_threshold) : points;
+  if (in.size() < 3)
+    in = points;
+  const CircleRefineParams refine = refineParams(config);
+  Eigen::Matrix3d cov;
+  if (!refineCircle(in, refine, &c, &r, &cov))
+    return fit;
+  // The inliers were chosen around the initial circle; an algebraic or sampled circle is biased (short noisy arcs
+  // fit small circles), so a window around it cuts the residuals asymmetrically and the refinement inherits the
+  // bias. Choose them again around the refined circle and refine once more.
+  if (have_circle)
+  {
+    std::vector<Eigen::Vector2d> again = circleInliers(points, c, r, config.ransac_threshold);
+    if (again.size() >= 3 && again.size() != in.size())
+    {
+      Eigen::Vector2d c2 = c;
+      double r2 = r;
+      Eigen::Matrix3d cov2;
+      if (refineCircle(again, refine, &c2, &r2, &cov2))
+      {
+        c = c2;
+        r = r2;
+        cov = cov2;
+        in.swap(again);
+      }
+    }
+  }
+  fit.inliers = countCircleInliers(points, c, r, config.ransac_threshold);
+  fit.center = c;
+  fit.radius = r;
+  fit.covariance = cov;
+  fit.arc_angle = subtendedAngle(in, c);
+  fit.method =
+      (n < config.min_fit_points || fit.arc_angle < config.min_fit_arc) ? TrunkMethod::kArc : TrunkMethod::kCircle;
+  fit.ok = true;
+  return fit;
+}
+
+TrunkFit fitTrunk(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
+{
+  return config.method == TrunkMethod::kCentroid ? fitTrunkCentroid(points, config) : fitTrunkCircle(points, config);
+}
+
+TrunkRejection checkTrunkFit(const TrunkFit& fit, int num_points, const TrunkDetectorConfig& config)
+{
+  if (!fit.ok)
+    return TrunkRejection::kShape;
+  if (fit.radius < config.min_radius || fit.radius > config.max_radius)
+    return TrunkRejection::kRadius;
+  if (static_cast<double>(fit.inliers) < config.min_inlier_ratio * num_points)
+    return TrunkRejection::kInliers;
+  const double range = fit.center.norm();
+  if (range < config.min_range || range > config.max_range)
+    return TrunkRejection::kShape;
+  return TrunkRejection::kNone;
+}
+
+void countRejection(TrunkRejection rejection, TrunkDetectorStats* stats)
+{
+  switch (rejection)
+  {
+    case TrunkRejection::kNone:
+      break;
+    case TrunkRejection::kShape:
+      ++stats->rejected_shape;
+      break;
+    case TrunkRejection::kRadius:
+      ++stats->rejected_radius;
+      break;
+    case TrunkRejection::kInliers:
+      ++stats->rejected_inliers;
+      break;
+  }
+}
+
+bool isUpright(const TrunkCandidate& candidate, const std::vector<Eigen::Vector2d>& levelled,
+               const TrunkDetectorConfig& config)
+{
+  const double z_mid = candidate.zMid();
+  Eigen::Vector2d lo = Eigen::Vector2d::Zero(), hi = Eigen::Vector2d::Zero();
+  int nlo = 0, nhi = 0;
+  for (std::size_t i = 0; i < candidate.points.size(); ++i)
+  {
+    if (candidate.points[i].z() < z_mid)
+    {
+      lo += levelled[i];
+      ++nlo;
+    }
+    else
+    {
+      hi += levelled[i];
+      ++nhi;
+    }
+  }
+  if (nlo < kMinHalfPoints || nhi < kMinHalfPoints)
+    return true;  // too few points to tell
+  const double shift = (hi / nhi - lo / nlo).norm();
+  // The axis may lean by max_tilt over half the span, plus what two noisy halves' centroids may disagree by.
+  return !(shift > std::tan(config.max_tilt) * 0.5 * (candidate.z_hi - candidate.z_lo) + 2.0 * config.ransac_threshold);
+}
+
+TrunkObservation toTrunkObservation(const TrunkFit& fit, int num_points, double height)
+{
+  TrunkObservation o;
+  o.center = fit.center;
+  o.radius = fit.radius;
+  o.radius_variance = fit.covariance(2, 2);
+  o.range = fit.center.norm();
+  o.bearing = std::atan2(fit.center.y(), fit.center.x());
+  o.covariance = fit.covariance.topLeftCorner<2, 2>();
+  o.num_points = num_points;
+  o.num_inliers = fit.inliers;
+  const double ratio = num_points > 0 ? static_cast<double>(fit.inliers) / num_points : 0.0;
+  const double coverage = fit.method == TrunkMethod::kCentroid ? 1.0 : std::min(1.0, fit.arc_angle / kFullCoverage);
+  o.score = ratio * (0.5 + 0.5 * coverage);
+  o.method = fit.method;
+  o.height = height;
+  return o;
+}
+
+}  // namespace core
+}  // namespace rbpf_slam

@@ -1,0 +1,166 @@
+// One cluster's trunk fit, acceptance and verticality, on clusters whose trunk is known.
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/trunk_fit.h"
+
+using rbpf_slam::core::checkTrunkFit;
+using rbpf_slam::core::fitTrunk;
+using rbpf_slam::core::fitTrunkCentroid;
+using rbpf_slam::core::fitTrunkCircle;
+using rbpf_slam::core::isUpright;
+using rbpf_slam::core::Random;
+using rbpf_slam::core::toTrunkObservation;
+using rbpf_slam::core::TrunkCandidate;
+using rbpf_slam::core::TrunkDetectorConfig;
+using rbpf_slam::core::TrunkFit;
+using rbpf_slam::core::TrunkMethod;
+using rbpf_slam::core::TrunkRejection;
+
+namespace
+{
+/** @p n points of the side facing the sensor (origin) of a trunk, over @p arc [rad], with radial noise. */
+std::vector<Eigen::Vector2d> visibleSide(const Eigen::Vector2d& c, double r, double arc, int n, double sigma,
+                                         Random& rnd)
+{
+  const double facing = std::atan2(-c.y(), -c.x());
+  std::vector<Eigen::Vector2d> p;
+  for (int i = 0; i < n; ++i)
+  {
+    const double a = facing - 0.5 * arc + arc * i / std::max(1, n - 1);
+    const double rr = r + rnd.gaussian(sigma);
+    p.emplace_back(c.x() + rr * std::cos(a), c.y() + rr * std::sin(a));
+  }
+  return p;
+}
+}  // namespace
+
+TEST(TrunkFit, CleanSideGivesCentreRadiusAndArc)
+{
+  Random rnd(1);
+  const auto p = visibleSide({ 6.0, 2.0 }, 0.2, 100.0 * M_PI / 180.0, 400, 0.01, rnd);  // 8 rings of 50 points
+  const TrunkFit fit = fitTrunkCircle(p, TrunkDetectorConfig());
+  ASSERT_TRUE(fit.ok);
+  EXPECT_EQ(fit.method, TrunkMethod::kCircle);
+  EXPECT_NEAR(fit.center.x(), 6.0, 0.02);
+  EXPECT_NEAR(fit.center.y(), 2.0, 0.02);
+  EXPECT_NEAR(fit.radius, 0.2, 0.015);
+  EXPECT_NEAR(fit.arc_angle, 100.0 * M_PI / 180.0, 0.15);
+  EXPECT_GE(fit.inliers, 390);
+  EXPECT_GT(fit.covariance(0, 0), 0.0);
+}
+
+TEST(TrunkFit, ClutterIsLeftOutOfTheCircle)
+{
+  Random rnd(2);
+  auto p = visibleSide({ 7.0, 0.0 }, 0.25, 1.6, 80, 0.008, rnd);
+  for (int i = 0; i < 30; ++i)  // twigs in front of the trunk
+    p.emplace_back(rnd.uniform(6.2, 6.6), rnd.uniform(-0.3, 0.3));
+  const TrunkFit fit = fitTrunkCircle(p, TrunkDetectorConfig());
+  ASSERT_TRUE(fit.ok);
+  EXPECT_NEAR(fit.center.x(), 7.0, 0.03);
+  EXPECT_NEAR(fit.center.y(), 0.0, 0.03);
+  EXPECT_NEAR(fit.radius, 0.25, 0.03);
+  EXPECT_GE(fit.inliers, 78);
+  EXPECT_LT(fit.inliers, 100);
+}
+
+TEST(TrunkFit, FewPointsFallBackToTheArc)
+{
+  // Five points (fewer than min_fit_points) of a far trunk: the centre is put behind the arc, the method says so.
+  Random rnd(3);
+  const auto p = visibleSide({ 15.0, 0.0 }, 0.2, 0.4, 5, 0.0, rnd);
+  TrunkDetectorConfig cfg;
+  const TrunkFit fit = fitTrunkCircle(p, cfg);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_EQ(fit.method, TrunkMethod::kArc);
+  EXPECT_NEAR(fit.center.y(), 0.0, 0.01);
+  EXPECT_NEAR(fit.center.x(), 15.0, 0.15);
+  EXPECT_GT(fit.covariance(0, 0), 1e-3);  // along the ray: the radius is hardly known
+}
+
+TEST(TrunkFit, CentroidSitsTowardsTheSensor)
+{
+  Random rnd(4);
+  const auto p = visibleSide({ 8.0, 0.0 }, 0.25, 2.0 * M_PI / 3.0, 100, 0.0, rnd);
+  TrunkDetectorConfig cfg;
+  cfg.method = TrunkMethod::kCentroid;
+  const TrunkFit fit = fitTrunk(p, cfg);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_EQ(fit.method, TrunkMethod::kCentroid);
+  // The centroid of a 120 degree arc lies r sin(60 deg) / (60 deg in rad) = 0.83 r from the centre.
+  EXPECT_NEAR(fit.center.x(), 8.0 - 0.827 * 0.25, 0.01);
+  EXPECT_NEAR(fit.radius, 0.25 * std::sin(M_PI / 3.0), 0.01);  // half the chord
+  EXPECT_EQ(fit.inliers, 100);
+  // Its covariance carries the method's own error of about half a radius.
+  EXPECT_GT(fit.covariance(0, 0), 0.25 * fit.radius * fit.radius);
+}
+
+TEST(TrunkFit, AcceptanceChecksRadiusInliersAndRange)
+{
+  TrunkDetectorConfig cfg;
+  TrunkFit fit;
+  fit.ok = true;
+  fit.center = Eigen::Vector2d(5.0, 0.0);
+  fit.radius = 0.2;
+  fit.inliers = 90;
+  EXPECT_EQ(checkTrunkFit(fit, 100, cfg), TrunkRejection::kNone);
+  EXPECT_EQ(checkTrunkFit(fit, 200, cfg), TrunkRejection::kInliers);
+  fit.radius = 0.8;
+  EXPECT_EQ(checkTrunkFit(fit, 100, cfg), TrunkRejection::kRadius);
+  fit.radius = 0.2;
+  fit.center = Eigen::Vector2d(0.3, 0.0);
+  EXPECT_EQ(checkTrunkFit(fit, 100, cfg), TrunkRejection::kShape);
+  fit.center = Eigen::Vector2d(5.0, 0.0);
+  fit.ok = false;
+  EXPECT_EQ(checkTrunkFit(fit, 100, cfg), TrunkRejection::kShape);
+}
+
+TEST(TrunkFit, UprightTrunksPassLyingBranchesDoNot)
+{
+  TrunkDetectorConfig cfg;  // max_tilt 0.35 rad
+  TrunkCandidate trunk, branch;
+  for (int i = 0; i < 20; ++i)
+  {
+    const double z = -1.3 + 0.07 * i;
+    trunk.points.emplace_back(5.0 + 0.05 * (i % 3), 0.02 * (i % 2), z);
+    branch.points.emplace_back(5.0 + 0.3 * i, 0.0, -1.3 + 0.04 * i);  // 6 m long, 0.8 m high: about 8 degrees
+  }
+  for (TrunkCandidate* c : { &trunk, &branch })
+  {
+    c->z_lo = c->points.front().z();
+    c->z_hi = c->points.back().z();
+  }
+  const auto flat = [](const TrunkCandidate& c) {
+    std::vector<Eigen::Vector2d> p;
+    for (const auto& q : c.points)
+      p.emplace_back(q.x(), q.y());
+    return p;
+  };
+  EXPECT_TRUE(isUpright(trunk, flat(trunk), cfg));
+  EXPECT_FALSE(isUpright(branch, flat(branch), cfg));
+}
+
+TEST(TrunkFit, ObservationCarriesTheFit)
+{
+  TrunkFit fit;
+  fit.ok = true;
+  fit.center = Eigen::Vector2d(3.0, 4.0);
+  fit.radius = 0.2;
+  fit.covariance = Eigen::Vector3d(1e-4, 2e-4, 3e-4).asDiagonal();
+  fit.inliers = 40;
+  fit.arc_angle = M_PI / 4.0;
+  fit.method = TrunkMethod::kCircle;
+  const auto o = toTrunkObservation(fit, 50, -0.5);
+  EXPECT_DOUBLE_EQ(o.range, 5.0);
+  EXPECT_DOUBLE_EQ(o.bearing, std::atan2(4.0, 3.0));
+  EXPECT_DOUBLE_EQ(o.radius_variance, 3e-4);
+  EXPECT_DOUBLE_EQ(o.covariance(1, 1), 2e-4);
+  // Inlier ratio 0.8, half the full coverage of 90 degrees: 0.8 * (0.5 + 0.25).
+  EXPECT_DOUBLE_EQ(o.score, 0.8 * 0.75);
+  EXPECT_EQ(o.num_points, 50);
+  EXPECT_EQ(o.height, -0.5);
+}
