@@ -1,70 +1,13 @@
 #include "rbpf_slam/core/scan_matcher.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <memory>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 namespace rbpf_slam
 {
 namespace core
 {
-/** @brief Distances [cells] from each cell centre of a tile to the nearest occupied cell centre of the same tile. */
-struct TileDistanceField
-{
-  int occupied_threshold = 0;  ///< raw threshold it was computed for
-  float reach = 0.0f;          ///< [cells] distances are capped here (= no occupied cell within reach)
-  bool any = false;            ///< whether the tile has an occupied cell
-  std::array<float, OccupancyGrid::kTileSize * OccupancyGrid::kTileSize> d;  ///< indexed as the tile's cells
-};
-
-namespace
-{
-// Measurement switch: 0 window search, 1 distance field at the point's cell, 2 bilinear distance field.
-int fieldMode()
-{
-  static const int mode = [] {
-    const char* v = std::getenv("RBPF_LIKELIHOOD_FIELD");
-    return v ? std::atoi(v) : 0;
-  }();
-  return mode;
-}
-
-const TileDistanceField& distanceField(const OccupancyGrid::Tile& tile, int occupied, float reach)
-{
-  if (tile.field && tile.field->occupied_threshold == occupied && tile.field->reach == reach)
-    return *tile.field;
-  auto field = std::make_shared<TileDistanceField>();
-  field->occupied_threshold = occupied;
-  field->reach = reach;
-  constexpr int n = OccupancyGrid::kTileSize;
-  cv::Mat mask(n, n, CV_8UC1);
-  std::uint8_t* m = mask.ptr<std::uint8_t>();
-  for (int i = 0; i < n * n; ++i)
-  {
-    const bool occ = tile.cells[static_cast<std::size_t>(i)] > occupied;
-    m[i] = occ ? 0 : 255;
-    field->any = field->any || occ;
-  }
-  if (field->any)
-  {
-    cv::Mat dist(n, n, CV_32FC1, field->d.data());
-    cv::distanceTransform(mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
-    for (float& v : field->d)
-      v = std::min(v, reach);
-  }
-  else
-    field->d.fill(reach);
-  tile.field = field;
-  return *field;
-}
-}  // namespace
-
 std::string ScanMatcherConfig::validate() const
 {
   if (kernel < 0 || kernel > 10)
@@ -156,59 +99,6 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
     const double y = s.y + sn * e.first + c * e.second;
     const double fx = x * inv, fy = y * inv;
     const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
-    const int mode = config_.free_check ? 0 : fieldMode();
-    if (mode != 0)
-    {
-      constexpr int n = OccupancyGrid::kTileSize;
-      const float reach = static_cast<float>(k) + 0.5f;
-      float d = reach;
-      bool inside = false;
-      if (mode == 1)
-      {
-        const int lx = cx & (n - 1), ly = cy & (n - 1);
-        inside = lx >= k && ly >= k && lx < n - k && ly < n - k;
-        if (inside)
-        {
-          const OccupancyGrid::Tile* t = map.tileAt(cx >> OccupancyGrid::kTileBits, cy >> OccupancyGrid::kTileBits);
-          if (t)
-            d = distanceField(*t, occ, reach).d[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx, cy))];
-        }
-      }
-      else
-      {
-        const double gx = fx - 0.5, gy = fy - 0.5;
-        const int x0 = static_cast<int>(std::floor(gx)), y0 = static_cast<int>(std::floor(gy));
-        const int lx = x0 & (n - 1), ly = y0 & (n - 1);
-        inside = lx >= k && ly >= k && lx + 1 < n - k && ly + 1 < n - k;
-        if (inside)
-        {
-          const OccupancyGrid::Tile* t = map.tileAt(x0 >> OccupancyGrid::kTileBits, y0 >> OccupancyGrid::kTileBits);
-          if (t)
-          {
-            const TileDistanceField& f = distanceField(*t, occ, reach);
-            if (f.any)
-            {
-              const float* v = f.d.data() + OccupancyGrid::cellIndexInTile(x0, y0);
-              const float ax = static_cast<float>(gx - x0), ay = static_cast<float>(gy - y0);
-              d = (1.0f - ay) * ((1.0f - ax) * v[0] + ax * v[1]) + ay * ((1.0f - ax) * v[n] + ax * v[n + 1]);
-            }
-          }
-        }
-      }
-      if (inside)
-      {
-        if (d < reach)
-        {
-          const double d2 = static_cast<double>(d) * d * res * res;
-          m.score += matchKernel(d2 * inv_match);
-          m.log_likelihood += -d2 * inv_like;
-          ++m.matched;
-        }
-        else
-          m.log_likelihood += no_hit;
-        continue;
-      }
-    }
     // GMapping's free-cell test: the point sqrt(2) cells back along the beam, with the same window offset, must
     // not be occupied (a wall seen from the wrong side does not match).
     int gx = 0, gy = 0;

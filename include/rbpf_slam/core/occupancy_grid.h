@@ -16,8 +16,6 @@ namespace rbpf_slam
 {
 namespace core
 {
-struct TileDistanceField;
-
 /** @brief How rays change the log-odds of the cells they cross and end in. */
 struct OccupancyGridConfig
 {
@@ -109,9 +107,6 @@ public:
   {
     std::array<Cell, kTileSize * kTileSize> cells;
     std::array<std::uint8_t, kCoarsePerTile * kCoarsePerTile> coarse;  // occupied cells per coarse cell
-    /// The scan matcher's distance field of this tile's occupied cells (ScanMatcher computes it when it first
-    /// reads the tile): copies share it; a write that makes a cell occupied or not occupied drops it.
-    mutable std::shared_ptr<const TileDistanceField> field;
     Cell& operator[](std::size_t i) { return cells[i]; }
     Cell operator[](std::size_t i) const { return cells[i]; }
   };
@@ -224,7 +219,6 @@ private:
     const bool was = old > raw_occupied_, is = now > raw_occupied_;
     if (was != is)
     {
-      t->field.reset();
       std::uint8_t& c = t->coarse[static_cast<std::size_t>(coarseIndex(ix >> kCoarseBits, iy >> kCoarseBits))];
       c = static_cast<std::uint8_t>(is ? c + 1 : c - 1);
     }
