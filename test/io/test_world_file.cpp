@@ -344,7 +344,7 @@ TEST(ShippedWorlds, AllLoad)
   }
 }
 
-TEST(ShippedWorlds, PaperForestIsThePinnedStand)
+TEST(ShippedWorlds, PaperForestIsTheScenarioStand)
 {
   // The 16 trunks of the reference scenario's tree list (x y radius).
   const double expected[16][3] = {

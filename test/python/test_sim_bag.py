@@ -96,7 +96,7 @@ def test_trunk_points_lie_on_the_true_trunk_surfaces(paper_bag):
     assert np.percentile(naive_res, 95) > np.percentile(res, 95) + 0.01
 
 
-def test_dead_reckoning_drifts_as_pinned(tmp_path):
+def test_dead_reckoning_drifts_as_the_scenario_says(tmp_path):
     finals, sideways = [], []
     for seed in range(1, 8):
         bag_path = _record(str(tmp_path / ('drift%d.bag' % seed)), seed=seed, points=False)
