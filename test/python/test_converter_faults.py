@@ -373,11 +373,18 @@ def _partial(out_dir):
     return os.path.join(str(out_dir), names[0]) if names else None
 
 
+def _default_sigint():
+    """In the child: SIGINT as a terminal gives it. A shell starts background jobs with SIGINT ignored, and Python
+    then keeps ignoring it; the tool must be tested as a user at a terminal runs it."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGHUP, signal.SIGINT], ids=lambda s: s.name)
 def test_signal_while_writing_leaves_no_file(big_log, out_dir, signum):
     proc = subprocess.Popen([sys.executable, os.path.join(SCRIPTS, 'carmen_to_bag'), str(big_log),
                              '-o', str(out_dir / 'big.bag'), '-q'],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True,
+                            preexec_fn=_default_sigint)
     try:
         deadline = time.monotonic() + 60
         partial = None
@@ -407,7 +414,8 @@ def test_signal_while_writing_leaves_no_file(big_log, out_dir, signum):
 def test_a_second_signal_does_not_stop_the_clean_up(big_log, out_dir):
     proc = subprocess.Popen([sys.executable, os.path.join(SCRIPTS, 'carmen_to_bag'), str(big_log),
                              '-o', str(out_dir / 'big.bag'), '-q'],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True,
+                            preexec_fn=_default_sigint)
     try:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and proc.poll() is None and not _partial(out_dir):
