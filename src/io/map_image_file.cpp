@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <limits>
 #include <locale>
 #include <sstream>
 #include <stdexcept>
@@ -269,10 +268,6 @@ bool binaryPgmHeader(const std::string& data, long* width, long* height, long* m
 cv::Mat readImage(const std::string& path)
 {
   const std::string data = readFile(path);
-  if (data.empty())
-    throw fileError(path, "empty file");
-  if (data.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-    throw fileError(path, "file too large for an image");
   long width = 0, height = 0, maxval = 255;
   std::size_t raster = 0;
   const bool pgm = binaryPgmHeader(data, &width, &height, &maxval, &raster);
@@ -302,7 +297,7 @@ cv::Mat readImage(const std::string& path)
   if (image.depth() != CV_8U)
     throw fileError(path, "16-bit images are not supported (map_server reads 8-bit ones)");
   if (pgm && maxval < 255)
-    image.convertTo(image, CV_8U, 255.0 / static_cast<double>(maxval));  // to 0..255, as map_server's loader
+    image.convertTo(image, CV_8U, 255.0 / static_cast<double>(maxval));  // as map_server's loader scales it
   return image;
 }
 
