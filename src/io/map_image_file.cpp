@@ -15,8 +15,6 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
 namespace rbpf_slam
@@ -237,68 +235,149 @@ MapYaml readMapYaml(const std::string& path)
   return map;
 }
 
-// --- Image ----------------------------------------------------------------------------------------------------
+// --- PGM ------------------------------------------------------------------------------------------------------
 
-/**
- * The little OpenCV does not report about a binary PGM: maxval (OpenCV scales an ASCII PGM's pixels to 0..255
- * but returns a binary one's as stored) and whether the raster is complete (OpenCV would print its own error).
- * False when @p data is not a binary PGM with a readable header.
- */
-bool binaryPgmHeader(const std::string& data, long* width, long* height, long* maxval, std::size_t* raster)
+struct Pgm
 {
-  if (data.compare(0, 2, "P5") != 0)
-    return false;
-  std::size_t pos = 2;
-  long* fields[3] = { width, height, maxval };
-  for (long* field : fields)
-  {
-    while (pos < data.size() && (std::isspace(static_cast<unsigned char>(data[pos])) || data[pos] == '#'))
-      pos = data[pos] == '#' ? data.find('\n', pos) : pos + 1;
-    if (pos >= data.size() || !std::isdigit(static_cast<unsigned char>(data[pos])))
-      return false;
-    *field = 0;
-    for (; pos < data.size() && std::isdigit(static_cast<unsigned char>(data[pos])) && *field < kMaxSide; ++pos)
-      *field = *field * 10 + (data[pos] - '0');
-  }
-  *raster = pos + 1;  // one whitespace byte after maxval
-  return true;
-}
+  int width = 0;
+  int height = 0;
+  int maxval = 0;
+  std::vector<int> pixels;  ///< row-major, top row first, as in the file
+};
 
-/** The image at @p path on map_server's 0..255 scale (8-bit, 1 to 4 channels; a binary PGM's maxval applied). */
-cv::Mat readImage(const std::string& path)
+/** Reads the whitespace-separated decimal tokens of a PGM, skipping '#' comments, tracking the line. */
+class PgmScanner
+{
+public:
+  PgmScanner(const std::string& path, const std::string& data, std::size_t pos) : path_(path), data_(data), pos_(pos)
+  {
+  }
+
+  /** False at the end of the data. */
+  bool skipSpace()
+  {
+    while (pos_ < data_.size())
+    {
+      const char c = data_[pos_];
+      if (c == '#')
+      {
+        while (pos_ < data_.size() && data_[pos_] != '\n')
+          ++pos_;
+      }
+      else if (std::isspace(static_cast<unsigned char>(c)))
+      {
+        if (c == '\n')
+          ++line_;
+        ++pos_;
+      }
+      else
+      {
+        return true;
+      }
+    }
+    return false;
+  }
+
+  /** A non-negative decimal; @p what names it in messages. Throws "truncated" at the end of the data. */
+  long readNumber(const std::string& what)
+  {
+    if (!skipSpace())
+      throw fileError(path_, "truncated: file ends before the " + what);
+    const std::size_t start = pos_;
+    long value = 0;
+    while (pos_ < data_.size() && std::isdigit(static_cast<unsigned char>(data_[pos_])))
+    {
+      value = value * 10 + (data_[pos_] - '0');
+      if (value > 0x7fffffffL)
+        throw lineError(path_, line_, what + " is too large");
+      ++pos_;
+    }
+    const bool ends_token = pos_ >= data_.size() || std::isspace(static_cast<unsigned char>(data_[pos_])) ||
+                            data_[pos_] == '#';
+    if (pos_ == start || !ends_token)
+    {
+      std::size_t end = start;
+      while (end < data_.size() && end - start < 16 && !std::isspace(static_cast<unsigned char>(data_[end])))
+        ++end;
+      throw lineError(path_, line_,
+                      "expected a number for the " + what + ", got '" + printable(data_.substr(start, end - start)) + "'");
+    }
+    return value;
+  }
+
+  std::size_t pos() const { return pos_; }
+  void setPos(std::size_t pos) { pos_ = pos; }
+  int line() const { return line_; }
+
+private:
+  const std::string& path_;
+  const std::string& data_;
+  std::size_t pos_;
+  int line_ = 1;
+};
+
+Pgm readPgm(const std::string& path)
 {
   const std::string data = readFile(path);
-  long width = 0, height = 0, maxval = 255;
-  std::size_t raster = 0;
-  const bool pgm = binaryPgmHeader(data, &width, &height, &maxval, &raster);
-  if (pgm && (width < 1 || width >= kMaxSide || height < 1 || height >= kMaxSide))
-    throw fileError(path, "image size " + std::to_string(width) + " x " + std::to_string(height) +
-                              " out of range 1.." + std::to_string(kMaxSide - 1));
-  if (pgm && (maxval < 1 || maxval > 255))
-    throw fileError(path, "maxval " + std::to_string(maxval) + " not supported (must be 1..255)");
-  const std::size_t count = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  if (pgm && (raster > data.size() || data.size() - raster < count))
-    throw fileError(path, "truncated: expected " + std::to_string(count) + " pixel bytes, got " +
-                              std::to_string(raster > data.size() ? 0 : data.size() - raster));
+  const std::string magic = data.substr(0, 2);
+  if (magic != "P5" && magic != "P2")
+    throw fileError(path, "not a PGM file (magic '" + printable(magic) + "')");
+  const bool binary = magic == "P5";
 
-  cv::Mat image;
-  try
+  PgmScanner scan(path, data, 2);
+  if (data.size() > 2 && !std::isspace(static_cast<unsigned char>(data[2])) && data[2] != '#')
+    throw fileError(path, "not a PGM file (magic '" + printable(data.substr(0, 3)) + "')");
+  const long width = scan.readNumber("width");
+  const long height = scan.readNumber("height");
+  if (width < 1 || width > kMaxSide || height < 1 || height > kMaxSide)
+    throw lineError(path, scan.line(),
+                    "image size " + std::to_string(width) + " x " + std::to_string(height) + " out of range 1.." +
+                        std::to_string(kMaxSide));
+  const long maxval = scan.readNumber("maxval");
+  if (maxval < 1 || maxval > 255)
+    throw lineError(path, scan.line(), "maxval " + std::to_string(maxval) + " not supported (must be 1..255)");
+
+  Pgm pgm;
+  pgm.width = static_cast<int>(width);
+  pgm.height = static_cast<int>(height);
+  pgm.maxval = static_cast<int>(maxval);
+  const std::size_t count = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+
+  if (binary)
   {
-    const cv::Mat bytes(1, static_cast<int>(data.size()), CV_8UC1, const_cast<char*>(data.data()));
-    image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    // Exactly one whitespace byte separates maxval from the raster; the raster may begin with any byte value.
+    std::size_t start = scan.pos();
+    if (start >= data.size())
+      throw fileError(path, "truncated: expected " + std::to_string(count) + " pixel bytes, got 0");
+    if (!std::isspace(static_cast<unsigned char>(data[start])))
+      throw lineError(path, scan.line(), "expected a whitespace byte between maxval and the pixels");
+    ++start;
+    const std::size_t available = data.size() - start;
+    if (available < count)
+      throw fileError(path, "truncated: expected " + std::to_string(count) + " pixel bytes, got " +
+                                std::to_string(available));
+    pgm.pixels.resize(count);
+    for (std::size_t i = 0; i < count; ++i)
+      pgm.pixels[i] = static_cast<unsigned char>(data[start + i]);
   }
-  catch (const cv::Exception& e)
+  else
   {
-    throw fileError(path, "cannot decode the image (" + e.err + ")");
+    pgm.pixels.reserve(count);
+    for (std::size_t i = 0; i < count; ++i)
+    {
+      if (!scan.skipSpace())
+        throw fileError(path, "truncated: expected " + std::to_string(count) + " pixel values, got " +
+                                  std::to_string(i));
+      pgm.pixels.push_back(static_cast<int>(scan.readNumber("pixel value")));
+    }
   }
-  if (image.empty())
-    throw fileError(path, "not an image OpenCV can read, e.g. PGM or PNG (starts with '" +
-                              printable(data.substr(0, 4)) + "')");
-  if (image.depth() != CV_8U)
-    throw fileError(path, "16-bit images are not supported (map_server reads 8-bit ones)");
-  if (pgm && maxval < 255)
-    image.convertTo(image, CV_8U, 255.0 / static_cast<double>(maxval));  // as map_server's loader scales it
-  return image;
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    if (pgm.pixels[i] > pgm.maxval)
+      throw fileError(path, "pixel " + std::to_string(i % width) + ", " + std::to_string(i / width) + " has value " +
+                                std::to_string(pgm.pixels[i]) + " > maxval " + std::to_string(pgm.maxval));
+  }
+  return pgm;
 }
 
 }  // namespace
@@ -307,34 +386,31 @@ core::OccupancyImage loadMapImage(const std::string& yaml_path)
 {
   const MapYaml yaml = readMapYaml(yaml_path);
   const std::string image_path = yaml.image[0] == '/' ? yaml.image : directoryOf(yaml_path) + yaml.image;
-  const cv::Mat image = readImage(image_path);
+  const Pgm pgm = readPgm(image_path);
 
-  // map_server's trinary mode: the mean of the colour channels (alpha ignored), p = (255 - mean) / 255 (mean / 255
-  // with negate), in double so that the thresholds cut at exactly the same values.
-  const int colours = image.channels() >= 3 ? 3 : 1;
-  const int w = image.cols, h = image.rows;
-  std::vector<std::int8_t> cells(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
-  for (int row = 0; row < h; ++row)
+  // The same expressions as map_server, in double, so that the thresholds cut at exactly the same values.
+  std::vector<std::int8_t> lookup(static_cast<std::size_t>(pgm.maxval) + 1);
+  for (int v = 0; v <= pgm.maxval; ++v)
   {
-    const std::uint8_t* src = image.ptr<std::uint8_t>(h - 1 - row);  // the image's top row is the grid's last
-    std::int8_t* dst = cells.data() + static_cast<std::size_t>(row) * static_cast<std::size_t>(w);
-    for (int col = 0; col < w; ++col, src += image.channels())
-    {
-      double sum = 0.0;
-      for (int c = 0; c < colours; ++c)
-        sum += src[c];
-      const double mean = sum / colours;
-      const double p = yaml.negate ? mean / 255.0 : (255.0 - mean) / 255.0;
-      dst[col] = p > yaml.occupied_thresh ? core::OccupancyImage::kOccupied :
-                 p < yaml.free_thresh     ? core::OccupancyImage::kFree :
-                                            core::OccupancyImage::kUnknown;
-    }
+    const double p = yaml.negate ? static_cast<double>(v) / pgm.maxval : (pgm.maxval - v) / static_cast<double>(pgm.maxval);
+    lookup[v] = p > yaml.occupied_thresh ? core::OccupancyImage::kOccupied :
+                p < yaml.free_thresh     ? core::OccupancyImage::kFree :
+                                           core::OccupancyImage::kUnknown;
   }
-  return core::OccupancyImage(w, h, yaml.resolution, yaml.origin, std::move(cells));
+
+  std::vector<std::int8_t> cells(pgm.pixels.size());
+  const std::size_t w = static_cast<std::size_t>(pgm.width);
+  for (int row = 0; row < pgm.height; ++row)
+  {
+    const std::size_t src = static_cast<std::size_t>(pgm.height - 1 - row) * w;  // the image's top row is last
+    const std::size_t dst = static_cast<std::size_t>(row) * w;
+    for (std::size_t col = 0; col < w; ++col)
+      cells[dst + col] = lookup[pgm.pixels[src + col]];
+  }
+  return core::OccupancyImage(pgm.width, pgm.height, yaml.resolution, yaml.origin, std::move(cells));
 }
 
-std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const std::string& yaml_path,
-                                        MapImageFormat format)
+std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
 {
   if (map.empty())
     throw fileError(yaml_path, "cannot save an empty map");
@@ -343,34 +419,29 @@ std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const s
   const std::string base = dot == std::string::npos || dot == 0 ? yaml_name : yaml_name.substr(0, dot);
   if (base.empty())
     throw fileError(yaml_path, "not a file name");
-  const std::string extension = format == MapImageFormat::kPng ? ".png" : ".pgm";
-  const std::string image_name = base + extension;
+  const std::string image_name = base + ".pgm";
   const std::string image_path = directoryOf(yaml_path) + image_name;
   if (image_path == yaml_path)
-    throw fileError(yaml_path, "the YAML file must not be named " + extension + " (the image takes that name)");
+    throw fileError(yaml_path, "the YAML file must not be named .pgm (the image takes that name)");
 
-  cv::Mat image(map.height(), map.width(), CV_8UC1);
-  for (int row = 0; row < map.height(); ++row)
+  std::ostringstream header;
+  header.imbue(std::locale::classic());
+  header << "P5\n# CREATOR: rbpf_slam saveMapImage " << formatDouble(map.resolution()) << " m/pix\n"
+         << map.width() << ' ' << map.height() << "\n255\n";
+  std::string pgm = header.str();
+  const std::size_t raster = pgm.size();
+  pgm.resize(raster + static_cast<std::size_t>(map.width()) * static_cast<std::size_t>(map.height()));
+  std::size_t i = raster;
+  for (int row = map.height() - 1; row >= 0; --row)
   {
-    std::uint8_t* dst = image.ptr<std::uint8_t>(map.height() - 1 - row);  // top row first
     for (int col = 0; col < map.width(); ++col)
     {
       const std::int8_t v = map.cell(col, row);
-      dst[col] = static_cast<std::uint8_t>(v == core::OccupancyImage::kOccupied ? kSavedOccupied :
-                                           v == core::OccupancyImage::kFree     ? kSavedFree :
-                                                                                  kSavedUnknown);
+      const int pixel = v == core::OccupancyImage::kOccupied ? kSavedOccupied :
+                        v == core::OccupancyImage::kFree     ? kSavedFree :
+                                                               kSavedUnknown;
+      pgm[i++] = static_cast<char>(pixel);
     }
-  }
-  std::vector<std::uint8_t> encoded;
-  try
-  {
-    const std::vector<int> binary_pgm = { cv::IMWRITE_PXM_BINARY, 1 };
-    if (!cv::imencode(extension, image, encoded, format == MapImageFormat::kPng ? std::vector<int>() : binary_pgm))
-      throw fileError(image_path, "OpenCV cannot encode the image");
-  }
-  catch (const cv::Exception& e)
-  {
-    throw fileError(image_path, "cannot encode the image (" + e.err + ")");
   }
 
   const core::MapOrigin& o = map.origin();
@@ -382,12 +453,12 @@ std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const s
   yaml += "free_thresh: " + formatDouble(kSavedFreeThresh) + "\n";
 
   // The image first: a YAML on disk always names an image that is complete.
-  return { { image_path, std::string(encoded.begin(), encoded.end()) }, { yaml_path, yaml } };
+  return { { image_path, pgm }, { yaml_path, yaml } };
 }
 
-void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path, MapImageFormat format)
+void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
 {
-  writeFilesAtomic(encodeMapImage(map, yaml_path, format));
+  writeFilesAtomic(encodeMapImage(map, yaml_path));
 }
 
 }  // namespace io

@@ -1,12 +1,10 @@
 // Map-image (map_server PGM + YAML) loading and saving.
 #include <gtest/gtest.h>
 
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -19,7 +17,6 @@
 using rbpf_slam::core::MapOrigin;
 using rbpf_slam::core::OccupancyImage;
 using rbpf_slam::io::loadMapImage;
-using rbpf_slam::io::MapImageFormat;
 using rbpf_slam::io::saveMapImage;
 
 namespace
@@ -30,22 +27,6 @@ std::string tempDir()
 }
 
 using temp_files::writeFile;
-
-std::string readFile(const std::string& path)
-{
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-const char* const kThresholds = "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
-
-/** A 3 x 2 map, row 0 (bottom): occupied free unknown; row 1: free unknown occupied. */
-OccupancyImage smallMap()
-{
-  const std::vector<std::int8_t> cells = { OccupancyImage::kOccupied, OccupancyImage::kFree, OccupancyImage::kUnknown,
-                                           OccupancyImage::kFree, OccupancyImage::kUnknown, OccupancyImage::kOccupied };
-  return OccupancyImage(3, 2, 0.05, MapOrigin(), cells);
-}
 
 std::string errorOf(const std::string& yaml)
 {
@@ -122,83 +103,6 @@ TEST(MapImageFile, ErrorsNameTheKeyOrFile)
   EXPECT_NE(msg.find("bad.pgm"), std::string::npos) << msg;
 
   EXPECT_NE(errorOf(dir + "/missing.yaml"), "");
-}
-
-TEST(MapImageFile, SavedPgmIsWhatMapServerReads)
-{
-  // What a PGM reader (map_server's) sees: magic P5, width, height, maxval 255 (comments and whitespace as the
-  // format allows), one whitespace byte, then the raster top row first in map_saver's values.
-  const std::string dir = tempDir();
-  saveMapImage(smallMap(), dir + "/small.yaml");
-  const std::string pgm = readFile(dir + "/small.pgm");
-  ASSERT_EQ(pgm.compare(0, 2, "P5"), 0);
-  std::size_t pos = 2;
-  std::vector<long> fields;
-  while (fields.size() < 3 && pos < pgm.size())
-  {
-    if (pgm[pos] == '#')
-      pos = pgm.find('\n', pos);
-    else if (std::isspace(static_cast<unsigned char>(pgm[pos])))
-      ++pos;
-    else
-    {
-      std::size_t end = pos;
-      while (end < pgm.size() && std::isdigit(static_cast<unsigned char>(pgm[end])))
-        ++end;
-      ASSERT_GT(end, pos) << "not a number at byte " << pos;
-      fields.push_back(std::stol(pgm.substr(pos, end - pos)));
-      pos = end;
-    }
-  }
-  ASSERT_EQ(fields, (std::vector<long>{ 3, 2, 255 }));
-  ASSERT_TRUE(std::isspace(static_cast<unsigned char>(pgm[pos])));
-  const std::string raster = pgm.substr(pos + 1);
-  EXPECT_EQ(raster, std::string("\xFE\xCD\x00\x00\xFE\xCD", 6));
-  const std::string yaml = readFile(dir + "/small.yaml");
-  EXPECT_EQ(yaml, "image: small.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
-                  "occupied_thresh: 0.65\nfree_thresh: 0.196\n");
-}
-
-TEST(MapImageFile, PngSavedAndLoaded)
-{
-  const std::string dir = tempDir();
-  saveMapImage(smallMap(), dir + "/small.yaml", MapImageFormat::kPng);
-  EXPECT_EQ(readFile(dir + "/small.png").compare(0, 4, "\x89PNG"), 0);
-  EXPECT_EQ(readFile(dir + "/small.yaml").compare(0, 17, "image: small.png\n"), 0);
-  std::ifstream pgm(dir + "/small.pgm");
-  EXPECT_FALSE(pgm.good());
-  const OccupancyImage back = loadMapImage(dir + "/small.yaml");
-  ASSERT_EQ(back.width(), 3);
-  ASSERT_EQ(back.height(), 2);
-  EXPECT_EQ(back.cells(), smallMap().cells());
-}
-
-TEST(MapImageFile, BinaryPgmMaxvalScaledAsMapServer)
-{
-  // maxval 15: 0 black, 15 white, 7 grey (map_server's loader scales to 0..255: 119, p = 0.53: unknown).
-  const std::string dir = tempDir();
-  writeFile(dir + "/m.pgm", std::string("P5\n3 1\n15\n\x00\x0F\x07", 13));
-  writeFile(dir + "/m.yaml", std::string("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n") + kThresholds);
-  const OccupancyImage map = loadMapImage(dir + "/m.yaml");
-  ASSERT_EQ(map.width(), 3);
-  EXPECT_EQ(map.cell(0, 0), OccupancyImage::kOccupied);
-  EXPECT_EQ(map.cell(1, 0), OccupancyImage::kFree);
-  EXPECT_EQ(map.cell(2, 0), OccupancyImage::kUnknown);
-}
-
-TEST(MapImageFile, TruncatedOrUnknownImageIsOneLineNamingTheFile)
-{
-  const std::string dir = tempDir();
-  writeFile(dir + "/short.pgm", std::string("P5\n4 4\n255\n\x00\x00\x00", 14));
-  writeFile(dir + "/short.yaml", std::string("image: short.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n") + kThresholds);
-  const std::string msg = errorOf(dir + "/short.yaml");
-  EXPECT_EQ(msg, dir + "/short.pgm: truncated: expected 16 pixel bytes, got 3");
-  writeFile(dir + "/text.pgm", "not an image\n");
-  writeFile(dir + "/text.yaml", std::string("image: text.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n") + kThresholds);
-  const std::string text = errorOf(dir + "/text.yaml");
-  EXPECT_EQ(text.find(dir + "/text.pgm: "), 0u) << text;
-  EXPECT_EQ(text.find('\n'), std::string::npos) << text;
-  EXPECT_NE(errorOf(dir + "/nofile.yaml").find("nofile.yaml"), std::string::npos);
 }
 
 TEST(MapImageFile, PackagedIndoorWorldLoads)
