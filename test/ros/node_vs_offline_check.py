@@ -79,8 +79,10 @@ class NodeVsOffline(unittest.TestCase):
     def play(self, bag, topics, name, expected):
         with self.lock:
             self.paths.pop(name, None)
-        subprocess.run(['rosbag', 'play', '--clock', '-q', '-r', '1', bag, '--topics'] + topics, check=True,
-                       stdout=subprocess.DEVNULL)
+        # Every message must reach the nodes, the first ones too: wait until each topic has its subscriber, and
+        # give each connection a second to be made before the first message is published.
+        subprocess.run(['rosbag', 'play', '--clock', '-q', '-r', '1', '--wait-for-subscribers', '-d', '1', bag,
+                        '--topics'] + topics, check=True, stdout=subprocess.DEVNULL)
         deadline = time.time() + 20.0
         while time.time() < deadline:
             with self.lock:
@@ -96,8 +98,12 @@ class NodeVsOffline(unittest.TestCase):
 
     def compare(self, name, node, offline):
         self.assertGreater(len(offline), 20)
-        self.assertEqual(len(node), len(offline), '%s: %d poses from the node, %d offline' %
-                         (name, len(node), len(offline)))
+        if len(node) != len(offline):
+            node_stamps = set(round(r[0], 6) for r in node)
+            offline_stamps = set(round(r[0], 6) for r in offline)
+            self.fail('%s: %d poses from the node, %d offline; only offline: %s; only the node: %s' %
+                      (name, len(node), len(offline), sorted(offline_stamps - node_stamps)[:5],
+                       sorted(node_stamps - offline_stamps)[:5]))
         worst = 0.0
         for a, b in zip(node, offline):
             self.assertAlmostEqual(a[0], b[0], delta=1e-6, msg='%s: stamps differ' % name)
