@@ -1,0 +1,133 @@
+// The pipelines' time handling (core/sensor_pipeline.h), the same for grid SLAM and FastSLAM: waiting for
+// odometry, the stamp rule, restarts that flush the old timeline, bounded waiting, the odometry wait.
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "grid_test_world.h"
+#include "rbpf_slam/core/grid_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
+
+using namespace rbpf_slam::core;
+using grid_test_world::simulateScan;
+
+namespace
+{
+GridSlamConfig smallGrid()
+{
+  GridSlamConfig c;
+  c.particles = 5;
+  c.linear_update = 0.0;  // every scan
+  c.angular_update = 0.0;
+  return c;
+}
+}  // namespace
+
+TEST(GridSlamPipeline, AScanWaitsUntilOdometryCoversIt)
+{
+  GridSlamPipeline p(smallGrid());
+  EXPECT_EQ(p.addOdometry(0.0, Pose2()), StampVerdict::kAccept);
+  EXPECT_EQ(p.addScan(0.05, simulateScan(Pose2()), Pose2()), StampVerdict::kAccept);
+  EXPECT_TRUE(p.process().empty());  // odometry ends before the scan
+  EXPECT_EQ(p.pending(), 1u);
+  EXPECT_EQ(p.addOdometry(0.1, Pose2(0.02, 0.0, 0.0)), StampVerdict::kAccept);
+  const std::vector<GridPipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_TRUE(done[0].error.empty());
+  EXPECT_DOUBLE_EQ(done[0].stamp, 0.05);
+  EXPECT_NEAR(done[0].odometry.x, 0.01, 1e-12);  // interpolated at the scan's stamp
+  EXPECT_EQ(done[0].timeline, 0);
+  EXPECT_TRUE(p.filter().initialised());
+}
+
+TEST(GridSlamPipeline, StampRuleDropsLateDuplicateAndNonFinite)
+{
+  GridSlamPipeline p(smallGrid());
+  EXPECT_EQ(p.addOdometry(1.0, Pose2()), StampVerdict::kAccept);
+  EXPECT_EQ(p.addOdometry(1.0, Pose2()), StampVerdict::kDuplicate);
+  EXPECT_EQ(p.addOdometry(0.5, Pose2()), StampVerdict::kLate);
+  EXPECT_EQ(p.addOdometry(1.1, Pose2(NAN, 0.0, 0.0)), StampVerdict::kInvalid);
+  EXPECT_EQ(p.addOdometry(NAN, Pose2()), StampVerdict::kInvalid);
+  EXPECT_EQ(p.addOdometry(5.0, Pose2(), 2.0), StampVerdict::kFuture);  // 3 s ahead of the clock
+  EXPECT_EQ(p.restarts(), 0);
+  EXPECT_EQ(p.odometry().size(), 1u);
+}
+
+TEST(GridSlamPipeline, AJumpBackFlushesTheOldTimelineThenRestarts)
+{
+  GridSlamPipeline p(smallGrid());
+  p.addOdometry(100.0, Pose2());
+  p.addScan(100.05, simulateScan(Pose2()), Pose2());
+  p.addOdometry(100.1, Pose2(0.02, 0.0, 0.0));
+  ASSERT_EQ(p.process().size(), 1u);
+  p.addScan(100.15, simulateScan(Pose2(0.03, 0.0, 0.0)), Pose2());  // waits: odometry ends at 100.1
+  // The bag starts again: the waiting scan is processed with the old odometry, then the map starts over.
+  EXPECT_EQ(p.addOdometry(10.0, Pose2()), StampVerdict::kReset);
+  EXPECT_EQ(p.restarts(), 1);
+  EXPECT_FALSE(p.filter().initialised());
+  EXPECT_EQ(p.addScan(10.05, simulateScan(Pose2()), Pose2()), StampVerdict::kAccept);  // no second jump
+  p.addOdometry(10.1, Pose2(0.02, 0.0, 0.0));
+  const std::vector<GridPipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 2u);
+  EXPECT_DOUBLE_EQ(done[0].stamp, 100.15);
+  EXPECT_EQ(done[0].timeline, 0);
+  EXPECT_DOUBLE_EQ(done[1].stamp, 10.05);
+  EXPECT_EQ(done[1].timeline, 1);
+  EXPECT_TRUE(done[1].step.initialised);  // the new timeline's first scan starts a new map
+}
+
+TEST(GridSlamPipeline, WaitingIsBoundedAndTheWaitEnds)
+{
+  PipelineTiming timing;
+  timing.max_pending = 2;
+  timing.odometry_wait = 0.5;
+  GridSlamPipeline p(smallGrid(), timing);
+  p.addOdometry(0.0, Pose2());
+  for (int k = 1; k <= 3; ++k)
+    p.addScan(0.1 * k, simulateScan(Pose2()), Pose2(), NAN, 10.0 + k);  // arrival on the caller's clock
+  EXPECT_EQ(p.pending(), 2u);
+  EXPECT_EQ(p.droppedPending(), 1u);  // the oldest
+  EXPECT_TRUE(p.process(12.4).empty());  // the oldest waiting scan arrived at 12: not yet 0.5 s
+  const std::vector<GridPipelineUpdate> done = p.process(12.6);  // it has waited: the newest odometry is used
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_DOUBLE_EQ(done[0].stamp, 0.2);
+  EXPECT_EQ(p.process(NAN, true).size(), 1u);  // the end of the input flushes the rest
+}
+
+TEST(GridSlamPipeline, AScanOlderThanTheFirstOdometryIsDropped)
+{
+  GridSlamPipeline p(smallGrid());
+  p.addScan(0.0, simulateScan(Pose2()), Pose2());
+  p.addOdometry(0.02, Pose2());
+  const std::vector<GridPipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_FALSE(done[0].error.empty());
+  EXPECT_FALSE(p.filter().initialised());
+}
+
+TEST(TrunkSlamPipeline, TheMapFrameIsTheOdometryFrameAtTheFirstUpdate)
+{
+  FastSlamConfig fc;
+  fc.particles = 10;
+  TrunkSlamPipeline p(TrunkDetectorConfig(), fc);
+  p.addOdometry(0.0, Pose2(5.0, -2.0, 0.3));
+  p.addOdometry(0.2, Pose2(5.2, -2.0, 0.3));
+  TrunkSweep sweep;
+  sweep.stamp = 0.0;
+  sweep.period = 0.1;
+  EXPECT_EQ(p.addTrunks(sweep), StampVerdict::kAccept);
+  const std::vector<PipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 1u);
+  // map -> odom starts as the identity: the estimate is the odometry pose at the sweep's middle.
+  EXPECT_NEAR(done[0].odometry.x, 5.05, 1e-12);
+  EXPECT_NEAR(done[0].estimate.x, done[0].odometry.x, 1e-12);
+  EXPECT_NEAR(done[0].estimate.y, done[0].odometry.y, 1e-12);
+  EXPECT_NEAR(done[0].estimate.theta, done[0].odometry.theta, 1e-12);
+  // A malformed period or tilt from a foreign detector is taken as none.
+  sweep.stamp = 0.1;
+  sweep.period = NAN;
+  sweep.tilt_roll = INFINITY;
+  EXPECT_EQ(p.addTrunks(sweep), StampVerdict::kAccept);
+  ASSERT_EQ(p.process().size(), 1u);
+}
