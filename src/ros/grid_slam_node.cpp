@@ -162,23 +162,26 @@ void GridSlamRos::processPending()
   while (!pending_.empty())
   {
     const sensor_msgs::LaserScan::ConstPtr msg = pending_.front().msg;
+    // The newest odometry in the buffer, read before the lookup: TF's listener fills the buffer from its own
+    // thread, and a transform arriving between a failed lookup and this test must not turn a scan that only had
+    // to wait into one "older than the buffer".
+    bool newer = false;
+    try
+    {
+      newer = tf_buffer_->lookupTransform(config_.odom_frame, config_.base_frame, ros::Time(0)).header.stamp >
+              msg->header.stamp;
+    }
+    catch (const tf2::TransformException&)
+    {
+    }
     core::Pose2 odom_pose, sensor;
     std::string error;
     const bool ok = lookup(config_.odom_frame, config_.base_frame, msg->header.stamp, &odom_pose, &error) &&
                     lookup(config_.base_frame, msg->header.frame_id, msg->header.stamp, &sensor, &error);
     if (!ok)
     {
-      // Odometry newer than the scan is there, yet no transform at its stamp: it is older than the TF
-      // buffer (the first scans of a bag) or in a gap, and waiting will not help.
-      bool newer = false;
-      try
-      {
-        newer = tf_buffer_->lookupTransform(config_.odom_frame, config_.base_frame, ros::Time(0)).header.stamp >
-                msg->header.stamp;
-      }
-      catch (const tf2::TransformException&)
-      {
-      }
+      // Odometry newer than the scan was there before the lookup, yet no transform at its stamp: it is older than
+      // the TF buffer (the first scans of a bag) or in a gap, and waiting will not help.
       if (!newer && (ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
         return;  // wait: odometry may come a little after the scan
       ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f (%s; %s): scan dropped", name_.c_str(),
