@@ -69,6 +69,46 @@ const char* toString(PoseProposal p)
   return p == PoseProposal::kFastSlam2 ? "fastslam2" : "fastslam1";
 }
 
+bool parsePoseEstimate(const std::string& name, PoseEstimate* out)
+{
+  if (name == "mean")
+    *out = PoseEstimate::kMean;
+  else if (name == "best")
+    *out = PoseEstimate::kBest;
+  else
+    return false;
+  return true;
+}
+
+const char* toString(PoseEstimate e)
+{
+  return e == PoseEstimate::kBest ? "best" : "mean";
+}
+
+SensorScope FastSlamConfig::configuredScope() const
+{
+  SensorScope s;
+  if (min_range > 0.0)
+    s.min_range = min_range;
+  if (max_range > 0.0)
+    s.max_range = max_range;
+  if (field_of_view > 0.0)
+  {
+    s.fov_min = -0.5 * std::min(field_of_view, 2.0 * M_PI);
+    s.fov_max = 0.5 * std::min(field_of_view, 2.0 * M_PI);
+  }
+  if (detection_probability > 0.0)
+    s.detection_probability = detection_probability;
+  return s;
+}
+
+VisibilityScope FastSlamConfig::fallbackScope()
+{
+  VisibilityScope s(kFallbackMinRange, kFallbackMaxRange, kFallbackFieldOfView);
+  s.detection_probability = kFallbackDetectionProbability;
+  return s;
+}
+
 void conditionPoseOnLandmark(Pose2* mean, Eigen::Matrix3d* covariance, const Landmark& l, const Eigen::Vector2d& z,
                              const Eigen::Matrix2d& R, const Pose2& sensor)
 {
@@ -122,12 +162,16 @@ std::string FastSlamConfig::validate() const
   const std::string m = motion.validate();
   if (!m.empty())
     return "motion: " + m;
+  if (!(motion_step > 0.0) || !(motion_step_angle > 0.0))
+    return "motion_step and motion_step_angle must be > 0";
   if (!(range_sigma_floor > 0.0) || !(bearing_sigma_floor > 0.0))
     return "range_sigma_floor and bearing_sigma_floor must be > 0";
-  if (!(min_range >= 0.0) || !(max_range > min_range))
-    return "max_range must be > min_range >= 0";
-  if (!(field_of_view > 0.0))
-    return "field_of_view must be > 0";
+  if (!(min_range >= 0.0) || !(max_range >= 0.0) || (max_range > 0.0 && !(max_range > min_range)))
+    return "min_range and max_range must be >= 0 (0: the sensor's), max_range > min_range when both are set";
+  if (!(field_of_view >= 0.0))
+    return "field_of_view must be >= 0 (0: the sensor's)";
+  if (!(detection_probability >= 0.0 && detection_probability <= 1.0))
+    return "detection_probability must be in [0, 1] (0: the sensor's)";
   if (!(association_gate > 0.0))
     return "association_gate must be > 0";
   if (!(radius_sigma_floor > 0.0))
@@ -153,7 +197,7 @@ std::string FastSlamConfig::validate() const
 FastSlam::FastSlam(const FastSlamConfig& config)
   : config_(config)
   , random_(config.seed)
-  , scope_(config.min_range, config.max_range, config.field_of_view)
+  , scope_(effectiveScope(config.configuredScope(), SensorScope(), FastSlamConfig::fallbackScope()))
   , association_(AssociationConfig{ config.association_gate, config.use_radius, config.radius_sigma_floor })
   , evidence_(EvidenceConfig{ config.evidence_hit, config.evidence_miss, config.evidence_max, config.delete_evidence,
                               config.confirm_observations, config.drop_unconfirmed_leaving_scope })
@@ -172,7 +216,9 @@ void FastSlam::initialize(const Pose2& start)
     p.pose = start;
     p.log_weight = -std::log(static_cast<double>(config_.particles));
     p.motion_covariance.setZero();
+    p.history.reset();
   }
+  best_ = 0;
   next_id_ = 0;
 }
 
@@ -372,8 +418,10 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
   return *log_prior - log_mix;
 }
 
-FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor)
+FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
+                                     const SensorScope& sensor_scope)
 {
+  scope_ = effectiveScope(config_.configuredScope(), sensor_scope, FastSlamConfig::fallbackScope());
   FastSlamUpdateStats stats;
   stats.observations = static_cast<int>(observations.size());
   const std::size_t best_before = bestIndex();
@@ -414,11 +462,21 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
       }
     }
   }
-  const WeightingStep step = weighAndResample(&log_w, &weights_, config_.resampling, random_);
+  const WeightingStep step = weighAndResample(&log_w, &weights_, config_.resampling, random_,
+                                              [this](const WeightingStep&) { weights_before_ = weights_; });
   stats.neff = step.neff;
   stats.resampled = step.resampled;
+  best_ = step.best;
   if (step.resampled)
+  {
     applyResampling(&particles_, step.keep);  // the copies of a particle share its map's chunks (copy-on-write)
+    // The best particle is the first copy of the heaviest survivor (the best itself unless it was not drawn).
+    best_ = 0;
+    for (std::size_t n = 1; n < step.keep.size(); ++n)
+      if (weights_before_[static_cast<std::size_t>(step.keep[n])] >
+          weights_before_[static_cast<std::size_t>(step.keep[best_])])
+        best_ = n;
+  }
   for (std::size_t i = 0; i < particles_.size(); ++i)
   {
     Particle& p = particles_[i];
@@ -430,16 +488,19 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
       p.pose.theta = wrapAngle(p.pose.theta + random_.gaussian(config_.roughening_sigma_theta));
     }
   }
+  for (Particle& p : particles_)
+    p.history = std::make_shared<const HistoryNode<Pose2>>(p.pose, std::move(p.history));
+  stats.landmarks = static_cast<int>(particles_[best_].map.size());
   return stats;
 }
 
-std::size_t FastSlam::bestIndex() const
+std::vector<Pose2> FastSlam::bestHistory() const
 {
-  std::size_t best = 0;
-  for (std::size_t i = 1; i < particles_.size(); ++i)
-    if (particles_[i].log_weight > particles_[best].log_weight)
-      best = i;
-  return best;
+  std::vector<Pose2> out;
+  for (const HistoryNode<Pose2>* n = best().history.get(); n != nullptr; n = n->parent.get())
+    out.push_back(n->value);
+  std::reverse(out.begin(), out.end());
+  return out;
 }
 
 Pose2 FastSlam::meanPose() const

@@ -30,9 +30,16 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   mount.z = sc.lidar3d.mount.z;
   mount.yaw = sc.lidar3d.mount.yaw;
   std::vector<std::unique_ptr<TrunkSlamPipeline>> pipelines;
+  std::vector<FastSlamConfig> filters;
   for (const auto& v : variants)
   {
-    pipelines.emplace_back(new TrunkSlamPipeline(v.detector, v.filter));  // sensor height from the mount
+    FastSlamConfig f = v.filter;
+    if (!(f.min_range > 0.0))
+      f.min_range = kForestRunMinRange;
+    if (!(f.max_range > 0.0))
+      f.max_range = kForestRunMaxRange;
+    filters.push_back(f);
+    pipelines.emplace_back(new TrunkSlamPipeline(v.detector, f));  // sensor height from the mount
   }
   const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
   const double period = 1.0 / sc.lidar3d.rate;
@@ -83,7 +90,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
     for (std::size_t v = 0; v < n; ++v)
     {
       ForestSlamRunResult& res = results[v];
-      const FastSlamConfig& fc = variants[v].filter;
+      const FastSlamConfig& fc = filters[v];
       for (const PipelineUpdate& u : pipelines[v]->process(NAN, !more))
       {
         std::size_t& next = truth_next[v];

@@ -65,7 +65,11 @@ std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociatio
       {
         bool remove = false;
         map->modify(candidates[k].index, [&](Landmark& l) {
-          l.evidence -= config_.miss;
+          // A miss weighs as much as the sensor was likely to report the landmark: with detection probability
+          // p a landmark that is there gains p * hit - (1 - p) * p * miss per look on average, > 0 for any p
+          // when hit >= miss, so a sensor that reports few of the landmarks it sees does not erase its map,
+          // while one that misses nothing removes a phantom quickly.
+          l.evidence -= config_.miss * scope.detection_probability;
           remove = l.evidence < config_.delete_below;
         });
         if (remove)

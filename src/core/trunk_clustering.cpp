@@ -285,5 +285,32 @@ bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance)
          nearer(arc.last_beam + 1, 1, arc.points.back().norm());
 }
 
+double estimateAzimuthStep(const std::vector<Eigen::Vector3f>& points, double elevation_bin)
+{
+  constexpr std::size_t kMinGaps = 50;  // fewer neighbouring pairs than this tell no resolution
+  std::unordered_map<std::int64_t, std::vector<double>> rings;
+  for (const auto& p : points)
+  {
+    const double h = std::hypot(static_cast<double>(p.x()), static_cast<double>(p.y()));
+    if (!(h > 0.1) || !p.allFinite())
+      continue;
+    const auto ring = static_cast<std::int64_t>(std::floor(std::atan2(static_cast<double>(p.z()), h) / elevation_bin));
+    rings[ring].push_back(std::atan2(static_cast<double>(p.y()), static_cast<double>(p.x())));
+  }
+  std::vector<double> gaps;
+  for (auto& r : rings)
+  {
+    std::vector<double>& a = r.second;
+    std::sort(a.begin(), a.end());
+    for (std::size_t i = 1; i < a.size(); ++i)
+      if (a[i] - a[i - 1] > 1e-7)
+        gaps.push_back(a[i] - a[i - 1]);
+  }
+  if (gaps.size() < kMinGaps)
+    return NAN;
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

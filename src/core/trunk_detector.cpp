@@ -133,6 +133,8 @@ std::string TrunkDetectorConfig::validate() const
     return "range_offset must be finite and within +-1 m";
   if (!(min_range >= 0.0) || !(max_range > min_range))
     return "max_range must be > min_range >= 0";
+  if (!(detection_probability > 0.0 && detection_probability <= 1.0))
+    return "detection_probability must be in (0, 1]";
   if (!(sensor_height >= 0.0))
     return "sensor_height must be >= 0 (0: unknown)";
   return "";
@@ -181,6 +183,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope);
   ground.build(pts);
   std::vector<Eigen::Vector3f> band = selectHeightBand(pts, &ground, cfg.min_height, cfg.max_height);
+  st->reach = singleRingReach(cfg.arc_radius_prior, cfg.min_points, estimateAzimuthStep(band));
   if (cfg.voxel_size > 0.0)
     downsampleVoxels(&band, cfg.voxel_size);
   st->band_points = static_cast<int>(band.size());

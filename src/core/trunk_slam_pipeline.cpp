@@ -71,6 +71,7 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   sweep.period = period;
   sweep.mount = mount;
   sweep.trunks = detector_->detect(points, Eigen::Matrix3d::Identity(), &stats);
+  sweep.scope = sweepScope(detector_->config(), stats.reach);
   sweep.tilt_roll = stats.tilt_roll;
   sweep.tilt_pitch = stats.tilt_pitch;
   enqueueSweep(std::move(sweep), arrival);
@@ -91,6 +92,7 @@ StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const Plana
   sweep.mount = mount;
   sweep.trunks = detector_->detectScan(scan);
   sweep.geometry = scanGeometry(scan);
+  sweep.scope = scanScope(scan, detector_->config());
   enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
   return v;
@@ -110,6 +112,31 @@ SweepGeometry scanGeometry(const PlanarScan& scan)
   g.span = std::max(1e-9, std::abs(scan.angle_increment) *
                               static_cast<double>(scan.ranges.size() > 1 ? scan.ranges.size() - 1 : 1));
   return g;
+}
+
+SensorScope scanScope(const PlanarScan& scan, const TrunkDetectorConfig& config)
+{
+  SensorScope s;
+  const double last = scan.angle_min + scan.angle_increment * static_cast<double>(
+                                           scan.ranges.empty() ? 0 : scan.ranges.size() - 1);
+  s.fov_min = std::min(scan.angle_min, last);
+  s.fov_max = std::max(scan.angle_min, last);
+  s.min_range = std::max(std::isfinite(scan.range_min) ? scan.range_min : 0.0, config.min_range);
+  s.max_range = std::isfinite(scan.range_max) && scan.range_max > 0.0 ? std::min(scan.range_max, config.max_range)
+                                                                      : config.max_range;
+  s.detection_probability = config.detection_probability;
+  return s;
+}
+
+SensorScope sweepScope(const TrunkDetectorConfig& config, double reach)
+{
+  SensorScope s;
+  s.fov_min = -M_PI;
+  s.fov_max = M_PI;
+  s.min_range = config.min_range;
+  s.max_range = std::isfinite(reach) && reach > 0.0 ? std::min(reach, config.max_range) : config.max_range;
+  s.detection_probability = config.detection_probability;
+  return s;
 }
 
 std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
@@ -156,19 +183,32 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
     // The map frame is the odometry frame at the first update: map -> odom starts as the identity.
     filter_->initialize(odom_mid);
     last_odometry_ = odom_mid;
+    last_stamp_ = t_mid;
     initialized_ = true;
   }
-  filter_->predict(decomposeOdometry(last_odometry_, odom_mid));
+  // The motion since the last update in steps of about motion_step along the odometry's samples.
+  const FastSlamConfig& fc = filter_->config();
+  Pose2 from = last_odometry_;
+  odometry_.forEachBetween(last_stamp_, t_mid, [&](double, const Pose2& pose) {
+    const OdometryIncrement u = decomposeOdometry(from, pose);
+    if (u.trans >= fc.motion_step || std::abs(u.rot1) + std::abs(u.rot2) >= fc.motion_step_angle)
+    {
+      filter_->predict(u);
+      from = pose;
+    }
+  });
+  filter_->predict(decomposeOdometry(from, odom_mid));
   last_odometry_ = odom_mid;
+  last_stamp_ = t_mid;
   const std::vector<LandmarkObservation> obs = sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,
                                                                  sw.tilt_pitch, sw.mount, odometry_, t_mid,
                                                                  sw.geometry);
   PipelineUpdate u;
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
-  u.stats = filter_->update(obs, u.mount);
+  u.stats = filter_->update(obs, u.mount, sw.scope);
   u.stamp = t_mid;
   u.odometry = odom_mid;
-  u.estimate = filter_->best().pose;
+  u.estimate = filter_->estimate();
   u.odometry_covered = covered;
   u.trunks = std::move(sweep.trunks);
   seconds_filter_ += since(t0);

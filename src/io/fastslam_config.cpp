@@ -15,11 +15,14 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("motion/alpha2", &c->motion.alpha2);
   p.get("motion/alpha3", &c->motion.alpha3);
   p.get("motion/alpha4", &c->motion.alpha4);
+  p.get("motion_step", &c->motion_step);
+  p.get("motion_step_angle", &c->motion_step_angle);
   p.get("range_sigma_floor", &c->range_sigma_floor);
   p.get("bearing_sigma_floor", &c->bearing_sigma_floor);
   p.get("min_range", &c->min_range);
   p.get("max_range", &c->max_range);
   p.get("field_of_view", &c->field_of_view);
+  p.get("detection_probability", &c->detection_probability);
   p.get("association_gate", &c->association_gate);
   p.get("use_radius", &c->use_radius);
   p.get("radius_sigma_floor", &c->radius_sigma_floor);
@@ -38,6 +41,10 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("proposal", &proposal);
   if (!core::parsePoseProposal(proposal, &c->proposal))
     throw std::runtime_error("parameter 'proposal' must be fastslam1 or fastslam2, not '" + proposal + "'");
+  std::string estimate = core::toString(c->estimate);
+  p.get("estimate", &estimate);
+  if (!core::parsePoseEstimate(estimate, &c->estimate))
+    throw std::runtime_error("parameter 'estimate' must be mean or best, not '" + estimate + "'");
   p.get("mixture_fraction", &c->mixture_fraction);
   p.get("mixture_balance", &c->mixture_balance);
   p.getSeed("seed", &c->seed);

@@ -47,6 +47,60 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
 
 }  // namespace
 
+core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg)
+{
+  core::SensorScope s;
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (positive(msg.min_range))
+    s.min_range = msg.min_range;
+  if (positive(msg.max_range))
+    s.max_range = msg.max_range;
+  if (std::isfinite(msg.fov_min) && std::isfinite(msg.fov_max) && msg.fov_max > msg.fov_min)
+  {
+    s.fov_min = msg.fov_min;
+    s.fov_max = msg.fov_max;
+  }
+  if (positive(msg.detection_probability) && msg.detection_probability <= 1.0)
+    s.detection_probability = msg.detection_probability;
+  return s;
+}
+
+std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& sensor, double sensor_height,
+                         core::TrunkSweep* sweep)
+{
+  sweep->stamp = msg.header.stamp.toSec();
+  // Every trunk is carried to the sweep's middle from its own instant (sweep_period, sweep_start_angle, sweep_span)
+  // and moved by the lever arm of the tilt the extractor removed (tilt_roll, tilt_pitch, the sensor's height on
+  // base_link); 0 = all trunks at the stamp, no tilt, a spinning lidar's sweep.
+  sweep->period = msg.sweep_period;
+  sweep->tilt_roll = msg.tilt_roll;
+  sweep->tilt_pitch = msg.tilt_pitch;
+  if (std::isfinite(msg.sweep_span) && msg.sweep_span > 0.0 && std::isfinite(msg.sweep_start_angle))
+  {
+    sweep->geometry.start_angle = msg.sweep_start_angle;
+    sweep->geometry.span = msg.sweep_span;
+  }
+  sweep->mount.x = sensor.x;
+  sweep->mount.y = sensor.y;
+  sweep->mount.yaw = sensor.theta;
+  sweep->mount.z = sensor_height;
+  sweep->scope = scopeFromMsg(msg);
+  sweep->trunks.clear();
+  sweep->trunks.reserve(msg.trunks.size());
+  std::size_t bad = 0;
+  for (const auto& trunk : msg.trunks)
+  {
+    const core::TrunkObservation o = fromMsg(trunk);
+    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
+    {
+      ++bad;
+      continue;
+    }
+    sweep->trunks.push_back(o);
+  }
+  return bad;
+}
+
 core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
 {
   core::TrunkObservation t;
@@ -91,7 +145,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   path_.header.frame_id = config_.map_frame;
   pose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
   particles_pub_ = nh_.advertise<geometry_msgs::PoseArray>("particles", 2);
-  landmarks_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 2);
+  landmarks_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("landmark_markers", 2);
   landmark_array_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("landmark_array", 2);
   path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
   odom_path_.header.frame_id = config_.map_frame;
@@ -141,30 +195,10 @@ bool FastSlamRos::toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sw
   core::Pose2 sensor;
   if (!sensorPose(msg.header.frame_id, &sensor))
     return false;
-  sweep->stamp = msg.header.stamp.toSec();
-  // Every trunk is carried to the sweep's middle from its own instant (sweep_period, sweep_start_angle, sweep_span)
-  // and moved by the lever arm of the tilt the extractor removed (tilt_roll, tilt_pitch, the sensor's height on
-  // base_link from TF); 0 = all trunks at the stamp, no tilt, a spinning lidar's sweep.
-  sweep->period = msg.sweep_period;
-  sweep->tilt_roll = msg.tilt_roll;
-  sweep->tilt_pitch = msg.tilt_pitch;
-  if (std::isfinite(msg.sweep_span) && msg.sweep_span > 0.0 && std::isfinite(msg.sweep_start_angle))
-  {
-    sweep->geometry.start_angle = msg.sweep_start_angle;
-    sweep->geometry.span = msg.sweep_span;
-  }
-  sweep->mount.x = sensor.x;
-  sweep->mount.y = sensor.y;
-  sweep->mount.yaw = sensor.theta;
-  sweep->mount.z = sensor_height_;
-  sweep->trunks.reserve(msg.trunks.size());
-  for (const auto& trunk : msg.trunks)
-  {
-    const core::TrunkObservation o = fromMsg(trunk);
-    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
-      continue;
-    sweep->trunks.push_back(o);
-  }
+  const std::size_t bad = toTrunkSweep(msg, sensor, sensor_height_, sweep);
+  if (bad > 0)
+    ROS_WARN_THROTTLE(5.0, "%s: %zu trunks with a non-finite centre, covariance or radius in the array at %.3f; "
+                      "dropped", name_.c_str(), bad, msg.header.stamp.toSec());
   return true;
 }
 
@@ -259,7 +293,7 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
 {
   if (scope_pub_.getNumSubscribers() == 0)
     return;
-  const core::FastSlamConfig& c = pipeline_->filter().config();
+  const core::VisibilityScope& c = pipeline_->filter().scope();
   auto m = boost::make_shared<visualization_msgs::Marker>();
   m->header.frame_id = config_.base_frame;  // at the update's stamp: it moves with the robot
   m->header.stamp = stamp;
@@ -272,7 +306,8 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
   m->color.g = 0.8f;
   m->color.b = 1.0f;
   m->color.a = 1.0f;  // opaque: a flat colour rviz draws exactly
-  const double fov = std::min(std::max(c.field_of_view, 0.0), 2.0 * M_PI);
+  const double fov = std::min(std::max(c.fov_max - c.fov_min, 0.0), 2.0 * M_PI);
+  const double first = c.fov_min;
   const int n = 120;
   auto point = [&](double range, double bearing) {
     geometry_msgs::Point p;
@@ -284,11 +319,11 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
   for (const double range : { c.min_range, c.max_range })
     for (int k = 0; k < n; ++k)
     {
-      m->points.push_back(point(range, -0.5 * fov + fov * k / n));
-      m->points.push_back(point(range, -0.5 * fov + fov * (k + 1) / n));
+      m->points.push_back(point(range, first + fov * k / n));
+      m->points.push_back(point(range, first + fov * (k + 1) / n));
     }
   if (fov < 2.0 * M_PI - 1e-6)
-    for (const double side : { -0.5 * fov, 0.5 * fov })
+    for (const double side : { first, first + fov })
     {
       m->points.push_back(point(c.min_range, side));
       m->points.push_back(point(c.max_range, side));
@@ -300,19 +335,22 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
 {
   const core::FastSlam& filter = pipeline_->filter();
   const core::Particle& best = filter.best();
+  // The estimate (the weighted mean, or the best particle chosen before resampling): never simply the first of an
+  // equal-weight set, so that the pose and map -> odom do not jump at a resampling.
+  const core::Pose2 estimate = filter.estimate();
   publishScope(stamp);
 
   if (config_.publish_tf)
     tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
                                                   config_.map_frame, config_.odom_frame,
-                                                  best.pose * odom_pose.inverse()));
+                                                  estimate * odom_pose.inverse()));
 
   pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
       poseWithCovariance(stamp, config_.map_frame, filter.meanPose(), filter.poseCovariance())));
   if (particles_pub_.getNumSubscribers() > 0)
     particles_pub_.publish(
         boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter.particles())));
-  appendToPath(&path_, stamp, config_.map_frame, best.pose, config_.max_path_poses);
+  appendToPath(&path_, stamp, config_.map_frame, estimate, config_.max_path_poses);
   if (path_pub_.getNumSubscribers() > 0)
     path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
   appendToPath(&odom_path_, stamp, config_.map_frame, odom_pose, config_.max_path_poses);

@@ -313,6 +313,7 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   stats.input_points = static_cast<int>(std::min<std::uint64_t>(cloud.total, std::numeric_limits<int>::max()));
   const Eigen::Matrix3d level = levelRotation(msg->header.frame_id, msg->header.stamp);
   double band_height = 1.0;
+  core::SensorScope scope;
   {
     std::lock_guard<std::mutex> lock(detector_mutex_);
     takeSensorHeightFromTf(msg->header.frame_id);
@@ -320,6 +321,7 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
     try
     {
       trunks = detector_->detect(cloud.points, level, &stats);
+      scope = core::sweepScope(detector_->config(), stats.reach);
     }
     catch (const std::exception& e)
     {
@@ -331,7 +333,7 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   }
   // The sweep's duration from the per-point times (VLP-16 drivers and the simulator give a float32 "time"
   // after the stamp), so that consumers can carry each trunk to one instant.
-  publish(msg->header, trunks, stats, band_height, "cloud", cloud.sweep_period);
+  publish(msg->header, trunks, stats, band_height, "cloud", cloud.sweep_period, scope);
 }
 
 void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
@@ -355,12 +357,14 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
   core::TrunkDetectorStats stats;
   stats.input_points = static_cast<int>(msg->ranges.size());
   double band_height = 1.0;
+  core::SensorScope scope;
   {
     std::lock_guard<std::mutex> lock(detector_mutex_);
     band_height = detector_->config().max_height - detector_->config().min_height;
     try
     {
       trunks = detector_->detectScan(scan, &stats);
+      scope = core::scanScope(scan, detector_->config());
     }
     catch (const std::exception& e)
     {
@@ -371,7 +375,7 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     }
   }
   const core::SweepGeometry geometry = core::scanGeometry(scan);
-  publish(msg->header, trunks, stats, band_height, "scan", scanPeriod(*msg), &geometry);
+  publish(msg->header, trunks, stats, band_height, "scan", scanPeriod(*msg), scope, &geometry);
 }
 
 void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char* input, const std::string& why)
@@ -388,10 +392,18 @@ void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char*
 
 void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
                               const core::TrunkDetectorStats& stats, double band_height, const char* input,
-                              double sweep_period, const core::SweepGeometry* geometry)
+                              double sweep_period, const core::SensorScope& scope,
+                              const core::SweepGeometry* geometry)
 {
   auto out = boost::make_shared<rbpf_slam::TrunkArray>();
   out->header = header;
+  // What the sensor could see: 0 where it is not known (NaN would not survive every consumer).
+  const auto known = [](double v) { return std::isfinite(v) ? v : 0.0; };
+  out->min_range = known(scope.min_range);
+  out->max_range = known(scope.max_range);
+  out->fov_min = known(scope.fov_min);
+  out->fov_max = known(scope.fov_max);
+  out->detection_probability = known(scope.detection_probability);
   out->sweep_period = sweep_period;
   if (geometry)
   {

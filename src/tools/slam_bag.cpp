@@ -2,7 +2,8 @@
 // compute (no roscore, no real-time wait). Reads only the sensor topics named here and /tf_static: never
 // the truth.
 //
-//   rosrun rbpf_slam slam_bag --filter fastslam --bag FILE [--points /points | --scan /scan] [--odom /odom]
+//   rosrun rbpf_slam slam_bag --filter fastslam --bag FILE [--points /points | --scan /scan | --landmarks TOPIC]
+//       [--odom /odom]
 //       [--base-frame base_link] [--extraction-config YAML] [--config YAML] [--particles N] [--seed S]
 //       [--method circle|centroid] [--out DIR] [--quiet]
 //   rosrun rbpf_slam slam_bag --filter grid --bag FILE [--scan /scan] [--odom /odom] [--base-frame base_link]
@@ -12,14 +13,17 @@
 //
 // --config is the filter's YAML (config/fastslam.yaml or config/grid_slam.yaml layout), --extraction-config the
 // trunk extraction's (config/trunk_extraction.yaml layout); one pair per sensor type, e.g. config/lego/;
-// --particles, --seed and --method override them. FastSLAM reads point clouds, or 2D scans when --scan is given.
+// --particles, --seed and --method override them. FastSLAM reads point clouds, or 2D scans when --scan is given, or
+// the detections of any landmark detector (rbpf_slam/TrunkArray in the sensor frame) when --landmarks is given.
 //
 // Every output file is written at the end, atomically (to a temporary, then renamed): a run that fails or is
 // interrupted (SIGINT, SIGTERM, SIGHUP) leaves no output behind. Messages whose stamps go back by more than a second
 // restart the filter (a looped bag), as the nodes do; unreadable messages are dropped and counted.
 //
-// Both write DIR/timing.json (processing seconds; evaluate_bag_run reads it). fastslam writes DIR/estimate.tum,
-// DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them) and DIR/map.csv; grid writes DIR/estimate.tum and DIR/odometry.tum (one pose per scan), DIR/odometry_all.tum
+// Both write DIR/timing.json (processing seconds; evaluate_bag_run reads it). fastslam writes DIR/estimate.tum (the
+// online estimate after each update, as the node publishes it), DIR/estimate_best_history.tum (the final best
+// particle's own trajectory), DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them), DIR/updates.csv (per
+// update: Neff, resampled, landmarks, observations, matched, new, deleted) and DIR/map.csv; grid writes DIR/estimate.tum and DIR/odometry.tum (one pose per scan), DIR/odometry_all.tum
 // (every odometry pose), DIR/map.yaml + DIR/map.pgm (map_server layout) and DIR/timing.txt.
 #include <algorithm>
 #include <cerrno>
@@ -64,7 +68,9 @@
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
+#include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/ros/cloud_conversions.h"
+#include "rbpf_slam/ros/fastslam_node.h"
 #include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/scan_conversions.h"
 
@@ -79,6 +85,7 @@ struct Options
   std::string bag_path, points_topic = "/points", scan_topic = "/scan", odom_topic = "/odom";
   std::string base_frame = "base_link", out_dir, method, config_path, extraction_config_path, resampling;
   bool scan_given = false;  // fastslam: 2D scans instead of point clouds
+  std::string landmarks_topic;  // fastslam: a detector's TrunkArrays instead of clouds or scans
   std::string wheels_topic, imu_topic = "/imu/data";
   int particles = -1;  // the filter's default
   long seed = -1;  // the configuration's (0 by default)
@@ -93,7 +100,8 @@ void usage(const char* argv0)
                "usage: %s [--filter fastslam|grid] --bag FILE [--odom TOPIC] [--base-frame FRAME] [--particles N]\n"
                "          [--seed S] [--out DIR] [--quiet]\n"
                "          [--config YAML (the filter's)]\n"
-               "  fastslam: [--points TOPIC | --scan TOPIC] [--extraction-config YAML] [--method circle|centroid]\n"
+               "  fastslam: [--points TOPIC | --scan TOPIC | --landmarks TOPIC (rbpf_slam/TrunkArray, sensor frame)]\n"
+               "            [--extraction-config YAML] [--method circle|centroid]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--wheels TOPIC [--wheel-radius M] [--track M] [--imu TOPIC] [--imu-weight W]]\n"
                "            [--odometry-only (a bag without scans: the odometry outputs only)]\n"
@@ -345,9 +353,11 @@ int runFastSlam(const Options& o)
   rosbag::Bag bag;
   openBag(o.bag_path, &bag);
   const auto topics = bagTopics(bag);
-  const std::string sensor_topic = o.scan_given ? o.scan_topic : o.points_topic;
+  const bool landmarks = !o.landmarks_topic.empty();
+  const std::string sensor_topic = landmarks ? o.landmarks_topic : o.scan_given ? o.scan_topic : o.points_topic;
   requireTopic(topics, o.bag_path, sensor_topic,
-               o.scan_given ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2", o.scan_given ? "--scan" : "--points");
+               landmarks ? "rbpf_slam/TrunkArray" : o.scan_given ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2",
+               landmarks ? "--landmarks" : o.scan_given ? "--scan" : "--points");
   requireTopic(topics, o.bag_path, o.odom_topic, "nav_msgs/Odometry", "--odom");
   // The lidar's mount on base_link from /tf_static (the first message names the lidar frame).
   std::string lidar_frame;
@@ -359,6 +369,8 @@ int runFastSlam(const Options& o)
         lidar_frame = cloud->header.frame_id;
       else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
         lidar_frame = scan->header.frame_id;
+      else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
+        lidar_frame = array->header.frame_id;
       if (!lidar_frame.empty())
         break;
     }
@@ -385,6 +397,10 @@ int runFastSlam(const Options& o)
   core::TrunkSlamPipeline pipeline(dc, fc);
 
   Outputs out(o.out_dir);
+  if (out.enabled())
+    out.stream("updates.csv") << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored\n";
+  std::vector<double> update_stamps;  // of the current timeline (a restart starts a new one)
+  int timeline = -1;
   int clouds = 0, updates = 0;
   DropLog drops;
   core::PlanarScan planar;
@@ -416,15 +432,38 @@ int runFastSlam(const Options& o)
                    m.getTopic(), stamp, &drops))
         ++clouds;
     }
+    else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
+    {
+      const double stamp = array->header.stamp.toSec();
+      if (array->header.frame_id != lidar_frame)
+        return drops.drop(m.getTopic(), stamp, "frame '" + array->header.frame_id + "', not the first array's '" +
+                                                   lidar_frame + "'");
+      core::TrunkSweep sweep;
+      const std::size_t bad = toTrunkSweep(*array, core::Pose2(mount.x, mount.y, mount.yaw), mount.z, &sweep);
+      if (bad > 0)
+        drops.drop(m.getTopic(), stamp, std::to_string(bad) + " detections with a non-finite value (left out)");
+      if (admitted(pipeline.addTrunks(std::move(sweep), clock, clock), m.getTopic(), stamp, &drops))
+        ++clouds;
+    }
   };
   const auto process = [&](double clock, bool flush) {
     for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
     {
       ++updates;
+      if (u.timeline != timeline)
+      {
+        update_stamps.clear();
+        timeline = u.timeline;
+      }
+      update_stamps.push_back(u.stamp);
       if (out.enabled())
       {
         io::writeTumLine(out.stream("estimate.tum"), u.stamp, u.estimate);
         io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
+        const core::FastSlamUpdateStats& st = u.stats;
+        out.stream("updates.csv") << u.stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks
+                                  << ',' << st.observations << ',' << st.matched << ',' << st.created << ','
+                                  << st.deleted << ',' << st.ignored << '\n';
       }
     }
   };
@@ -444,6 +483,12 @@ int runFastSlam(const Options& o)
     for (std::size_t i = 0; i < best.map.size(); ++i)
       landmarks.push_back(best.map[i]);
     out.stream("map.csv") << io::landmarksCsv(landmarks);
+    // The best particle's own trajectory: one pose per update of the last timeline.
+    const std::vector<core::Pose2> history = pipeline.filter().bestHistory();
+    const std::size_t n = std::min(history.size(), update_stamps.size());
+    std::ostream& h = out.stream("estimate_best_history.tum");
+    for (std::size_t i = 0; i < n; ++i)
+      io::writeTumLine(h, update_stamps[update_stamps.size() - n + i], history[history.size() - n + i]);
     out.stream("timing.json") << timingJson(clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(),
                                             fc.particles, fc.seed);
     out.commit();
@@ -453,8 +498,10 @@ int runFastSlam(const Options& o)
     std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
                 "backwards or not finite), %d restarts (time jumped back)\n",
                 o.bag_path.c_str(), clouds, updates, drops.count(), resets);
-    std::printf("  final pose (map frame = the odometry frame at the first update): %.3f %.3f %.1f deg; %zu landmarks\n", best.pose.x,
-                best.pose.y, best.pose.theta * 180.0 / M_PI, best.map.size());
+    const core::Pose2 estimate = pipeline.filter().estimate();
+    std::printf("  final estimate (%s; map frame = the odometry frame at the first update): %.3f %.3f %.1f deg; "
+                "%zu landmarks in the best particle's map\n",
+                core::toString(fc.estimate), estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
     std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
                 pipeline.secondsFilter(),
                 clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
@@ -700,6 +747,8 @@ int main(int argc, char** argv)
         o.scan_topic = argv[++i];
         o.scan_given = true;
       }
+      else if (a == "--landmarks")
+        o.landmarks_topic = argv[++i];
       else if (a == "--extraction-config")
         o.extraction_config_path = argv[++i];
       else if (a == "--odom")
@@ -735,6 +784,8 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--bag FILE is required (--help lists the options)");
     if (o.filter != "fastslam" && o.filter != "grid")
       throw std::invalid_argument("--filter must be fastslam or grid, not '" + o.filter + "'");
+    if (!o.landmarks_topic.empty() && (o.scan_given || o.filter != "fastslam"))
+      throw std::invalid_argument("--landmarks goes with --filter fastslam, without --scan");
     if (o.filter == "fastslam" && o.odometry_only)
       throw std::invalid_argument("--odometry-only goes with --filter grid");
   }

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "rbpf_slam/core/data_association.h"
+#include "rbpf_slam/core/history_chain.h"
 #include "rbpf_slam/core/landmark_evidence.h"
 #include "rbpf_slam/core/landmark_map.h"
 #include "rbpf_slam/core/landmark_observation.h"
@@ -36,22 +37,44 @@ const char* toString(PoseProposal p);
 /** @brief Range-bearing form of a detected trunk (its Cartesian covariance carried through the Jacobian). */
 LandmarkObservation toLandmarkObservation(const TrunkObservation& trunk);
 
+/** @brief Which pose the filter gives as its estimate. */
+enum class PoseEstimate
+{
+  kMean,  ///< the weighted mean of the particles' poses (circular mean of the heading)
+  kBest,  ///< the pose of the best particle
+};
+/** @brief "mean" or "best"; false (and @p out unchanged) otherwise. */
+bool parsePoseEstimate(const std::string& name, PoseEstimate* out);
+const char* toString(PoseEstimate e);
+
 struct FastSlamConfig
 {
   /// Upper bound of `particles`: 100000 particles hold ~100 MB per 1000 landmarks, beyond any robot's use.
   static constexpr int kMaxParticles = 100000;
   int particles = 100;
   OdometryMotionNoise motion;
+  /// The motion noise is that of one odometry step of at most this length [m] and turn [rad]: the motion between
+  /// two updates is predicted in steps of about this size along the odometry's own path, so that the noise grows
+  /// with the distance and turning between observations, whatever the sensor's rate, and a long gap follows the
+  /// path the odometry drove rather than one straight chord.
+  double motion_step = 0.2;
+  double motion_step_angle = 0.2;
 
   // Observation noise floor (added in quadrature to each observation's own covariance): the detector's
   // covariance is that of its fit and does not know of the sensor's systematic errors.
   double range_sigma_floor = 0.03;     ///< [m]
   double bearing_sigma_floor = 0.005;  ///< [rad]
 
-  // Visibility scope of the sensor (landmarks outside are neither matched nor missed).
-  double min_range = 1.0;      ///< [m]
-  double max_range = 12.0;     ///< [m]
-  double field_of_view = 6.283185307179586;  ///< [rad], centred on the sensor's x axis
+  // Visibility scope of the sensor (landmarks outside are neither matched nor missed): each sweep brings its
+  // sensor's own (TrunkArray's min_range, max_range, fov_min, fov_max, detection_probability); a value set here
+  // (> 0) bounds it, 0 leaves it to the sensor. Where neither says, the fallback scope below holds.
+  double min_range = 0.0;      ///< [m]
+  double max_range = 0.0;      ///< [m]
+  double field_of_view = 0.0;  ///< [rad], centred on the sensor's x axis
+  double detection_probability = 0.0;  ///< share of the landmarks in scope the sensor reports, in (0, 1]
+  /// [m], [m], [rad], [-]: the scope of a sensor that says nothing of its own and is not configured.
+  static constexpr double kFallbackMinRange = 1.0, kFallbackMaxRange = 12.0, kFallbackFieldOfView = 2.0 * M_PI,
+                          kFallbackDetectionProbability = 1.0;
 
   // Association: squared Mahalanobis distance (2 dof) within which a landmark may take an observation; an
   // observation whose best landmark is further (likelihood below that of the gate) makes a new landmark.
@@ -89,7 +112,16 @@ struct FastSlamConfig
   /// (every sample weighs p(z | x, m) p(x | u) over the mixture's density).
   bool mixture_balance = false;
 
+  /// The published pose: the weighted mean of the particles, or the best particle (the one of the largest weight
+  /// before resampling, followed through its copies).
+  PoseEstimate estimate = PoseEstimate::kMean;
+
   std::uint64_t seed = 0;
+
+  /** @brief The scope limits set here, as a SensorScope (NaN where left to the sensor). */
+  SensorScope configuredScope() const;
+  /** @brief The scope where neither the sensor nor the configuration says. */
+  static VisibilityScope fallbackScope();
 
   /** @brief Empty when valid, else a message naming the first bad parameter. */
   std::string validate() const;
@@ -103,6 +135,9 @@ struct Particle
   /// Covariance of the pose gathered by predict() since the last update, when the pose is carried as a
   /// Gaussian (FastSLAM 2.0, mixture); zero otherwise.
   Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
+  /// The particle's own pose after each update, newest first; ancestors shared with the particles that descend
+  /// from the same ones (a resampled copy shares its original's history).
+  HistoryNode<Pose2>::Ptr history;
 };
 
 /** @brief Counters of one update() for diagnostics. */
@@ -113,6 +148,7 @@ struct FastSlamUpdateStats
   int created = 0;     ///< in the best particle
   int ignored = 0;     ///< lost the matching but inside a gate: neither matched nor new (best particle)
   int deleted = 0;     ///< in the best particle
+  int landmarks = 0;   ///< in the best particle's map after the update
   int dual = 0;        ///< particles (all of them) whose pose came from the dual proposal (mixture)
   double neff = 0.0;   ///< before resampling
   bool resampled = false;
@@ -165,13 +201,25 @@ public:
    * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
    * is low. @p sensor is the sensor's pose on base_link (its planar part).
    */
-  FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor);
+  FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
+                             const SensorScope& sensor_scope = SensorScope());
 
   const std::vector<Particle>& particles() const { return particles_; }
   const FastSlamConfig& config() const { return config_; }
-  /** @brief Index of the particle with the largest weight. */
-  std::size_t bestIndex() const;
-  const Particle& best() const { return particles_[bestIndex()]; }
+  /**
+   * @brief Index of the best particle: the one of the largest weight after the last update, or after a
+   * resampling the first copy of the one that had the largest weight before it (never simply the first of a set
+   * of equal weights).
+   */
+  std::size_t bestIndex() const { return best_; }
+  const Particle& best() const { return particles_[best_]; }
+  /** @brief The estimate of base_link in the map (config().estimate: the weighted mean or the best particle's). */
+  Pose2 estimate() const { return config_.estimate == PoseEstimate::kBest ? best().pose : meanPose(); }
+  /** @brief The pose the best particle had after each update since initialize(), oldest first: its own
+   * trajectory (its ancestors' before they were resampled), one pose per update. */
+  std::vector<Pose2> bestHistory() const;
+  /** @brief The scope of the last update. */
+  const VisibilityScope& scope() const { return scope_; }
   /** @brief Weighted mean pose (circular mean of the heading). */
   Pose2 meanPose() const;
   /** @brief Weighted covariance of (x, y, theta). */
@@ -228,6 +276,8 @@ private:
   Random random_;
   int next_id_ = 0;
   std::vector<double> weights_;
+  std::vector<double> weights_before_;  ///< normalised weights before the last resampling
+  std::size_t best_ = 0;
   Scratch scratch_;
   VisibilityScope scope_;
   DataAssociation association_;

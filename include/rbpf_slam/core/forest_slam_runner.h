@@ -14,6 +14,10 @@ namespace rbpf_slam
 {
 namespace core
 {
+/// [m] The visibility scope of the simulated forest runs where a filter's configuration leaves it to the sensor:
+/// trees 1-12 m from the sensor count as seen (for the recall), and the filter's scope is the same.
+constexpr double kForestRunMinRange = 1.0, kForestRunMaxRange = 12.0;
+
 struct ForestSlamRunConfig
 {
   ScenarioConfig scenario;
@@ -25,7 +29,7 @@ struct ForestSlamRunConfig
 struct ForestSlamRunResult
 {
   std::vector<double> stamps;          ///< [s] of each filter update (the middle of each sweep)
-  std::vector<Pose2> estimate;         ///< best particle, start frame (= map frame)
+  std::vector<Pose2> estimate;         ///< the filter's online estimate, start frame (= map frame)
   std::vector<Pose2> odometry;         ///< dead reckoning at the same stamps
   std::vector<Pose2> truth;            ///< true pose at the same stamps, start frame
   std::vector<Landmark> landmarks;     ///< best particle's map at the end

@@ -16,7 +16,7 @@ namespace core
 struct EvidenceConfig
 {
   double hit = 1.0;           ///< added per match
-  double miss = 1.0;          ///< subtracted per expected miss
+  double miss = 1.0;          ///< subtracted per expected miss, times the scope's detection probability
   double max = 6.0;           ///< ceiling, so that a long-seen landmark can still be removed
   double delete_below = -1.5; ///< removed below this
   int confirm_observations = 3;  ///< provisional until seen this many times

@@ -67,6 +67,16 @@ public:
     return interpolate(a.pose, b.pose, s);
   }
 
+  /** @brief Calls @p f(stamp, pose) for every sample strictly between @p t0 and @p t1, oldest first. */
+  template <typename F>
+  void forEachBetween(double t0, double t1, F f) const
+  {
+    auto it = std::upper_bound(samples_.begin(), samples_.end(), t0,
+                               [](double v, const Sample& s) { return v < s.stamp; });
+    for (; it != samples_.end() && it->stamp < t1; ++it)
+      f(it->stamp, it->pose);
+  }
+
   /** @brief Forgets samples no longer needed for times >= @p t (keeps the last one at or before t). */
   void dropBefore(double t)
   {

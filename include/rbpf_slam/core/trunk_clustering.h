@@ -75,6 +75,24 @@ std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance,
  */
 bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance);
 
+/**
+ * @brief The horizontal angle between neighbouring beams of a 3D lidar [rad], from its points (sensor frame):
+ * points are grouped by elevation (one group per ring, @p elevation_bin [rad] wide) and the step is the median
+ * gap between neighbouring azimuths within a group. NaN when the points are too few to tell.
+ */
+double estimateAzimuthStep(const std::vector<Eigen::Vector3f>& points, double elevation_bin = 0.004);
+
+/**
+ * @brief How far a trunk of radius @p radius [m] still gives @p min_points points on a single ring of a lidar
+ * whose beams are @p azimuth_step [rad] apart: 2 radius / (min_points azimuth_step) [m]. NaN for an unknown step.
+ */
+inline double singleRingReach(double radius, int min_points, double azimuth_step)
+{
+  if (!(azimuth_step > 0.0) || min_points < 1)
+    return NAN;
+  return 2.0 * radius / (static_cast<double>(min_points) * azimuth_step);
+}
+
 }  // namespace core
 }  // namespace rbpf_slam
 

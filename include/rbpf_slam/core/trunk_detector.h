@@ -66,6 +66,8 @@ struct TrunkDetectorConfig
   double range_offset = 0.0;        ///< [m] 2D: added to every valid range (the scanner's range calibration)
   double min_range = 0.5;           ///< [m] trunks whose centre is nearer or further are dropped
   double max_range = 30.0;          ///< [m]
+  /// Share of the trunks inside its scope the detector reports (consumers weigh a miss by it), in (0, 1].
+  double detection_probability = 0.9;
   std::uint64_t seed = 0;           ///< of the RANSAC sampler
 
   /** @brief Empty when valid, else a message naming the first bad parameter. */
@@ -102,6 +104,8 @@ struct TrunkDetectorStats
   int trunks = 0;
   double tilt_roll = 0.0;   ///< [rad] sensor tilt estimated (3D)
   double tilt_pitch = 0.0;  ///< [rad]
+  /// [m] 3D: how far a trunk of arc_radius_prior still gives min_points on one ring of this cloud (NaN: unknown)
+  double reach = NAN;
   // Wall time of the stages of detect() [ms].
   double ms_band = 0.0;     ///< ground estimate and height band
   double ms_cluster = 0.0;  ///< clustering and candidate selection

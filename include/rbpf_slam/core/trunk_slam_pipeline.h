@@ -52,8 +52,21 @@ struct TrunkSweep
   double tilt_roll = 0.0, tilt_pitch = 0.0;  ///< [rad] the tilt the detector estimated and removed
   SweepGeometry geometry;
   SensorMount mount;  ///< the sensor on base_link
+  SensorScope scope;  ///< what the sensor could see (sensor frame; NaN where it does not say)
   std::vector<TrunkObservation> trunks;  ///< sensor frame, levelled
 };
+
+/**
+ * @brief What the detector @p config could see of the 2D scan @p scan: its bearings (angle_min to the last beam),
+ * its ranges (range_min..range_max within the detector's min_range..max_range), the detector's detection
+ * probability.
+ */
+SensorScope scanScope(const PlanarScan& scan, const TrunkDetectorConfig& config);
+/**
+ * @brief The same for a 3D sweep: all round, from the detector's min_range to the nearer of its max_range and
+ * @p reach (the range to which the cloud's resolution lets it find a trunk; NaN: not known).
+ */
+SensorScope sweepScope(const TrunkDetectorConfig& config, double reach = NAN);
 
 /** @brief One sweep after extraction and the filter update. */
 struct PipelineUpdate
@@ -129,6 +142,7 @@ private:
   std::unique_ptr<FastSlam> filter_;
   bool initialized_ = false;
   Pose2 last_odometry_;
+  double last_stamp_ = 0.0;
   double seconds_extraction_ = 0.0, seconds_filter_ = 0.0;
 };
 

@@ -75,7 +75,7 @@ struct SlamRosConfig
   std::string base_frame = "base_link";
   double transform_tolerance = 0.1;   ///< [s] map -> odom is stamped this far after the update
   bool publish_tf = true;
-  int max_path_poses = 100000;        ///< oldest poses of `path` are dropped beyond this
+  int max_path_poses = 5000;          ///< oldest poses of `path` are dropped beyond this (it is sent whole)
   double time_jump_threshold = 1.0;   ///< [s] see core::StampGate: a larger jump back restarts the filter
 };
 

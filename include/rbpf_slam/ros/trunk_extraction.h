@@ -65,8 +65,8 @@ private:
   /** @brief Reports a dropped input on ~stats (no TrunkArray is published for it). */
   void publishDropped(const std_msgs::Header& header, const char* input, const std::string& why);
   void publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
-               const core::TrunkDetectorStats& stats, double band_height, const char* input, double sweep_period = 0.0,
-               const core::SweepGeometry* geometry = nullptr);
+               const core::TrunkDetectorStats& stats, double band_height, const char* input, double sweep_period,
+               const core::SensorScope& scope, const core::SweepGeometry* geometry = nullptr);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;  ///< for log messages: the private namespace
