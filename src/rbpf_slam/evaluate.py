@@ -13,10 +13,17 @@ Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 * RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
   only where the reference carries orientation);
 * the map against the true landmarks, moved by the same fit, counted as ../shared/scenarios/README.md pins
-  it (score_map): recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS.
+  it (score_map): recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS; without a
+  reference path, after a rigid fit of the map itself onto the true landmarks (fit_map_rigid).
+
+The reference (read_bag_reference) is a path of poses (nav_msgs/Odometry, PoseStamped), or of positions only:
+a GPS as geometry_msgs/PointStamped in a local metric frame, or sensor_msgs/NavSatFix converted to a local
+east-north tangent plane on WGS84 about the first valid fix (geodetic_to_enu); the true landmarks are an
+rbpf_slam/TrunkArray (/ground_truth/landmarks of the converters, /ground_truth/trees of the simulator).
 """
 import csv
 import math
+import struct
 
 import numpy as np
 
@@ -243,6 +250,200 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic=None):
     return np.array(ts), np.array(xy), (np.array(yaw) if has_orientation else None), marks
 
 
+#: Message types a reference path can come in: full poses, or positions only (a GPS in a local metric frame,
+#: or a GPS fix in latitude / longitude, converted to a local ENU frame about the first valid fix).
+REFERENCE_TYPES = ('nav_msgs/Odometry', 'geometry_msgs/PoseStamped', 'geometry_msgs/PoseWithCovarianceStamped',
+                   'geometry_msgs/PointStamped', 'sensor_msgs/NavSatFix')
+#: The reference path topics looked for, in this order, when none is named (then any NavSatFix topic).
+DEFAULT_REFERENCE_TOPICS = ('/ground_truth/odom', '/gps/fix', '/gps', '/fix')
+#: The true landmark topics (rbpf_slam/TrunkArray) looked for, in this order, when none is named: the data
+#: set converters write /ground_truth/landmarks, the simulator and record_scenario /ground_truth/trees.
+DEFAULT_LANDMARK_TOPICS = ('/ground_truth/landmarks', '/ground_truth/trees')
+LANDMARK_TYPE = 'rbpf_slam/TrunkArray'
+
+#: WGS84 ellipsoid: semi-major axis [m] and flattening.
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+
+
+def geodetic_to_ecef(lat_deg, lon_deg, height=0.0):
+    """Earth-centred, earth-fixed coordinates [m] of WGS84 latitude / longitude [deg] and ellipsoidal height [m]."""
+    lat, lon = np.radians(np.asarray(lat_deg, float)), np.radians(np.asarray(lon_deg, float))
+    e2 = WGS84_F * (2.0 - WGS84_F)
+    n = WGS84_A / np.sqrt(1.0 - e2 * np.sin(lat) ** 2)  # prime vertical radius of curvature
+    return np.stack([(n + height) * np.cos(lat) * np.cos(lon), (n + height) * np.cos(lat) * np.sin(lon),
+                     (n * (1.0 - e2) + height) * np.sin(lat)], axis=-1)
+
+
+def geodetic_to_enu(lat_deg, lon_deg, lat0_deg, lon0_deg):
+    """East and north [m] (an (n, 2) array) of WGS84 latitudes / longitudes [deg] in the local tangent plane
+    at (lat0, lon0) on the ellipsoid: exact through ECEF, heights ignored (all points on the ellipsoid), so
+    that a 2D path is compared in the plane the robot drives in."""
+    d = geodetic_to_ecef(lat_deg, lon_deg) - geodetic_to_ecef(lat0_deg, lon0_deg)
+    lat0, lon0 = math.radians(lat0_deg), math.radians(lon0_deg)
+    east = -math.sin(lon0) * d[..., 0] + math.cos(lon0) * d[..., 1]
+    north = (-math.sin(lat0) * math.cos(lon0) * d[..., 0] - math.sin(lat0) * math.sin(lon0) * d[..., 1]
+             + math.cos(lat0) * d[..., 2])
+    return np.column_stack([np.ravel(east), np.ravel(north)])
+
+
+def _stamp(msg, bag_time):
+    s = msg.header.stamp.to_sec()
+    return s if s > 0 else bag_time.to_sec()  # an unstamped message: its bag time
+
+
+def _yaw_of_quaternion(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def _slash(topic):
+    return topic if topic.startswith('/') else '/' + topic
+
+
+def _pick(requested, defaults, types, wanted, option):
+    """The topic to read: ``requested`` (None: the first of ``defaults`` present with a type in ``wanted``;
+    'none': no topic), checked against the bag's ``types`` {topic: type}."""
+    if requested is not None:
+        if requested.lower() == 'none':
+            return None
+        topic = requested if requested in types else _slash(requested)
+        if topic not in types:
+            raise ValueError('no topic %s in the bag (%s)' % (requested, option))
+        if types[topic] not in wanted:
+            raise ValueError('%s is %s, not %s (%s)' % (topic, types[topic], ' or '.join(wanted), option))
+        return topic
+    for topic in defaults:
+        if types.get(topic) in wanted:
+            return topic
+    return None
+
+
+def _read_reference_messages(bag, path_topic, kind, marks_topic, rows, frames, out):
+    """read_bag_reference's loop: (t, x, y, yaw) of each valid path message into rows (its frame into
+    frames), the first TrunkArray into out['landmarks'], the counts into out."""
+    for topic, msg, bag_time in bag.read_messages(topics=[t for t in (path_topic, marks_topic) if t]):
+        if topic == marks_topic:
+            if out['landmarks'] is None:
+                out['landmarks'] = np.array([(tr.center.x, tr.center.y, tr.radius) for tr in msg.trunks],
+                                            dtype=float).reshape(-1, 3)
+                out['landmarks_frame'] = msg.header.frame_id
+            continue
+        out['messages'] += 1
+        yaw = float('nan')
+        if kind == 'sensor_msgs/NavSatFix':
+            ok = msg.status.status >= 0 and abs(msg.latitude) <= 90.0 and abs(msg.longitude) <= 180.0
+            x, y = msg.latitude, msg.longitude  # converted below, about the first valid fix
+        elif kind == 'geometry_msgs/PointStamped':
+            ok, x, y = True, msg.point.x, msg.point.y
+        else:
+            pose = msg.pose.pose if kind != 'geometry_msgs/PoseStamped' else msg.pose
+            ok, x, y = True, pose.position.x, pose.position.y
+            q = pose.orientation
+            yaw = _yaw_of_quaternion(q) if abs(q.x) + abs(q.y) + abs(q.z) > 1e-9 else float('nan')
+        t = _stamp(msg, bag_time)
+        if not (ok and math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
+            out['skipped'] += 1
+            continue
+        rows.append((t, x, y, yaw))
+        frames.append(msg.header.frame_id)
+
+
+def read_bag_reference(bag_path, reference_topic=None, landmarks_topic=None):
+    """The reference path and the true landmarks of a bag, as a dict:
+
+    * ``topic``, ``type``, ``frame``: the reference path (None for all when the bag has none);
+      ``reference_topic`` None picks the first of DEFAULT_REFERENCE_TOPICS in the bag, else its only
+      NavSatFix topic; 'none' reads no path. Any of REFERENCE_TYPES;
+    * ``t``, ``xy`` (n, 2) [m] sorted by stamp, ``yaw`` (or None for a reference of positions only),
+      ``messages`` (all of the topic) and ``skipped`` (NavSatFix without a fix, status < 0, or values that
+      are not finite); ``origin`` (lat, lon) [deg] of the ENU frame of a NavSatFix reference (its first valid
+      fix), else None;
+    * ``landmarks`` (m, 3: x, y, radius) of the first rbpf_slam/TrunkArray on ``landmarks_topic`` (None: the
+      first of DEFAULT_LANDMARK_TOPICS in the bag; 'none': none), ``landmarks_topic``, ``landmarks_frame``;
+      None where the bag has none;
+    * ``notes``: lines that say what was read and what is missing.
+
+    A bag with neither, a named topic that is missing or of another type, or a path topic without one valid
+    message is a ValueError naming the bag.
+    """
+    import genpy
+    import rosbag
+    try:
+        bag = rosbag.Bag(bag_path)
+    except (rosbag.ROSBagException, ValueError) as e:  # ValueError: e.g. a binary file that is no bag
+        raise ValueError('%s: not a readable bag (%s)' % (bag_path, e))
+    out = {'topic': None, 'type': None, 'frame': None, 't': None, 'xy': None, 'yaw': None, 'messages': 0,
+           'skipped': 0, 'origin': None, 'landmarks': None, 'landmarks_topic': None, 'landmarks_frame': None,
+           'notes': []}
+    with bag:
+        types = {topic: info.msg_type for topic, info in bag.get_type_and_topic_info().topics.items()}
+        try:
+            path_topic = _pick(reference_topic, DEFAULT_REFERENCE_TOPICS, types, REFERENCE_TYPES, '--reference')
+            if path_topic is None and reference_topic is None:
+                fixes = sorted(t for t, ty in types.items() if ty == 'sensor_msgs/NavSatFix')
+                path_topic = fixes[0] if len(fixes) == 1 else None
+            marks_topic = _pick(landmarks_topic, DEFAULT_LANDMARK_TOPICS, types, (LANDMARK_TYPE,),
+                                '--truth-landmarks')
+        except ValueError as e:
+            raise ValueError('%s: %s' % (bag_path, e))
+        paths = ('--reference none' if reference_topic is not None
+                 else 'none of %s, nor one NavSatFix topic' % ', '.join(DEFAULT_REFERENCE_TOPICS))
+        marks = ('--truth-landmarks none' if landmarks_topic is not None
+                 else 'no %s on %s' % (LANDMARK_TYPE, ' or '.join(DEFAULT_LANDMARK_TOPICS)))
+        if path_topic is None and marks_topic is None:
+            raise ValueError('%s: no reference: no path topic (%s) and no true landmarks (%s)'
+                             % (bag_path, paths, marks))
+        kind = types.get(path_topic)
+        rows, frames = [], []
+        try:
+            _read_reference_messages(bag, path_topic, kind, marks_topic, rows, frames, out)
+        except (rosbag.ROSBagException, genpy.DeserializationError, struct.error) as e:  # a truncated or damaged bag
+            raise ValueError('%s: cannot read %s (%s)' % (bag_path, ' and '.join(t for t in (path_topic, marks_topic)
+                                                                                  if t), ' '.join(str(e).split())))
+    if path_topic is not None:
+        what = 'fixes' if kind in ('sensor_msgs/NavSatFix', 'geometry_msgs/PointStamped') else 'poses'
+        if not rows:
+            raise ValueError('%s: no valid %s on %s (%s, %d message(s), %d skipped: %s)'
+                             % (bag_path, what, path_topic, kind, out['messages'], out['skipped'],
+                                'no fix or not finite' if kind == 'sensor_msgs/NavSatFix' else 'not finite'))
+        data = np.array(rows, dtype=float)
+        order = np.argsort(data[:, 0], kind='stable')
+        data = data[order]
+        out.update(topic=path_topic, type=kind, frame=frames[int(order[0])], t=data[:, 0])
+        if kind == 'sensor_msgs/NavSatFix':
+            first = rows[0]  # the first valid fix in the bag's order
+            out['origin'] = (first[1], first[2])
+            out['xy'] = geodetic_to_enu(data[:, 1], data[:, 2], first[1], first[2])
+            out['frame'] = 'ENU about the first valid fix (%.7f, %.7f)' % out['origin']
+        else:
+            out['xy'] = data[:, 1:3]
+        yaws = data[:, 3]
+        # Poses whose orientation is all zero (a position-only reference in a pose message) have no heading.
+        out['yaw'] = np.nan_to_num(yaws, nan=0.0) if np.any(np.isfinite(yaws)) else None
+        line = 'reference: %s (%s%s), %d %s' % (path_topic, kind, ', found in the bag; --reference to choose'
+                                                if reference_topic is None else '', len(rows), what)
+        if kind == 'sensor_msgs/NavSatFix':
+            line += ' in ENU about the first valid fix (lat %.7f, lon %.7f)' % out['origin']
+        if out['skipped'] or kind == 'sensor_msgs/NavSatFix':
+            line += '; %d of %d skipped (%s)' % (out['skipped'], out['messages'], 'no fix or not finite'
+                                                   if kind == 'sensor_msgs/NavSatFix' else 'not finite')
+        out['notes'].append(line)
+    else:
+        out['notes'].append('reference: no path (%s): the map is scored alone' % paths)
+    if marks_topic is None:
+        out['notes'].append('true landmarks: none (%s): the map is not scored' % marks)
+    elif out['landmarks'] is None:
+        out['notes'].append('true landmarks: %s has no message: the map is not scored' % marks_topic)
+    else:
+        out['landmarks_topic'] = marks_topic
+        out['notes'].append('true landmarks: %s, %d in frame %s' % (marks_topic, len(out['landmarks']),
+                                                                    out['landmarks_frame'] or '(none)'))
+        if out['frame'] and out['landmarks_frame'] and out['frame'].lstrip('/') != out['landmarks_frame'].lstrip('/'):
+            out['notes'].append('true landmarks: frame %s differs from the reference path\'s (%s): compared as one '
+                                'frame' % (out['landmarks_frame'], out['frame']))
+    return out
+
+
 def match_by_stamp(t, ref_t, tolerance):
     """Pairs of a trajectory's poses with the reference's by stamp (both sorted): for each stamp of ``t`` the
     reference stamp nearest to it (the later one on a tie), kept where they are at most ``tolerance`` [s]
@@ -288,41 +489,121 @@ def tum_text(t, xy, yaw):
                    for ti, p, a in zip(t, xy, yaw))
 
 
+def fit_map_rigid(features, trees, gate=0.5, coarse_gate=2.0, iterations=20):
+    """A rigid 2D transform (R, t) that moves a map (n, 3: x, y, r) onto the true landmarks (m, 3), for a run
+    without a reference path: match one-to-one (optimal assignment) inside ``coarse_gate`` [m], fit
+    (fit_rigid_2d) over the matches, match again with the moved map, until the matches stay the same; then
+    the same inside ``gate``. Returns (R, t, number of matches of the last fit); (identity, zero, n) when
+    fewer than 2 matches are found (no fit)."""
+    from scipy.optimize import linear_sum_assignment
+    r, t, used = np.eye(2), np.zeros(2), 0
+    if len(features) < 2 or len(trees) < 2:
+        return r, t, 0
+    for g in (max(coarse_gate, gate), gate):
+        previous = None
+        for _ in range(iterations):
+            moved = features[:, :2] @ r.T + t
+            d = np.linalg.norm(moved[:, None, :] - trees[None, :, :2], axis=2)
+            cost = np.where(d <= g, d, 1e6)
+            rows, cols = linear_sum_assignment(cost)
+            ok = cost[rows, cols] < 1e6
+            pairs = (tuple(rows[ok]), tuple(cols[ok]))
+            if len(pairs[0]) < 2 or pairs == previous:
+                break
+            r, t = fit_rigid_2d(features[rows[ok], :2], trees[cols[ok], :2])
+            used, previous = len(pairs[0]), pairs
+    return r, t, used
+
+
+def _transform_info(r, t):
+    return {'rotation_deg': math.degrees(math.atan2(r[1, 0], r[0, 0])), 'translation': [float(t[0]), float(t[1])]}
+
+
+def _moved_map(features, r, t):
+    moved = features.copy()
+    if len(moved):
+        moved[:, :2] = features[:, :2] @ r.T + t
+    return moved
+
+
+def _path_metrics(run, rt, rxy, ryaw, point_offset, fit, rpe_distance):
+    """The path metrics of one trajectory (t, xy, yaw) against the reference positions rxy at the times rt
+    (headings ryaw or None), after a rigid fit or none. Returns (metrics, (R, t, moved points, errors))."""
+    xy, yaw = interpolate(run[0], run[1], run[2], rt)
+    pts = point_of(xy, yaw, point_offset)
+    r, t = fit_rigid_2d(pts, rxy) if fit else (np.eye(2), np.zeros(2))
+    moved = pts @ r.T + t
+    err = np.linalg.norm(moved - rxy, axis=1)
+    fitted_yaw = yaw + math.atan2(r[1, 0], r[0, 0])
+    t_rpe, r_rpe, pairs = rpe(rxy, moved, rpe_distance, ryaw, fitted_yaw if ryaw is not None else None)
+    # Diagnostic: the shape alone (a similarity fit also removes a scale error of the run or the reference).
+    sc, sr, st = fit_similarity_2d(pts, rxy)
+    err_scaled = np.linalg.norm(sc * pts @ sr.T + st - rxy, axis=1)
+    metrics = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'final_error': float(err[-1]),
+               'path_rms_similarity': float(np.sqrt(np.mean(err_scaled ** 2))), 'similarity_scale': sc,
+               'max_error': float(err.max()), 'rpe_translation': t_rpe, 'rpe_rotation_deg': r_rpe,
+               'rpe_pairs': pairs, 'transform': _transform_info(r, t)}
+    return metrics, (r, t, moved, err)
+
+
 def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=None, point_offset=(0.0, 0.0),
-             fit=True, gate=0.5, rpe_distance=1.0):
-    """Every metric of one run. est / odom: (t, xy, yaw) as read_tum returns them."""
+             fit=True, gate=0.5, rpe_distance=1.0, no_fit_too=False):
+    """Every metric of one run. est / odom: (t, xy, yaw) as read_tum returns them; ref_t, ref_xy, ref_yaw the
+    reference path (ref_yaw None: positions only, e.g. GPS), compared at its stamps inside the estimate's
+    time span (the estimate interpolated there). The map (features (n, 3)) is scored against truth_map (m, 3),
+    moved by the estimate's fit. Without a reference path (ref_t None) the map alone is scored, fitted onto
+    the true landmarks by fit_map_rigid when ``fit``.
+
+    With ``no_fit_too`` (and ``fit``) summary['no_fit'] holds the same figures without a fit (the run's frame
+    taken as the reference's: the start pose known). Returns (summary, transforms, (reference t, xy) or None).
+    """
+    if ref_t is None:
+        return _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too)
+    ref_t = np.asarray(ref_t, float)
     sel = (ref_t >= est[0][0]) & (ref_t <= est[0][-1])
     if sel.sum() < 2:
-        raise ValueError('the estimate (%.3f .. %.3f s) does not overlap the reference (%.3f .. %.3f s)'
-                         % (est[0][0], est[0][-1], ref_t[0], ref_t[-1]))
+        raise ValueError('the estimate (%.3f .. %.3f s) does not overlap the reference (%.3f .. %.3f s): %d of %d '
+                         'reference stamps inside it, 2 needed'
+                         % (est[0][0], est[0][-1], ref_t[0], ref_t[-1], int(sel.sum()), len(ref_t)))
     rt, rxy = ref_t[sel], ref_xy[sel]
     ryaw = ref_yaw[sel] if ref_yaw is not None else None
-    summary = {'reference_poses': int(sel.sum()), 'fit': 'rigid_2d' if fit else 'none',
-               'point_offset': list(point_offset)}
+    summary = {'reference_poses': int(sel.sum()), 'reference_total': int(len(ref_t)),
+               'fit': 'rigid_2d' if fit else 'none', 'point_offset': list(point_offset)}
     transforms = {}
+    no_fit = {} if fit and no_fit_too else None
     for name, run in (('estimate', est), ('odometry', odom)):
         if run is None:
             continue
-        xy, yaw = interpolate(run[0], run[1], run[2], rt)
-        pts = point_of(xy, yaw, point_offset)
-        r, t = fit_rigid_2d(pts, rxy) if fit else (np.eye(2), np.zeros(2))
-        moved = pts @ r.T + t
-        err = np.linalg.norm(moved - rxy, axis=1)
-        fitted_yaw = yaw + math.atan2(r[1, 0], r[0, 0])
-        t_rpe, r_rpe, pairs = rpe(rxy, moved, rpe_distance, ryaw, fitted_yaw if ryaw is not None else None)
-        # Diagnostic: the shape alone (a similarity fit also removes a scale error of the run or the reference).
-        sc, sr, st = fit_similarity_2d(pts, rxy)
-        err_scaled = np.linalg.norm(sc * pts @ sr.T + st - rxy, axis=1)
-        summary[name] = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'final_error': float(err[-1]),
-                         'path_rms_similarity': float(np.sqrt(np.mean(err_scaled ** 2))), 'similarity_scale': sc,
-                         'max_error': float(err.max()), 'rpe_translation': t_rpe, 'rpe_rotation_deg': r_rpe,
-                         'rpe_pairs': pairs}
-        transforms[name] = (r, t, moved, err)
+        summary[name], transforms[name] = _path_metrics(run, rt, rxy, ryaw, point_offset, fit, rpe_distance)
+        if no_fit is not None:
+            no_fit[name] = _path_metrics(run, rt, rxy, ryaw, point_offset, False, rpe_distance)[0]
     if truth_map is not None and features is not None:
         r, t = transforms['estimate'][:2]
-        moved = features.copy()
-        if len(moved):
-            moved[:, :2] = features[:, :2] @ r.T + t
-        summary['map'] = score_map(moved, truth_map, gate)
-        transforms['map'] = moved
+        transforms['map'] = _moved_map(features, r, t)
+        summary['map'] = score_map(transforms['map'], truth_map, gate)
+        if no_fit is not None:
+            no_fit['map'] = score_map(features, truth_map, gate)
+    if no_fit is not None:
+        summary['no_fit'] = no_fit
     return summary, transforms, (rt, rxy)
+
+
+def _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too):
+    """evaluate without a reference path: the map against the true landmarks, after fit_map_rigid or none."""
+    if truth_map is None or features is None:
+        raise ValueError('nothing to score: no reference path, and %s'
+                         % ('no true landmarks' if truth_map is None else 'no map of the run'))
+    summary = {'reference_poses': 0, 'reference_total': 0, 'fit': 'map_rigid_2d' if fit else 'none',
+               'point_offset': list(point_offset)}
+    r, t, used = fit_map_rigid(features, truth_map, gate) if fit else (np.eye(2), np.zeros(2), 0)
+    if fit:
+        summary['map_fit'] = dict(_transform_info(r, t), matches=int(used))
+        if used < 2:
+            summary['fit'] = 'none'  # fewer than 2 matches: nothing to fit on
+    transforms = {'map': _moved_map(features, r, t)}
+    pts = point_of(est[1], est[2], point_offset)
+    transforms['estimate'] = (r, t, pts @ r.T + t, None)
+    summary['map'] = score_map(transforms['map'], truth_map, gate)
+    if fit and no_fit_too:
+        summary['no_fit'] = {'map': score_map(features, truth_map, gate)}
+    return summary, transforms, None
