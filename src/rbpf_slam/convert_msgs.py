@@ -127,5 +127,10 @@ def trunk(x, y, radius=0.0, radius_variance=0.0, covariance=(0.0, 0.0, 0.0, 0.0)
     return t
 
 
-def trunk_array(stamp, frame, trunks):
-    return TrunkArray(header=header(stamp, frame), trunks=list(trunks))
+def trunk_array(stamp, frame, trunks, scope=None):
+    """``scope``: what the sensor could see, a dict of TrunkArray's min_range, max_range, fov_min, fov_max,
+    detection_probability (absent keys: 0, not known)."""
+    msg = TrunkArray(header=header(stamp, frame), trunks=list(trunks))
+    for key, value in (scope or {}).items():
+        setattr(msg, key, float(value))
+    return msg

@@ -12,6 +12,8 @@
   (unknown), the 2 x 2 covariance of the centre from the stated sensor noise (``--range-sigma``
   0.1 m, ``--bearing-sigma`` 0.1 rad: the course's EKF-SLAM exercise's Q = 0.01 I) through the
   polar-to-Cartesian Jacobian, method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
+* Each array states the sensor's scope (TrunkArray min_range .. max_range, all round): the course does not state
+  the sensor's range, so ``--max-range`` defaults to the largest range the file holds, rounded up to 0.1 m.
 * ``id`` is -1 (unknown) unless ``--keep-ids``: the course data gives each observation the true
   landmark's id, i.e. the true data association, which is ground truth and must not reach a filter
   that estimates. ``--keep-ids`` reproduces the course's
@@ -133,6 +135,9 @@ def build_parser():
                    help='range noise [m] (default %(default)s)')
     p.add_argument('--bearing-sigma', type=cc.positive_float, default=BEARING_SIGMA,
                    help='bearing noise [rad] (default %(default)s)')
+    p.add_argument('--max-range', type=cc.positive_float, default=None,
+                   help="the sensor's range [m], stated in every array (default: the file's largest range, "
+                        "rounded up to 0.1 m)")
     p.add_argument('--keep-ids', action='store_true',
                    help='keep the given landmark ids in the observations (true data association: ground truth)')
     cc.add_common_arguments(
@@ -169,6 +174,11 @@ def convert(args, out, bad, summary):
     if world is None:
         summary.note('no world file (%s): no ground-truth landmarks' % world_path)
     out.expect(3 * (len(steps) + 1) + (world is not None))
+    ranges = [abs(r) for s in steps for _, r, _ in s.observations] + [abs(r) for _, r, _ in initial]
+    max_range = args.max_range or (math.ceil(max(ranges) * 10.0) / 10.0 if ranges else 0.0)
+    scope = {'min_range': 0.0, 'max_range': max_range, 'fov_min': -math.pi, 'fov_max': math.pi}
+    summary.note('sensor scope stated in every array: 0-%.1f m all round%s' % (
+        max_range, '' if args.max_range else " (the file's largest range; --max-range sets it)"))
 
     def trunks_of(observations):
         trunks = []
@@ -195,7 +205,7 @@ def convert(args, out, bad, summary):
                                                  float(pth), float(v), float(w)), False
             yield t, '/tf', m.tf_message(m.transform(t, args.odom_frame, args.base_frame, float(px), float(py),
                                                      float(pth))), False
-            yield t, args.landmarks_topic, m.trunk_array(t, args.base_frame, trunks_of(obs)), False
+            yield t, args.landmarks_topic, m.trunk_array(t, args.base_frame, trunks_of(obs), scope), False
 
     out.write_merged([statics(), timeline()])
 

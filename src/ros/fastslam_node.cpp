@@ -51,10 +51,15 @@ core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg)
 {
   core::SensorScope s;
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (positive(msg.min_range))
-    s.min_range = msg.min_range;
   if (positive(msg.max_range))
+  {
+    // A sensor that states its range states its near limit too (0: it sees from its origin on).
     s.max_range = msg.max_range;
+    if (std::isfinite(msg.min_range) && msg.min_range >= 0.0 && msg.min_range < msg.max_range)
+      s.min_range = msg.min_range;
+  }
+  else if (positive(msg.min_range))
+    s.min_range = msg.min_range;
   if (std::isfinite(msg.fov_min) && std::isfinite(msg.fov_max) && msg.fov_max > msg.fov_min)
   {
     s.fov_min = msg.fov_min;
