@@ -1,9 +1,10 @@
 // Trunk extraction from a car's planar scanner: simulated 2D scans of a park (trees, poles, bushes, parked cars),
 // detections against the true trunks by range band. Prints a table; not a test.
 //
-//   rosrun rbpf_slam scan_trunk_benchmark [--world FILE] [--cars FILE] [--step M] [--min-beams N]
+//   rosrun rbpf_slam scan_trunk_benchmark [--world FILE] [--cars FILE|none] [--step M] [--min-beams N] [--min-jump M]
 // The scanner: 180 deg field of view, 0.5 deg step, 80 m, 0.5 m above the ground, range sigma 2 cm.
 // --min-beams: arcs of fewer beams are dropped (the detector's scan_min_beams; default: the detector's default).
+// --min-jump: the detector's scan_min_jump [m].
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -98,11 +99,12 @@ int bandOf(double range)
 
 int main(int argc, char** argv)
 {
-  pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/park.yaml";
   std::string cars_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/park.cars.txt";
   double step = 10.0;
   int min_beams = -1;
+  double min_jump = -1.0;
   for (int i = 1; i < argc; ++i)
   {
     const std::string arg = argv[i];
@@ -114,9 +116,11 @@ int main(int argc, char** argv)
       step = std::atof(argv[++i]);
     else if (arg == "--min-beams" && i + 1 < argc)
       min_beams = std::atoi(argv[++i]);
+    else if (arg == "--min-jump" && i + 1 < argc)
+      min_jump = std::atof(argv[++i]);
     else
     {
-      std::fprintf(stderr, "usage: %s [--world FILE] [--cars FILE|none] [--step M] [--min-beams N]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--world FILE] [--cars FILE|none] [--step M] [--min-beams N] [--min-jump M]\n", argv[0]);
       return 2;
     }
   }
@@ -144,7 +148,9 @@ int main(int argc, char** argv)
     cfg.arc_radius_prior = 0.2;
     cfg.arc_radius_sigma = 0.15;
     if (min_beams > 0)
-      throw std::runtime_error("--min-beams: this detector has no such setting");
+      cfg.scan_min_beams = min_beams;
+    if (min_jump > 0.0)
+      cfg.scan_min_jump = min_jump;
     core::TrunkDetector detector(cfg);
 
     // Sensor poses on a grid over the park's interior, headings from a seeded generator, clear of everything.
@@ -215,6 +221,7 @@ int main(int argc, char** argv)
       total.rejected_radius += stats.rejected_radius;
       total.rejected_inliers += stats.rejected_inliers;
       total.rejected_shape += stats.rejected_shape;
+      total.rejected_clutter += stats.rejected_clutter;
       total.trunks += stats.trunks;
 
       // True trunks in the scan frame; greedy one-to-one matching by distance within the gate.
@@ -307,7 +314,7 @@ int main(int argc, char** argv)
     line("all", all);
     std::printf("arcs %d: rejected size %d, radius %d, inliers %d, shape %d", total.clusters, total.rejected_size,
                 total.rejected_radius, total.rejected_inliers, total.rejected_shape);
-    std::printf("; trunks %d\n", total.trunks);
+    std::printf(", clutter %d; trunks %d\n", total.rejected_clutter, total.trunks);
   }
   catch (const std::exception& e)
   {
