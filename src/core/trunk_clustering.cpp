@@ -250,9 +250,11 @@ std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance,
     ++valid;
     const double a = scan.angle_min + scan.angle_increment * static_cast<double>(i);
     const Eigen::Vector2d p(r * std::cos(a), r * std::sin(a));
-    // Beams that told nothing in between widen the gap the surface leaves between two of its points.
+    // The beams leave a gap of range times their angle on a surface facing the sensor; beams that told nothing in
+    // between widen it.
     if (!current.points.empty() &&
-        (p - prev).norm() > tolerance * static_cast<double>(static_cast<int>(i) - current.last_beam))
+        (p - prev).norm() > (tolerance + std::min(r, prev.norm()) * std::abs(scan.angle_increment)) *
+                                static_cast<double>(static_cast<int>(i) - current.last_beam))
       close();
     if (current.points.empty())
       current.first_beam = static_cast<int>(i);
@@ -310,6 +312,27 @@ double estimateAzimuthStep(const std::vector<Eigen::Vector3f>& points, double el
     return NAN;
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
   return gaps[gaps.size() / 2];
+}
+
+bool isArcIsolated(const PlanarScan& scan, const ScanArc& arc, double min_jump, double range_offset)
+{
+  if (arc.points.empty())
+    return false;
+  const int count = static_cast<int>(scan.ranges.size());
+  // The first informative beam from `beam` on in direction `step` has no return or one further than r + min_jump.
+  const auto background = [&](int beam, int step, double r) {
+    while (beam >= 0 && beam < count &&
+           isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+      beam += step;
+    if (beam < 0 || beam >= count)
+      return false;  // the field of view ends: the object may go on beyond it
+    const double rb = scan.ranges[static_cast<std::size_t>(beam)];
+    if (!(std::isfinite(rb) && rb <= scan.range_max))
+      return true;
+    return rb + range_offset >= r + min_jump;
+  };
+  return background(arc.first_beam - 1, -1, arc.points.front().norm()) &&
+         background(arc.last_beam + 1, 1, arc.points.back().norm());
 }
 
 }  // namespace core

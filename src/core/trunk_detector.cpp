@@ -107,6 +107,10 @@ std::string TrunkDetectorConfig::validate() const
     return "cluster_tolerance must be > 0";
   if (min_points < 3)
     return "min_points must be >= 3";
+  if (scan_min_beams < 1)
+    return "scan_min_beams must be >= 1";
+  if (!positive(scan_min_jump))
+    return "scan_min_jump must be > 0";
   if (max_points < min_points)
     return "max_points must be >= min_points";
   if (!positive(min_radius) || !(max_radius > min_radius))
@@ -241,11 +245,14 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   st->clusters = static_cast<int>(arcs.size());
   st->band_points = st->finite_points;
 
+  const double beam_spacing = std::abs(scan.angle_increment);
   for (const ScanArc& arc : arcs)
   {
-    // A far trunk may give an arc of very few points: the arc fallback fits it, but a single beam is no trunk.
+    // A far trunk gives an arc of one or two beams: too few to fit a circle, so the radius prior places its centre,
+    // and only an isolated, convex arc no wider than a trunk is taken for one (walls, cars and bushes break into
+    // short arcs too).
     const int n = static_cast<int>(arc.points.size());
-    if (n < std::min(cfg.min_points, 3) || n > cfg.max_points)
+    if (n < cfg.scan_min_beams || n > cfg.max_points)
     {
       ++st->rejected_size;
       continue;
@@ -255,7 +262,15 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
       ++st->rejected_shape;
       continue;
     }
-    const TrunkFit fit = fitTrunk(arc.points, cfg);
+    const bool short_arc = n < cfg.min_fit_points;
+    TrunkFit fit = short_arc && cfg.method == TrunkMethod::kCircle ? fitShortArc(arc.points, beam_spacing, cfg) :
+                                                                     fitTrunk(arc.points, cfg);
+    if ((short_arc || fit.method == TrunkMethod::kArc) &&
+        !(isArcIsolated(scan, arc, cfg.scan_min_jump, cfg.range_offset) && isTrunkShapedArc(arc.points, cfg)))
+    {
+      ++st->rejected_clutter;
+      continue;
+    }
     const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
     if (rejection != TrunkRejection::kNone)
     {

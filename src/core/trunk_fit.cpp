@@ -85,6 +85,37 @@ void initialCircle(const std::vector<Eigen::Vector2d>& points, const Eigen::Vect
     *radius = kr;
   }
 }
+/** Standard normal density and distribution. */
+double normalPdf(double z)
+{
+  return std::exp(-0.5 * z * z) / std::sqrt(2.0 * kPi);
+}
+double normalCdf(double z)
+{
+  return 0.5 * std::erfc(-z / std::sqrt(2.0));
+}
+
+/**
+ * Mean and variance of N(mu, sigma^2) truncated to [lo, hi]: the radius prior once the arc's width has said that the
+ * trunk is at least half as wide as its chord.
+ */
+void truncatedNormal(double mu, double sigma, double lo, double hi, double* mean, double* variance)
+{
+  const double a = (lo - mu) / sigma, b = (hi - mu) / sigma;
+  const double z = normalCdf(b) - normalCdf(a);
+  if (z > 1e-12)
+  {
+    const double d = (normalPdf(a) - normalPdf(b)) / z;
+    *mean = mu + sigma * d;
+    *variance = sigma * sigma * std::max(1e-6, 1.0 + (a * normalPdf(a) - b * normalPdf(b)) / z - d * d);
+  }
+  else  // far in the upper tail: nearly exponential above lo with scale sigma^2 / (lo - mu)
+  {
+    const double scale = std::min(hi - lo, sigma * sigma / std::max(lo - mu, 1e-9));
+    *mean = lo + scale;
+    *variance = scale * scale;
+  }
+}
 }  // namespace
 
 TrunkFit fitTrunkCentroid(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
@@ -165,6 +196,117 @@ TrunkFit fitTrunkCircle(const std::vector<Eigen::Vector2d>& points, const TrunkD
       (n < config.min_fit_points || fit.arc_angle < config.min_fit_arc) ? TrunkMethod::kArc : TrunkMethod::kCircle;
   fit.ok = true;
   return fit;
+}
+
+TrunkFit fitShortArc(const std::vector<Eigen::Vector2d>& points, double beam_spacing, const TrunkDetectorConfig& config)
+{
+  // Too few beams, too close together, to measure the curvature: the radius comes from the prior, the centre is one
+  // radius behind the arc's middle. Frame: u along the ray through the middle of the arc's lateral extent, v across.
+  //
+  //   Radius: the prior N(arc_radius_prior, arc_radius_sigma^2), truncated to [max(min_radius, w), max_radius] where
+  //   w is half the chord (the points lie on the trunk, so it is at least that wide): mean R, variance sR^2.
+  //   Centre along the ray: every point i at lateral offset x_i from the middle ray lies sqrt(R^2 - x_i^2) in front
+  //   of the centre, so rho_c = mean_i(rho_i + sqrt(R^2 - x_i^2)). Its variance sums
+  //     - the radius: (dRho/dR)^2 sR^2 with dRho/dR = mean_i R / sqrt(R^2 - x_i^2) (>= 1: a point near the
+  //       silhouette's edge says little about the depth; the root is kept >= R/4 so the slope stays <= 4),
+  //     - the range noise: range_sigma^2 / n,
+  //     - the bearing of the points: a beam of width about its spacing s = rho_c * beam_spacing returns from
+  //       anywhere across it, uniformly, so x_i is uncertain by s/sqrt(12) and moves the depth by
+  //       x_i / sqrt(R^2 - x_i^2) times that.
+  //   Centre across the ray: the trunk may sit anywhere that gives the same beams. The set of centres whose
+  //   silhouette (2R wide) covers exactly these beams and misses their neighbours is an interval at most one beam
+  //   spacing long, whatever R; a uniform distribution over it has a variance of at most s^2/12 (the beam width's
+  //   own s/sqrt(12) is the same bound), plus range_sigma^2 / n for the points' own noise.
+  //   The centre's depth and the radius are correlated: cov(rho_c, R) = dRho/dR sR^2.
+  TrunkFit fit;
+  const int n = static_cast<int>(points.size());
+  if (n < 1)
+    return fit;
+  const Eigen::Vector2d mean = meanOf(points);
+  if (!(mean.norm() > 0.0))
+    return fit;
+  Eigen::Vector2d u = mean.normalized();
+  Eigen::Vector2d v(-u.y(), u.x());
+  double x_lo = 0.0, x_hi = 0.0;
+  for (const auto& q : points)
+  {
+    x_lo = std::min(x_lo, v.dot(q - mean));
+    x_hi = std::max(x_hi, v.dot(q - mean));
+  }
+  const Eigen::Vector2d middle = mean + v * (0.5 * (x_lo + x_hi));
+  u = middle.normalized();
+  v = Eigen::Vector2d(-u.y(), u.x());
+  const double half_chord = 0.5 * (x_hi - x_lo);
+
+  const double lo = std::max(config.min_radius, half_chord);
+  const double hi = std::max(config.max_radius, lo + 1e-3);
+  double radius = 0.0, radius_var = 0.0;
+  truncatedNormal(config.arc_radius_prior, config.arc_radius_sigma, lo, hi, &radius, &radius_var);
+
+  double depth = 0.0, slope_r = 0.0, slope_x = 0.0;
+  for (const auto& q : points)
+  {
+    const double x = v.dot(q);
+    const double root = std::max(std::sqrt(std::max(radius * radius - x * x, 0.0)), 0.25 * radius);
+    depth += u.dot(q) + root;
+    slope_r += radius / root;
+    slope_x += std::abs(x) / root;
+  }
+  depth /= n;
+  slope_r /= n;
+  slope_x /= n;
+  const double spacing = depth * std::abs(beam_spacing);
+  const double range_var = config.range_sigma * config.range_sigma / n;
+  const double along_var = slope_r * slope_r * radius_var + range_var + slope_x * slope_x * spacing * spacing / 12.0;
+  const double across_var = spacing * spacing / 12.0 + range_var;
+
+  fit.center = u * depth;
+  fit.radius = radius;
+  fit.covariance.setZero();
+  fit.covariance.topLeftCorner<2, 2>() = along_var * u * u.transpose() + across_var * v * v.transpose();
+  fit.covariance.topRightCorner<2, 1>() = slope_r * radius_var * u;
+  fit.covariance.bottomLeftCorner<1, 2>() = slope_r * radius_var * u.transpose();
+  fit.covariance(2, 2) = radius_var;
+  fit.inliers = n;
+  fit.arc_angle = 2.0 * std::asin(std::min(1.0, half_chord / radius));
+  fit.method = TrunkMethod::kArc;
+  fit.ok = true;
+  return fit;
+}
+
+bool isTrunkShapedArc(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
+{
+  const int n = static_cast<int>(points.size());
+  if (n < 2)
+    return true;
+  // Width: the points lie on the trunk's visible side, which is no wider than the trunk.
+  const Eigen::Vector2d a = points.front(), b = points.back();
+  const double chord = (b - a).norm();
+  if (chord > 2.0 * config.max_radius)
+    return false;
+  if (n < 3 || chord <= 0.0)
+    return true;
+  // Curvature: a trunk's side bulges towards the sensor at least as much as the flattest trunk (max_radius) through
+  // the same ends does. The inner points' mean offset from the chord, towards the sensor, beyond that bulge must not
+  // be below minus three of its standard deviations (a point's offset from a chord of two noisy ends: range_sigma
+  // times sqrt(1.5)). A straight wall or a car's side bulges by nothing, a box's corner away from the sensor.
+  const Eigen::Vector2d mid = 0.5 * (a + b), t = (b - a) / chord;
+  Eigen::Vector2d towards(-t.y(), t.x());
+  if (towards.dot(-mid) < 0.0)
+    towards = -towards;
+  const double r2 = config.max_radius * config.max_radius;
+  const double base = std::sqrt(std::max(r2 - 0.25 * chord * chord, 0.0));
+  double excess = 0.0;
+  for (int i = 1; i + 1 < n; ++i)
+  {
+    const Eigen::Vector2d& q = points[static_cast<std::size_t>(i)];
+    const double x = t.dot(q - mid);
+    const double bulge = std::sqrt(std::max(r2 - x * x, 0.0)) - base;
+    excess += towards.dot(q - a) - bulge;
+  }
+  const int inner = n - 2;
+  excess /= inner;
+  return excess >= -3.0 * config.range_sigma * std::sqrt(1.5 / inner);
 }
 
 TrunkFit fitTrunk(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)

@@ -23,6 +23,8 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("level_by_trunks", &c->level_by_trunks);
   p.get("cluster_tolerance", &c->cluster_tolerance);
   p.get("min_points", &c->min_points);
+  p.get("scan_min_beams", &c->scan_min_beams);
+  p.get("scan_min_jump", &c->scan_min_jump);
   p.get("max_points", &c->max_points);
   p.get("min_radius", &c->min_radius);
   p.get("max_radius", &c->max_radius);

@@ -56,6 +56,8 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <pcl/console/print.h>
+
 #include "rbpf_slam/core/grid_slam_pipeline.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/skid_steer_odometry.h"
@@ -718,6 +720,7 @@ double parseNumber(const std::string& name, const char* text, double lo, double 
 
 int main(int argc, char** argv)
 {
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   Options o;
   try
   {

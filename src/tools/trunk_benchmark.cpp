@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <pcl/console/print.h>
+
 #include "rbpf_slam/core/forest_simulator.h"
 #include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/trunk_detector.h"
@@ -286,6 +288,7 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
 
 int main(int argc, char** argv)
 {
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   std::vector<std::string> worlds;
   double step = 3.0;
   for (int i = 1; i < argc; ++i)

@@ -30,6 +30,8 @@ TEST(TrunkDetectorConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.method, defaults.method);
   EXPECT_EQ(read.cluster_tolerance, defaults.cluster_tolerance);
   EXPECT_EQ(read.min_points, defaults.min_points);
+  EXPECT_EQ(read.scan_min_beams, defaults.scan_min_beams);
+  EXPECT_EQ(read.scan_min_jump, defaults.scan_min_jump);
   EXPECT_EQ(read.min_radius, defaults.min_radius);
   EXPECT_EQ(read.max_radius, defaults.max_radius);
   EXPECT_EQ(read.arc_radius_prior, defaults.arc_radius_prior);

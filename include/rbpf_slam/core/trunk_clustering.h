@@ -61,9 +61,11 @@ bool isUninformativeRange(double range, double range_min);
 /**
  * @brief Splits a scan into arcs: runs of valid beams whose neighbouring points are closer than @p tolerance [m].
  *
- * A beam that tells nothing neither ends an arc nor bounds one: the tolerance grows with the beams skipped between
- * two points, so a dropout does not cut a wall into short arcs that look like trunks. A beam without return ends
- * the arc. @p range_offset [m] is added to every valid range.
+ * Two neighbouring points are linked when they are closer than @p tolerance plus the gap the beams leave on a
+ * surface facing the sensor (range times the angle increment), so that a far trunk's two or three beams, further
+ * apart than the tolerance, still make one arc. A beam that tells nothing neither ends an arc nor bounds one: the
+ * distance allowed grows with the beams skipped between two points, so a dropout does not cut a wall into short arcs
+ * that look like trunks. A beam without return ends the arc. @p range_offset [m] is added to every valid range.
  * @param[out] valid_beams number of beams with a valid range (optional)
  */
 std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance, double range_offset,
@@ -92,6 +94,13 @@ inline double singleRingReach(double radius, int min_points, double azimuth_step
     return NAN;
   return 2.0 * radius / (static_cast<double>(min_points) * azimuth_step);
 }
+
+/**
+ * @brief True when the arc stands in front of its background: on either side, the first informative beam returns
+ * nothing, or a range at least @p min_jump [m] beyond the arc's end (@p range_offset [m] added to it as to the arc).
+ * False when the field of view ends beside the arc (the object may go on beyond it).
+ */
+bool isArcIsolated(const PlanarScan& scan, const ScanArc& arc, double min_jump, double range_offset);
 
 }  // namespace core
 }  // namespace rbpf_slam

@@ -40,6 +40,21 @@ TrunkFit fitTrunkCentroid(const std::vector<Eigen::Vector2d>& points, const Trun
  */
 TrunkFit fitTrunkCircle(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
 
+/**
+ * @brief A 2D arc of too few beams to fit a circle (method kArc): the radius is the prior (config.arc_radius_prior,
+ * arc_radius_sigma) truncated to at least half the chord, the centre one radius behind the arc's middle. The
+ * covariance holds the radius prior's uncertainty along the ray, the beams' width (@p beam_spacing [rad], at least
+ * one spacing over sqrt(12) across the ray) and the range noise; the derivation is at the definition.
+ */
+TrunkFit fitShortArc(const std::vector<Eigen::Vector2d>& points, double beam_spacing, const TrunkDetectorConfig& config);
+
+/**
+ * @brief Whether a short 2D arc can be a trunk's visible side: no wider (chord) than 2 config.max_radius, and, with
+ * three points or more, bulging towards the sensor at least as a circle of config.max_radius through its ends does,
+ * within the range noise (a straight wall or a car's side does not; a box's corner bulges away).
+ */
+bool isTrunkShapedArc(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
+
 /** @brief fitTrunkCentroid() or fitTrunkCircle(), as config.method says. */
 TrunkFit fitTrunk(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
 
