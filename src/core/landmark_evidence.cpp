@@ -25,7 +25,11 @@ MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandid
                                              const LandmarkMap& map, std::size_t k, const VisibilityScope& scope) const
 {
   const AssociationCandidate& cd = candidates[k];
-  if (!scope.contains(cd.z))
+  // Inside the scope for sure: a landmark predicted within two standard deviations of its prediction from an edge
+  // may well lie outside, and is not expected to be seen.
+  const double range_margin = 2.0 * std::sqrt(std::max(0.0, cd.A(0, 0)));
+  const double bearing_margin = 2.0 * std::sqrt(std::max(0.0, cd.A(1, 1)));
+  if (!scope.contains(cd.z, range_margin, bearing_margin))
   {
     // Just beyond the scope's far edge (the candidates reach a margin further): a provisional landmark here is
     // leaving the scope unconfirmed (the sensor moves a few centimetres per update, so none jumps the ring).

@@ -13,7 +13,8 @@
   0.1 m, ``--bearing-sigma`` 0.1 rad: the course's EKF-SLAM exercise's Q = 0.01 I) through the
   polar-to-Cartesian Jacobian, method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
 * Each array states the sensor's scope (TrunkArray min_range .. max_range, all round): the course does not state
-  the sensor's range, so ``--max-range`` defaults to the largest range the file holds, rounded up to 0.1 m.
+  the sensor's range, so ``--max-range`` defaults to the largest range the file holds less two range sigmas (a
+  landmark at the sensor's limit is reported up to about that much further), to 0.1 m.
 * ``id`` is -1 (unknown) unless ``--keep-ids``: the course data gives each observation the true
   landmark's id, i.e. the true data association, which is ground truth and must not reach a filter
   that estimates. ``--keep-ids`` reproduces the course's
@@ -136,8 +137,8 @@ def build_parser():
     p.add_argument('--bearing-sigma', type=cc.positive_float, default=BEARING_SIGMA,
                    help='bearing noise [rad] (default %(default)s)')
     p.add_argument('--max-range', type=cc.positive_float, default=None,
-                   help="the sensor's range [m], stated in every array (default: the file's largest range, "
-                        "rounded up to 0.1 m)")
+                   help="the sensor's range [m], stated in every array (default: the file's largest range less "
+                        "two range sigmas, to 0.1 m)")
     p.add_argument('--keep-ids', action='store_true',
                    help='keep the given landmark ids in the observations (true data association: ground truth)')
     cc.add_common_arguments(
@@ -175,10 +176,11 @@ def convert(args, out, bad, summary):
         summary.note('no world file (%s): no ground-truth landmarks' % world_path)
     out.expect(3 * (len(steps) + 1) + (world is not None))
     ranges = [abs(r) for s in steps for _, r, _ in s.observations] + [abs(r) for _, r, _ in initial]
-    max_range = args.max_range or (math.ceil(max(ranges) * 10.0) / 10.0 if ranges else 0.0)
+    max_range = args.max_range or (round((max(ranges) - 2.0 * args.range_sigma) * 10.0) / 10.0 if ranges else 0.0)
     scope = {'min_range': 0.0, 'max_range': max_range, 'fov_min': -math.pi, 'fov_max': math.pi}
     summary.note('sensor scope stated in every array: 0-%.1f m all round%s' % (
-        max_range, '' if args.max_range else " (the file's largest range; --max-range sets it)"))
+        max_range, '' if args.max_range else " (the file's largest range less two range sigmas; --max-range sets "
+                                             "it)"))
 
     def trunks_of(observations):
         trunks = []

@@ -77,10 +77,14 @@ struct VisibilityScope
   /** @brief @p range [m] lies in the ring (an observation there may start a landmark). */
   bool inRange(double range) const { return !(range < min_range || range > max_range); }
 
-  /** @brief A landmark predicted at @p z = (range, bearing) should be seen: inside the ring and the view. */
-  bool contains(const Eigen::Vector2d& z) const
+  /**
+   * @brief A landmark predicted at @p z = (range, bearing) should be seen: inside the ring and the view, each
+   * narrowed by a margin (@p range_margin [m], @p bearing_margin [rad]).
+   */
+  bool contains(const Eigen::Vector2d& z, double range_margin = 0.0, double bearing_margin = 0.0) const
   {
-    return !(z.x() < min_range || z.x() > max_range) && bearingInside(z.y());
+    return !(z.x() < min_range + range_margin || z.x() > max_range - range_margin) &&
+           bearingInside(z.y(), -bearing_margin);
   }
 
   /** @brief Predicted beyond the far edge of the ring but within the field of view (leaving the scope). */
