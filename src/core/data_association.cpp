@@ -140,6 +140,25 @@ void DataAssociation::associate(const LandmarkMap& map, const std::vector<Landma
   {
     prefs_begin_[i] = prefs_.size();
     const Eigen::Matrix2d& Ri = R[i];
+    if (c.use_known_ids && obs[i].id >= 0)
+    {
+      // Known association: the candidate of the observation's id, whatever its distance.
+      for (std::size_t k = 0; k < n_cand; ++k)
+      {
+        if (map[cand_[k].index].id != obs[i].id)
+          continue;
+        const Eigen::Vector2d v(obs[i].range - cand_[k].z.x(), wrapAngle(obs[i].bearing - cand_[k].z.y()));
+        const Eigen::Matrix2d S = cand_[k].A + Ri;
+        const Eigen::Matrix2d Si = S.inverse();
+        const std::size_t ik = i * n_cand + k;
+        ll_[ik] = -0.5 * v.dot(Si * v) - kLog2Pi - 0.5 * std::log(S.determinant());
+        prefs_.push_back(static_cast<int>(k));
+        radius_term_[ik] = 0.0;
+        s_inv_[ik] = Si;
+        v_[ik] = v;
+      }
+      continue;
+    }
     const double reach = std::sqrt(kGateSafety * c.gate * (max_arr + Ri(0, 0))) * kGateSafety + kReachSlack;
     auto first = std::lower_bound(by_range_.begin(), by_range_.end(), std::make_pair(obs[i].range - reach, std::size_t(0)));
     for (auto it = first; it != by_range_.end() && it->first <= obs[i].range + reach; ++it)

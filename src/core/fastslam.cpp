@@ -46,6 +46,14 @@ double logGaussian(const Pose2& x, const Pose2& mean, const Eigen::Matrix3d& cov
   return -0.5 * d.dot(llt.solve(d)) - 1.5 * kLog2Pi - 0.5 * log_det;
 }
 
+bool hasLandmarkId(const LandmarkMap& map, int id)
+{
+  for (std::size_t j = 0; j < map.size(); ++j)
+    if (map[j].id == id)
+      return true;
+  return false;
+}
+
 double logSumExp(double a, double b)
 {
   const double m = std::max(a, b);
@@ -152,6 +160,7 @@ LandmarkObservation toLandmarkObservation(const TrunkObservation& t)
   o.covariance = J * t.covariance * J.transpose();
   o.radius = t.radius;
   o.radius_variance = t.method == TrunkMethod::kCircle ? t.radius_variance : 0.0;
+  o.id = t.id;
   return o;
 }
 
@@ -198,7 +207,8 @@ FastSlam::FastSlam(const FastSlamConfig& config)
   : config_(config)
   , random_(config.seed)
   , scope_(effectiveScope(config.configuredScope(), SensorScope(), FastSlamConfig::fallbackScope()))
-  , association_(AssociationConfig{ config.association_gate, config.use_radius, config.radius_sigma_floor })
+  , association_(AssociationConfig{ config.association_gate, config.use_radius, config.radius_sigma_floor,
+                                     config.use_known_ids })
   , evidence_(EvidenceConfig{ config.evidence_hit, config.evidence_miss, config.evidence_max, config.delete_evidence,
                               config.confirm_observations, config.drop_unconfirmed_leaving_scope })
 {
@@ -316,8 +326,17 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
     }
     if (!scope_.inRange(obs[i].range))
       continue;  // outside the scope: do not start landmarks there
+    const bool known = config_.use_known_ids && obs[i].id >= 0;
+    if (known && hasLandmarkId(p->map, obs[i].id))
+    {
+      // Known, but not among the candidates (predicted outside the scope's margins): not a second landmark.
+      *log_w += scratch_.log_new[i];
+      if (stats)
+        ++stats->ignored;
+      continue;
+    }
     Landmark l = landmarkFromObservation(obs[i], s, scratch_.R[i]);
-    if (association_.overlapsCandidate(p->map, l.mean, obs[i].radius, config_.min_trunk_gap))
+    if (!known && association_.overlapsCandidate(p->map, l.mean, obs[i].radius, config_.min_trunk_gap))
     {
       *log_w += scratch_.log_new[i];
       if (stats)
@@ -325,7 +344,13 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       continue;
     }
     evidence_.initialize(&l);
-    l.id = next_id_++;
+    if (known)
+    {
+      l.id = obs[i].id;
+      next_id_ = std::max(next_id_, l.id + 1);
+    }
+    else
+      l.id = next_id_++;
     p->map.add(l);
     *log_w += scratch_.log_new[i];
     if (stats)

@@ -25,6 +25,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("detection_probability", &c->detection_probability);
   p.get("association_gate", &c->association_gate);
   p.get("use_radius", &c->use_radius);
+  p.get("use_known_ids", &c->use_known_ids);
   p.get("radius_sigma_floor", &c->radius_sigma_floor);
   p.get("min_trunk_gap", &c->min_trunk_gap);
   p.get("evidence_hit", &c->evidence_hit);

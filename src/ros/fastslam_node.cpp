@@ -119,6 +119,7 @@ core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
   t.num_points = static_cast<int>(trunk.num_points);
   t.num_inliers = static_cast<int>(trunk.num_inliers);
   t.score = trunk.score;
+  t.id = trunk.id >= 0 ? trunk.id : -1;
   switch (trunk.method)
   {
     case rbpf_slam::Trunk::METHOD_CENTROID:

@@ -218,3 +218,37 @@ TEST(SensorScope, AScansScopeIsItsAnglesAndRangesWithinTheDetectors)
   scan.range_max = 8.0;
   EXPECT_DOUBLE_EQ(scanScope(scan, d).max_range, 8.0);
 }
+
+TEST(KnownIds, AnObservationUpdatesTheLandmarkOfItsIdWhereverItLies)
+{
+  FastSlamConfig c = quiet();
+  c.use_known_ids = true;
+  FastSlam f(c);
+  LandmarkObservation a = observe(Pose2(), 4.0, 0.0), b = observe(Pose2(), 4.0, 1.0);
+  a.id = 7;
+  b.id = 3;
+  f.update({ a, b }, Pose2());
+  ASSERT_EQ(f.best().map.size(), 2u);
+  // Id 7 seen 0.8 m off (far outside the gate) and id 3 where 7 is: each updates its own landmark, none is new.
+  LandmarkObservation a2 = observe(Pose2(), 4.0, -0.8), b2 = observe(Pose2(), 4.0, 0.0);
+  a2.id = 7;
+  b2.id = 3;
+  const FastSlamUpdateStats st = f.update({ a2, b2 }, Pose2());
+  EXPECT_EQ(st.matched, 2);
+  EXPECT_EQ(st.created, 0);
+  ASSERT_EQ(f.best().map.size(), 2u);
+  for (std::size_t j = 0; j < 2; ++j)
+  {
+    const Landmark& l = f.best().map[j];
+    if (l.id == 7)
+      EXPECT_LT(l.mean.y(), -0.1);  // pulled towards its own observation
+    else
+      EXPECT_EQ(l.id, 3);
+  }
+  // Without known ids the same observations are associated by distance (b2 takes landmark 7).
+  FastSlamConfig u = quiet();
+  FastSlam g(u);
+  g.update({ a, b }, Pose2());
+  const FastSlamUpdateStats su = g.update({ a2, b2 }, Pose2());
+  EXPECT_EQ(su.created, 1);
+}

@@ -33,6 +33,8 @@ struct AssociationConfig
   double gate = 13.8;
   bool use_radius = true;            ///< add the trunk radius's consistency to the likelihood
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
+  /// An observation with a known id (>= 0) pairs only with the candidate of that id, without a gate.
+  bool use_known_ids = false;
 };
 
 /**

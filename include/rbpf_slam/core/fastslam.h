@@ -80,6 +80,9 @@ struct FastSlamConfig
   // observation whose best landmark is further (likelihood below that of the gate) makes a new landmark.
   double association_gate = 13.8;  ///< 99.9 % of a true match
   bool use_radius = true;          ///< add the trunk radius's consistency to the likelihood
+  /// Associate by the detector's landmark id where it gives one (>= 0; e.g. a data set with known association):
+  /// an observation updates the landmark of its id, without a gate, or starts it.
+  bool use_known_ids = false;
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
   double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
 

@@ -19,6 +19,7 @@ struct LandmarkObservation
   Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  ///< of (range, bearing)
   double radius = 0.0;           ///< [m] observed trunk radius (0: unknown)
   double radius_variance = 0.0;  ///< [m^2] (0: unknown, the radius is not used)
+  int id = -1;                   ///< the landmark's id when the detector knows it (known association), else -1
 };
 
 using Matrix23d = Eigen::Matrix<double, 2, 3>;

@@ -96,6 +96,7 @@ struct TrunkObservation
   double score = 0.0;  ///< [0, 1] confidence (inlier ratio times coverage)
   TrunkMethod method = TrunkMethod::kCircle;
   double height = 0.0;  ///< [m] height of the centre (middle of the band) above the sensor
+  int id = -1;          ///< the landmark's id when the detector knows it (known association), else -1
 };
 
 /** @brief Counts of one detect() call, for diagnostics and benchmarks. */
