@@ -125,3 +125,68 @@ def test_a_missing_scan_topic_is_a_clear_error(tmp_path):
     proc = subprocess.run([_tool('slam_bag'), '--bag', bag, '--scan', '/nothing'], stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE, universal_newlines=True)
     assert proc.returncode == 1 and 'no topic /nothing (--scan)' in proc.stderr, proc.stderr
+
+
+def test_fastslam2_repeats_byte_for_byte(bags, tmp_path):
+    """The same seed gives the same output, FastSLAM 2.0 included (its proposal conditions on the matched trunks
+    with floating-point arithmetic whose order is fixed)."""
+    d, full, _ = bags
+    config = str(tmp_path / 'fastslam2.yaml')
+    with open(os.path.join(ROOT, 'config', 'fastslam.yaml')) as src, open(config, 'w') as dst:
+        dst.write(src.read().replace('proposal: fastslam1', 'proposal: fastslam2'))
+    outs = []
+    for k in range(2):
+        out = str(tmp_path / ('run%d' % k))
+        subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', full, '--config', config, '--out', out,
+                        '--seed', '5', '--quiet'], check=True)
+        outs.append(out)
+    for name in ('estimate.tum', 'estimate_best_history.tum', 'odometry.tum', 'updates.csv', 'map.csv'):
+        assert filecmp.cmp(os.path.join(outs[0], name), os.path.join(outs[1], name), shallow=False), name
+
+
+def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(bags):
+    d, full, _ = bags
+    out = _run(full, str(d / 'out_files'))
+    est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
+    hist = np.loadtxt(os.path.join(out, 'estimate_best_history.tum'), ndmin=2)
+    assert est.shape == hist.shape and (est[:, 0] == hist[:, 0]).all()  # one pose per update, same stamps
+    # The online estimate moves smoothly: no step between updates longer than the robot drives in one (0.1 m)
+    # plus a few centimetres, even where the filter resampled.
+    steps = np.hypot(*np.diff(est[:, 1:3], axis=0).T)
+    assert steps.max() < 0.2, 'the estimate jumps by %.2f m' % steps.max()
+    with open(os.path.join(out, 'updates.csv')) as f:
+        header = f.readline().strip().split(',')
+        rows = [line.strip().split(',') for line in f]
+    assert header == ['stamp', 'neff', 'resampled', 'landmarks', 'observations', 'matched', 'new', 'deleted',
+                      'ignored']
+    assert len(rows) == len(est)
+    neff = np.array([float(r[1]) for r in rows])
+    assert ((neff > 0) & (neff <= 100.0 + 1e-9)).all()
+    assert int(rows[-1][3]) == len(ev.read_landmarks_csv(os.path.join(out, 'map.csv'))['x'])
+
+
+def test_landmark_detections_of_any_detector(tmp_path):
+    """slam_bag --landmarks reads a detector's TrunkArrays (the course data's range-bearing observations, unknown
+    association): every landmark is found once."""
+    from bagcheck import data_path
+    from rbpf_slam import convert_common as cc
+    from rbpf_slam import freiburg
+    d = os.path.dirname(data_path('freiburg_course', 'sensor_data.dat'))
+    bag = str(tmp_path / 'freiburg.bag')
+    cc.convert_to_bag(freiburg.convert, freiburg.build_parser().parse_args([d, '-o', bag, '--quiet']))
+    out = str(tmp_path / 'run')
+    subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', bag, '--landmarks', '/landmarks', '--config',
+                    os.path.join(ROOT, 'config', 'fastslam.yaml'), '--seed', '1', '--out', out, '--quiet'],
+                   check=True)
+    est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
+    assert len(est) == 332
+    m = ev.read_landmarks_csv(os.path.join(out, 'map.csv'))
+    truth = [(2, 1), (0, 4), (2, 7), (9, 2), (10, 5), (9, 8), (5, 5), (5, 3), (5, 9)]
+    confirmed = [(x, y) for x, y, p in zip(m['x'], m['y'], m['provisional']) if not p]
+    assert len(confirmed) == 9, confirmed
+    for tx, ty in truth:  # without a fit: the map frame is the start pose, which drifts a little over the run
+        assert min(np.hypot(x - tx, y - ty) for x, y in confirmed) < 1.0, (tx, ty)
+    # --landmarks with a 2D scan topic is a usage error
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--landmarks', '/landmarks', '--scan', '/scan'],
+                       capture_output=True, text=True)
+    assert r.returncode != 0 and '--landmarks goes with' in r.stderr

@@ -111,6 +111,10 @@ def test_real_data(tmp_path):
     assert_stamps_monotonic(bag)
     obs = [t for _, m in bag['/landmarks'] for t in m.trunks]
     assert len(obs) == 1212 and all(t.id == -1 for t in obs)  # no given association: that is ground truth
+    # every array states the sensor's scope: all round, out to the file's largest range less two range sigmas
+    arr = bag['/landmarks'][5][1]
+    assert (arr.min_range, arr.fov_min, arr.fov_max) == (0.0, -math.pi, math.pi)
+    assert arr.max_range == pytest.approx(5.0)
     assert all(t.range >= 0 for t in obs)
     first = bag['/landmarks'][1][1].trunks[0]
     assert (first.range, first.bearing) == pytest.approx((1.89645381418, 0.374031885671))
