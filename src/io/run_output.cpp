@@ -73,5 +73,50 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
   writeFileAtomic(path, landmarksCsv(landmarks));
 }
 
+FastSlamRunRecord::FastSlamRunRecord()
+{
+  for (std::ostringstream* s : { &estimate_, &odometry_, &table_ })
+    s->precision(12);
+  table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored\n";
+}
+
+void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2& estimate,
+                                  const core::Pose2& odometry, const core::FastSlamUpdateStats& st)
+{
+  if (timeline != timeline_)
+  {
+    stamps_.clear();
+    timeline_ = timeline;
+  }
+  stamps_.push_back(stamp);
+  ++updates_;
+  writeTumLine(estimate_, stamp, estimate);
+  writeTumLine(odometry_, stamp, odometry);
+  table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ',' << st.observations
+         << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored << '\n';
+}
+
+std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const core::FastSlam& filter) const
+{
+  std::vector<FileContent> out;
+  out.emplace_back(dir + "/estimate.tum", estimate_.str());
+  out.emplace_back(dir + "/odometry.tum", odometry_.str());
+  // The best particle's own trajectory: one pose per update of the last timeline.
+  const std::vector<core::Pose2> history = filter.bestHistory();
+  const std::size_t n = std::min(history.size(), stamps_.size());
+  std::ostringstream h;
+  h.precision(12);
+  for (std::size_t i = 0; i < n; ++i)
+    writeTumLine(h, stamps_[stamps_.size() - n + i], history[history.size() - n + i]);
+  out.emplace_back(dir + "/estimate_best_history.tum", h.str());
+  out.emplace_back(dir + "/updates.csv", table_.str());
+  const core::Particle& best = filter.best();
+  std::vector<core::Landmark> landmarks;
+  for (std::size_t i = 0; i < best.map.size(); ++i)
+    landmarks.push_back(best.map[i]);
+  out.emplace_back(dir + "/map.csv", landmarksCsv(landmarks));
+  return out;
+}
+
 }  // namespace io
 }  // namespace rbpf_slam

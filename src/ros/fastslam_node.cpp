@@ -41,6 +41,7 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
   readSlamRosConfig(params, &c);
   readKey(params, "odom_timeout", &c.odom_timeout);
   readKey(params, "inventory_path", &c.inventory_path);
+  readKey(params, "run_folder", &c.run_folder);
   requireNonNegative(params.nodeHandle(), "odom_timeout", c.odom_timeout);
   return c;
 }
@@ -158,6 +159,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   odom_path_pub_ = nh_.advertise<nav_msgs::Path>("odom_path", 2);
   scope_pub_ = nh_.advertise<visualization_msgs::Marker>("scope", 2);
   save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
+  save_run_srv_ = pnh_.advertiseService("save_run", &FastSlamRos::onSaveRun, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
   trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &FastSlamRos::onTimer, this);
@@ -168,7 +170,53 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
            config_.base_frame.c_str());
 }
 
-FastSlamRos::~FastSlamRos() = default;
+FastSlamRos::~FastSlamRos()
+{
+  // The run folder at shutdown, when one is configured and the filter ran (never throws out of here).
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (config_.run_folder.empty() || record_.updates() == 0)
+    return;
+  std::string message;
+  if (writeRunFolder(&message))
+    ROS_INFO("%s: %s", name_.c_str(), message.c_str());
+  else
+    ROS_ERROR("%s: run folder: %s", name_.c_str(), message.c_str());
+}
+
+bool FastSlamRos::writeRunFolder(std::string* message)
+{
+  pnh_.getParam("run_folder", config_.run_folder);  // may have changed since the start
+  if (config_.run_folder.empty())
+  {
+    *message = "no ~run_folder set";
+    return false;
+  }
+  const std::string dir = io::expandHome(config_.run_folder);
+  try
+  {
+    if (!io::makeDirectories(dir))
+      throw std::runtime_error(dir + ": cannot create the folder (" + std::strerror(errno) + ")");
+    io::writeFilesAtomic(record_.files(dir, pipeline_->filter()));
+  }
+  catch (const std::exception& e)
+  {
+    *message = e.what();
+    return false;
+  }
+  *message = "wrote the run folder " + dir + " (" + std::to_string(record_.updates()) + " updates)";
+  return true;
+}
+
+bool FastSlamRos::onSaveRun(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  res.success = writeRunFolder(&res.message);
+  if (res.success)
+    ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
+  else
+    ROS_ERROR("%s: save_run: %s", name_.c_str(), res.message.c_str());
+  return true;
+}
 
 void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
 {
@@ -261,6 +309,7 @@ void FastSlamRos::processPending()
       ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); used the newest",
                         name_.c_str(), u.stamp, config_.odom_timeout, pipeline_->odometry().latest());
     ++updates_;
+    record_.addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats);
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publish(ros::Time(u.stamp), u.odometry);

@@ -324,7 +324,7 @@ std::string timingJson(int sweeps, int updates, double extraction, double filter
 /// Keys of the filters' YAML files that only the nodes read (frames, waits, files): known here, not used.
 const std::vector<std::string> kNodeKeys = { "map_frame",          "odom_frame",     "base_frame",   "tf_timeout",
                                              "transform_tolerance", "map_update_interval", "publish_tf", "map_path",
-                                             "max_path_poses",     "odom_timeout",   "inventory_path",
+                                             "max_path_poses",     "odom_timeout",   "inventory_path", "run_folder",
                                              "time_jump_threshold", "level_frame",  "debug_report_address" };
 
 /** @brief Reads a YAML file with @p reader (if a path is given); errors name the file, unknown keys are warned. */
@@ -399,10 +399,7 @@ int runFastSlam(const Options& o)
   core::TrunkSlamPipeline pipeline(dc, fc);
 
   Outputs out(o.out_dir);
-  if (out.enabled())
-    out.stream("updates.csv") << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored\n";
-  std::vector<double> update_stamps;  // of the current timeline (a restart starts a new one)
-  int timeline = -1;
+  io::FastSlamRunRecord record;  // the run folder, as the node writes it
   int clouds = 0, updates = 0;
   DropLog drops;
   core::PlanarScan planar;
@@ -452,21 +449,7 @@ int runFastSlam(const Options& o)
     for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
     {
       ++updates;
-      if (u.timeline != timeline)
-      {
-        update_stamps.clear();
-        timeline = u.timeline;
-      }
-      update_stamps.push_back(u.stamp);
-      if (out.enabled())
-      {
-        io::writeTumLine(out.stream("estimate.tum"), u.stamp, u.estimate);
-        io::writeTumLine(out.stream("odometry.tum"), u.stamp, u.odometry);
-        const core::FastSlamUpdateStats& st = u.stats;
-        out.stream("updates.csv") << u.stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks
-                                  << ',' << st.observations << ',' << st.matched << ',' << st.created << ','
-                                  << st.deleted << ',' << st.ignored << '\n';
-      }
+      record.addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats);
     }
   };
   replay(bag, { sensor_topic, o.odom_topic }, feed, process);
@@ -481,16 +464,8 @@ int runFastSlam(const Options& o)
   const core::Particle& best = pipeline.filter().best();
   if (out.enabled())
   {
-    std::vector<core::Landmark> landmarks;
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-      landmarks.push_back(best.map[i]);
-    out.stream("map.csv") << io::landmarksCsv(landmarks);
-    // The best particle's own trajectory: one pose per update of the last timeline.
-    const std::vector<core::Pose2> history = pipeline.filter().bestHistory();
-    const std::size_t n = std::min(history.size(), update_stamps.size());
-    std::ostream& h = out.stream("estimate_best_history.tum");
-    for (std::size_t i = 0; i < n; ++i)
-      io::writeTumLine(h, update_stamps[update_stamps.size() - n + i], history[history.size() - n + i]);
+    for (const io::FileContent& f : record.files(o.out_dir, pipeline.filter()))
+      out.add(f.first, f.second);
     out.stream("timing.json") << timingJson(clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(),
                                             fc.particles, fc.seed);
     out.commit();

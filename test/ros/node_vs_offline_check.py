@@ -18,6 +18,7 @@ import unittest
 import rospy
 import rostest
 from nav_msgs.msg import Path
+from std_srvs.srv import Trigger
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TOLERANCE = 1e-3  # [m], [rad]: the same code on the same data; only TF's interpolation differs (grid odometry)
@@ -119,6 +120,15 @@ class NodeVsOffline(unittest.TestCase):
                                      '--config', os.path.join(ROOT, 'config', 'fastslam.yaml')])
         node = self.play(bag, ['/points', '/odom', '/tf', '/tf_static'], 'fastslam', len(offline))
         self.compare('fastslam', node, offline)
+        # The node's run folder (~save_run) holds what slam_bag --out writes: the same estimate, the same files.
+        folder = os.path.join(self.dir, 'node_run')
+        rospy.set_param('fastslam/run_folder', folder)
+        rospy.wait_for_service('fastslam/save_run', timeout=10.0)
+        reply = rospy.ServiceProxy('fastslam/save_run', Trigger)()
+        self.assertTrue(reply.success, reply.message)
+        for name in ('estimate.tum', 'odometry.tum', 'estimate_best_history.tum', 'updates.csv', 'map.csv'):
+            self.assertTrue(os.path.isfile(os.path.join(folder, name)), name)
+        self.compare('fastslam run folder', read_tum(os.path.join(folder, 'estimate.tum')), offline)
 
     def test_grid_node_runs_the_offline_pipeline(self):
         bag = self.record('indoor', ['--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml')],

@@ -2,10 +2,13 @@
 #define RBPF_SLAM_IO_RUN_OUTPUT_H
 
 #include <ostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/io/files.h"
 #include "rbpf_slam/core/pose2.h"
 
 namespace rbpf_slam
@@ -36,6 +39,31 @@ extern const char* const kLandmarksCsvHeader;
 std::string landmarksCsv(const std::vector<core::Landmark>& landmarks);
 /** @brief Writes landmarksCsv() atomically. @throws std::runtime_error naming the file. */
 void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks);
+
+/**
+ * @brief The run folder of a FastSLAM run, the same from the bag runner (slam_bag --out) and the node
+ * (~run_folder): estimate.tum (the online estimate after each update, as published), odometry.tum (the odometry at
+ * the same instants), estimate_best_history.tum (the final best particle's own trajectory over the last timeline),
+ * updates.csv (per update: stamp, Neff, resampled, landmarks, observations, matched, new, deleted, ignored) and
+ * map.csv (the best particle's map, landmarksCsv()).
+ */
+class FastSlamRunRecord
+{
+public:
+  FastSlamRunRecord();
+  /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
+  void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
+                 const core::FastSlamUpdateStats& stats);
+  std::size_t updates() const { return updates_; }
+  /** @brief The files of the folder @p dir with @p filter's present state (best history and map). */
+  std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter) const;
+
+private:
+  std::ostringstream estimate_, odometry_, table_;
+  std::vector<double> stamps_;  ///< of the current timeline
+  int timeline_ = -1;
+  std::size_t updates_ = 0;
+};
 
 }  // namespace io
 }  // namespace rbpf_slam

@@ -18,6 +18,7 @@
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam
@@ -27,6 +28,9 @@ struct FastSlamRosConfig : SlamRosConfig
 {
   double odom_timeout = 0.5;          ///< [s] wall time an array waits for odometry covering it
   std::string inventory_path = "~/.ros/tree_inventory.csv";
+  /// Folder of the run's files (io::FastSlamRunRecord, as slam_bag --out writes them), written on ~save_run and at
+  /// shutdown; "" = none.
+  std::string run_folder;
 };
 
 /** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */
@@ -72,6 +76,9 @@ private:
   void onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg);
   void onTimer(const ros::WallTimerEvent& event);
   bool onSaveInventory(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool onSaveRun(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  /** @brief Writes the run folder (~run_folder) atomically; false with @p message saying why. Lock held. */
+  bool writeRunFolder(std::string* message);
 
   /** @brief Runs the pipeline on what odometry covers (or what waited ~odom_timeout) and publishes. Lock held. */
   void processPending();
@@ -108,7 +115,8 @@ private:
 
   ros::Subscriber odom_sub_, trunks_sub_;
   ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_, odom_path_pub_, scope_pub_;
-  ros::ServiceServer save_srv_;
+  ros::ServiceServer save_srv_, save_run_srv_;
+  io::FastSlamRunRecord record_;  ///< the run folder's content
   ros::WallTimer timer_;
   nav_msgs::Path path_;
   nav_msgs::Path odom_path_;  ///< raw odometry; the map frame starts at the odometry pose, so no transform
