@@ -11,7 +11,8 @@
 //       [--wheels /wheel_ticks [--wheel-radius 0.127] [--track 0.7283] [--imu /imu/data --imu-weight W]]
 //       [--out DIR] [--quiet]
 //
-// --config is the filter's YAML (config/fastslam.yaml or config/grid_slam.yaml layout), --extraction-config the
+// --config is the filter's YAML (config/fastslam.yaml or config/grid_slam.yaml layout; repeated, each file overrides
+// the ones before it, e.g. config/fastslam.yaml then an odometry class of config/odometry/), --extraction-config the
 // trunk extraction's (config/trunk_extraction.yaml layout); one pair per sensor type, e.g. config/lego/;
 // --particles, --seed and --method override them. FastSLAM reads point clouds, or 2D scans when --scan is given, or
 // the detections of any landmark detector (rbpf_slam/TrunkArray in the sensor frame) when --landmarks is given.
@@ -85,7 +86,8 @@ struct Options
 {
   std::string filter = "fastslam";
   std::string bag_path, points_topic = "/points", scan_topic = "/scan", odom_topic = "/odom";
-  std::string base_frame = "base_link", out_dir, method, config_path, extraction_config_path, resampling;
+  std::string base_frame = "base_link", out_dir, method, extraction_config_path, resampling;
+  std::vector<std::string> config_paths;  // the filter's YAML files, each overriding the ones before
   bool scan_given = false;  // fastslam: 2D scans instead of point clouds
   std::string landmarks_topic;  // fastslam: a detector's TrunkArrays instead of clouds or scans
   std::string wheels_topic, imu_topic = "/imu/data";
@@ -101,7 +103,8 @@ void usage(const char* argv0)
   std::fprintf(stderr,
                "usage: %s [--filter fastslam|grid] --bag FILE [--odom TOPIC] [--base-frame FRAME] [--particles N]\n"
                "          [--seed S] [--out DIR] [--quiet]\n"
-               "          [--config YAML (the filter's)]\n"
+               "          [--config YAML (the filter's; given again, e.g. an odometry class of config/odometry/, it\n"
+               "           overrides the files before it)]\n"
                "  fastslam: [--points TOPIC | --scan TOPIC | --landmarks TOPIC (rbpf_slam/TrunkArray, sensor frame)]\n"
                "            [--extraction-config YAML] [--method circle|centroid]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
@@ -386,7 +389,8 @@ int runFastSlam(const Options& o)
   core::TrunkDetectorConfig dc;  // sensor height 0 (unknown): the pipeline takes the mount's, as the nodelet does
   core::FastSlamConfig fc;
   loadYaml(o.extraction_config_path, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, &dc); });
-  loadYaml(o.config_path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });
+  for (const std::string& path : o.config_paths)
+    loadYaml(path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });
   if (!o.method.empty() && !core::parseTrunkMethod(o.method, &dc.method))
     throw std::runtime_error("--method must be circle or centroid, not '" + o.method + "'");
   if (o.particles > 0)
@@ -503,7 +507,8 @@ int runGrid(const Options& o)
   else
     requireTopic(topics, o.bag_path, o.odom_topic, "nav_msgs/Odometry", "--odom");
   core::GridSlamConfig gc;
-  loadYaml(o.config_path, [&](const io::ParamSource& p) { io::readGridSlamConfig(p, &gc); });
+  for (const std::string& path : o.config_paths)
+    loadYaml(path, [&](const io::ParamSource& p) { io::readGridSlamConfig(p, &gc); });
   if (o.particles > 0)
     gc.particles = o.particles;
   if (o.seed >= 0)
@@ -740,7 +745,7 @@ int main(int argc, char** argv)
       else if (a == "--method")
         o.method = argv[++i];
       else if (a == "--config")
-        o.config_path = argv[++i];
+        o.config_paths.push_back(argv[++i]);
       else if (a == "--resampling")
         o.resampling = argv[++i];
       else if (a == "--wheels")
