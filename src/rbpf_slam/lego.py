@@ -11,7 +11,9 @@ Files (text, mm and rad, CRLF line ends are fine), in one directory:
   (i - n/2) * 0.006135923151543 rad; the scanner is mounted 30 mm ahead of the robot centre and turned
   by -0.0698132 rad (4 degrees), which is the ``base_link -> laser`` transform on ``/tf_static`` (so
   beam i has the bearing (i - 330) * 0.006135923151543 - 0.0698132 in the robot frame, as in the
-  course). Ranges below 20 mm are invalid: NaN, with range_min 0.02 m (REP-117).
+  course). Ranges below 20 mm are invalid: NaN, with range_min 0.02 m (REP-117). A scan shows the arena
+  ``scan_latency`` (config/lego/robot.yaml) before its log stamp: the scans keep their log stamps and the
+  odometry and the reference are stamped that much after theirs.
 * ``robot4_reference.txt``: ``P ts x y``, the robot position seen by an overhead camera: ground truth,
   on ``ground_truth/odom`` (child frame ``laser_truth``: the course compares its scanner pose with
   these points; positions only, the orientation is identity) and ``ground_truth/path``.
@@ -25,7 +27,8 @@ once, in config/lego/robot.yaml, which lego_trunks reads too; :func:`read_robot`
 Frames: odometry starts at the identity (``odom`` = where the robot starts). The truth is expressed in
 ``map`` = the robot centre's start pose (``--truth-frame start``, the default: the frame where a SLAM
 map starts, as in the simulator; the first reference point is then at the scanner, (0.03, 0)), or in
-the arena's own coordinates (``--truth-frame arena``). Stamps: the logs' milliseconds as seconds.
+the arena's own coordinates (``--truth-frame arena``). Stamps: the logs' milliseconds as seconds (plus
+``scan_latency`` for the odometry and the reference).
 """
 import math
 import os
@@ -39,6 +42,8 @@ ROBOT_FILE = os.path.join('config', 'lego', 'robot.yaml')
 
 _ROBOT_KEYS = ('tick', 'track', 'scanner_x', 'scanner_yaw', 'beam_increment', 'range_min', 'range_max',
                'start_scanner_pose', 'cylinder_radius')
+#: Optional constants and their defaults.
+_ROBOT_OPTIONAL = {'scan_latency': 0.0}
 
 
 def robot_file():
@@ -59,10 +64,12 @@ def read_robot(path=None):
     with open(path) as f:
         data = yaml.safe_load(f) or {}
     missing = [k for k in _ROBOT_KEYS if k not in data]
+    optional = {k: data.get(k, v) for k, v in _ROBOT_OPTIONAL.items()}
     if missing:
         raise ValueError('%s: missing key(s) %s' % (path, ', '.join(missing)))
     try:
         robot = {k: float(data[k]) for k in _ROBOT_KEYS if k != 'start_scanner_pose'}
+        robot.update({k: float(v) for k, v in optional.items()})
         pose = data['start_scanner_pose']
         robot['start_scanner_pose'] = (float(pose['x']), float(pose['y']), math.radians(float(pose['yaw_deg'])))
     except (TypeError, KeyError, ValueError) as e:
@@ -80,6 +87,7 @@ RANGE_MIN = _ROBOT['range_min']             # [m] readings below are invalid
 RANGE_MAX = _ROBOT['range_max']             # [m]
 START_SCANNER_POSE = _ROBOT['start_scanner_pose']  # [m, m, rad] in the arena
 CYLINDER_RADIUS = _ROBOT['cylinder_radius']  # [m] nominal; the landmark file states each radius
+SCAN_LATENCY = _ROBOT['scan_latency']       # [s] a scan shows the world this long before its log stamp
 
 EXAMPLE = """
 Example:
@@ -265,6 +273,7 @@ def convert(args, out, bad, summary):
     keep, t_m, left, right = merge_repeated_stamps(t_m, left, right)
     summary.skip('motor records repeating the stamp of the one before (merged: ticks are cumulative)',
                  n_read - len(keep))
+    t_m = t_m + SCAN_LATENCY  # see the scans below
     x, y, th, ds, dth = odometry_from_ticks(left, right)
     dt = np.diff(t_m, prepend=t_m[0])
     safe_dt = np.where(dt > 0, dt, 1.0)
@@ -275,6 +284,11 @@ def convert(args, out, bad, summary):
     n_read = len(t_s)
     keep_s, t_s, scans = merge_repeated_stamps(t_s, scans)
     summary.skip('scans repeating the stamp of the one before (the later kept)', n_read - len(keep_s))
+    if SCAN_LATENCY:
+        # A scan shows the arena SCAN_LATENCY before its log stamp (robot.yaml: scan_latency). ROS stamps are positive,
+        # so the scans keep their log stamps and the streams stamped when they happened (ticks, camera) move later.
+        summary.note('odometry and reference stamped %.3f s after their log stamps: the scans\' latency'
+                     % SCAN_LATENCY)
     n_beams = scans.shape[1]
     angle_min = -(n_beams // 2) * BEAM_INCREMENT
     invalid = int(np.sum(scans < RANGE_MIN * 1000.0))
@@ -288,6 +302,7 @@ def convert(args, out, bad, summary):
         t_r, rx, ry = read_reference(ref_path, bad, args.limit)
         n_read = len(t_r)
         keep_r, t_r, rx, ry = merge_repeated_stamps(t_r, rx, ry)
+        t_r = t_r + SCAN_LATENCY  # the camera's time, as the ticks'
         summary.skip('reference positions repeating the stamp of the one before (the later kept)',
                      n_read - len(keep_r))
         ref = (t_r,) + tuple(to_map(rx, ry))

@@ -94,7 +94,7 @@ def test_synthetic_logs(tmp_path, capsys):
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
     odom = [pose2(m) for _, m in bag['/odom']]
-    assert [t for t, _ in bag['/odom']] == pytest.approx([0.1, 0.2, 0.3])
+    assert [t for t, _ in bag['/odom']] == pytest.approx(np.array([0.1, 0.2, 0.3]) + lego.SCAN_LATENCY)
     assert odom[1][0] == pytest.approx(1.1 * 0.349) and odom[2][0] == pytest.approx(1.2 * 0.349)
     scan = bag['/scan'][0][1]
     assert len(scan.ranges) == 660 and scan.ranges[0] == pytest.approx(0.5) and math.isnan(scan.ranges[10])
@@ -147,7 +147,8 @@ def test_real_logs(tmp_path):
     assert summary.counts['/ground_truth/landmarks'] == 1 and summary.counts['/ground_truth/path'] == 1
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
-    assert bag['/odom'][0][0] == pytest.approx(0.204) and bag['/odom'][-1][0] == pytest.approx(55.685)
+    assert bag['/odom'][0][0] == pytest.approx(0.204 + lego.SCAN_LATENCY)
+    assert bag['/odom'][-1][0] == pytest.approx(55.685 + lego.SCAN_LATENCY)
     assert pose2(bag['/odom'][0][1]) == pytest.approx((0.0, 0.0, 0.0))
     scans = [m for _, m in bag['/scan']]
     assert scans[0].ranges[:3] == pytest.approx([0.189, 0.186, 0.192])  # metres
