@@ -7,6 +7,7 @@
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
 //                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
 //                                       [--odometry-noise K]
+#include <pcl/console/print.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -78,6 +79,7 @@ struct Series
 
 int main(int argc, char** argv)
 {
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml";
   std::string drive = "straight", methods = "circle", particle_list = "100", proposals = "fastslam1";
   int seeds = 20, first_seed = 1;

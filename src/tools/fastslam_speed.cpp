@@ -10,6 +10,7 @@
 //
 //   rosrun rbpf_slam fastslam_speed [--updates K] [--proposal fastslam1|fastslam2] [--mixture F]
 //                                   [--no-pipeline]
+#include <pcl/console/print.h>
 #include <malloc.h>
 #include <sys/resource.h>
 
@@ -157,6 +158,7 @@ long peakRssKb()
 
 int main(int argc, char** argv)
 {
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   int updates = 200;
   bool pipeline = true;
   double mixture = 0.0;

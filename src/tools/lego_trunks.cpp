@@ -14,6 +14,7 @@
 // robot_arena_landmarks.txt "L C x y r". The heading for "in view" comes from the wheel ticks (the reference
 // has positions only), replaced by the reference's direction of travel where the robot drives straight (the
 // ticks' heading drifts).
+#include <pcl/console/print.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -104,6 +105,7 @@ std::vector<std::vector<double>> readRecords(const std::string& path, char tag, 
 
 int main(int argc, char** argv)
 {
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
   std::string dir = "../shared/data/brenner_lego";
   std::string robot_path = RBPF_SLAM_SOURCE_DIR "/config/lego/robot.yaml";
   std::string method;

@@ -25,6 +25,11 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.min_range, defaults.min_range);
   EXPECT_EQ(read.max_range, defaults.max_range);
   EXPECT_NEAR(read.field_of_view, defaults.field_of_view, 1e-12);
+  EXPECT_EQ(read.detection_probability, defaults.detection_probability);
+  EXPECT_EQ(read.motion_step, defaults.motion_step);
+  EXPECT_EQ(read.motion_step_angle, defaults.motion_step_angle);
+  EXPECT_EQ(read.estimate, defaults.estimate);
+  EXPECT_EQ(read.use_known_ids, defaults.use_known_ids);
   EXPECT_EQ(read.association_gate, defaults.association_gate);
   EXPECT_EQ(read.use_radius, defaults.use_radius);
   EXPECT_EQ(read.radius_sigma_floor, defaults.radius_sigma_floor);
@@ -48,7 +53,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   for (const auto& k : params.unusedKeys())
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
                 k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
-                k == "time_jump_threshold")
+                k == "time_jump_threshold" || k == "run_folder")
         << "unexpected key " << k;
 }
 
@@ -129,4 +134,24 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
   EXPECT_EQ(ok.proposal, core::PoseProposal::kFastSlam2);
   EXPECT_EQ(ok.mixture_fraction, 0.1);
   std::remove(path.c_str());
+}
+
+TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
+{
+  // Each accuracy class of config/odometry/ read after config/fastslam.yaml sets the motion model and its step,
+  // nothing else, and every class differs from the defaults somewhere or is the defaults' own statement.
+  for (const char* name : { "forest_atv", "skid_steer_indoor", "car" })
+  {
+    const std::string path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/odometry/" + name + ".yaml";
+    core::FastSlamConfig c;
+    io::readFastSlamConfig(io::YamlParamSource(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml"), &c);
+    io::YamlParamSource cls(path);
+    io::readFastSlamConfig(cls, &c);
+    EXPECT_TRUE(cls.unusedKeys().empty()) << name;
+    EXPECT_GT(c.motion.alpha1, 0.0) << name;
+    EXPECT_GT(c.motion_step, 0.0) << name;
+    const core::FastSlamConfig d;
+    EXPECT_EQ(c.particles, d.particles) << name;
+    EXPECT_EQ(c.association_gate, d.association_gate) << name;
+  }
 }
