@@ -7,6 +7,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Eigenvalues>
+
 #include "rbpf_slam/core/ground_model.h"
 #include "rbpf_slam/core/tilt_estimator.h"
 #include "rbpf_slam/core/trunk_clustering.h"
@@ -260,8 +262,10 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
     // A nearer object hides part of the arc: its silhouette does not end where the arc ends on that side, so the
     // centre is fitted to the visible piece with the radius prior (fitPartialArc keeps it only when the points
     // are consistent with a trunk's visible side). It must still be no wider than a trunk and bulge towards the
-    // sensor; when it has too few points or is too narrow to show its curvature, every side not hidden must stand
-    // in front of its background (as a short arc's both sides must).
+    // sensor. When it has too few points or is too narrow to show its curvature (kArc), the radius prior and the
+    // one silhouette edge place the centre: then one side must be free and stand in front of its background (as
+    // both sides of a short arc must), and the fit must pin the centre to within half the prior radius (one
+    // standard deviation along its worst axis), which a few far beams beside an occluder do not.
     const bool hidden_first = isArcSideOccluded(scan, arc, ArcSide::kFirst, cfg.cluster_tolerance);
     const bool hidden_last = isArcSideOccluded(scan, arc, ArcSide::kLast, cfg.cluster_tolerance);
     if (hidden_first || hidden_last)
@@ -296,6 +300,8 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
       const TrunkFit fit = fitPartialArc(arc.points, edges, cfg);
       if (fit.ok && fit.method == TrunkMethod::kArc &&
           ((hidden_first && hidden_last) ||
+           Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(fit.covariance.topLeftCorner<2, 2>()).eigenvalues()(1) >
+               std::pow(0.5 * cfg.arc_radius_prior, 2) ||
            (!hidden_first && !isArcSideIsolated(scan, arc, ArcSide::kFirst, cfg.scan_min_jump, cfg.range_offset)) ||
            (!hidden_last && !isArcSideIsolated(scan, arc, ArcSide::kLast, cfg.scan_min_jump, cfg.range_offset))))
       {
