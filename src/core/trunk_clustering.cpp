@@ -268,23 +268,27 @@ std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance,
   return arcs;
 }
 
-bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance)
+bool isArcSideOccluded(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double tolerance)
 {
   if (arc.points.empty())
     return false;
   const int count = static_cast<int>(scan.ranges.size());
-  // The first informative beam from `beam` on in direction `step` is nearer than r by more than the tolerance.
-  const auto nearer = [&](int beam, int step, double r) {
-    while (beam >= 0 && beam < count &&
-           isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
-      beam += step;
-    if (beam < 0 || beam >= count)
-      return false;
-    const double rb = scan.ranges[static_cast<std::size_t>(beam)];
-    return std::isfinite(rb) && rb < r - tolerance;
-  };
-  return nearer(arc.first_beam - 1, -1, arc.points.front().norm()) ||
-         nearer(arc.last_beam + 1, 1, arc.points.back().norm());
+  // The first informative beam beside the arc is nearer than the arc's end by more than the tolerance.
+  const int step = side == ArcSide::kFirst ? -1 : 1;
+  int beam = side == ArcSide::kFirst ? arc.first_beam - 1 : arc.last_beam + 1;
+  const double r = side == ArcSide::kFirst ? arc.points.front().norm() : arc.points.back().norm();
+  while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+    beam += step;
+  if (beam < 0 || beam >= count)
+    return false;
+  const double rb = scan.ranges[static_cast<std::size_t>(beam)];
+  return std::isfinite(rb) && rb < r - tolerance;
+}
+
+bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance)
+{
+  return isArcSideOccluded(scan, arc, ArcSide::kFirst, tolerance) ||
+         isArcSideOccluded(scan, arc, ArcSide::kLast, tolerance);
 }
 
 double estimateAzimuthStep(const std::vector<Eigen::Vector3f>& points, double elevation_bin)
@@ -314,25 +318,30 @@ double estimateAzimuthStep(const std::vector<Eigen::Vector3f>& points, double el
   return gaps[gaps.size() / 2];
 }
 
-bool isArcIsolated(const PlanarScan& scan, const ScanArc& arc, double min_jump, double range_offset)
+bool isArcSideIsolated(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double min_jump,
+                       double range_offset)
 {
   if (arc.points.empty())
     return false;
   const int count = static_cast<int>(scan.ranges.size());
-  // The first informative beam from `beam` on in direction `step` has no return or one further than r + min_jump.
-  const auto background = [&](int beam, int step, double r) {
-    while (beam >= 0 && beam < count &&
-           isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
-      beam += step;
-    if (beam < 0 || beam >= count)
-      return false;  // the field of view ends: the object may go on beyond it
-    const double rb = scan.ranges[static_cast<std::size_t>(beam)];
-    if (!(std::isfinite(rb) && rb <= scan.range_max))
-      return true;
-    return rb + range_offset >= r + min_jump;
-  };
-  return background(arc.first_beam - 1, -1, arc.points.front().norm()) &&
-         background(arc.last_beam + 1, 1, arc.points.back().norm());
+  // The first informative beam beside the arc has no return or one further than the arc's end + min_jump.
+  const int step = side == ArcSide::kFirst ? -1 : 1;
+  int beam = side == ArcSide::kFirst ? arc.first_beam - 1 : arc.last_beam + 1;
+  const double r = side == ArcSide::kFirst ? arc.points.front().norm() : arc.points.back().norm();
+  while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+    beam += step;
+  if (beam < 0 || beam >= count)
+    return false;  // the field of view ends: the object may go on beyond it
+  const double rb = scan.ranges[static_cast<std::size_t>(beam)];
+  if (!(std::isfinite(rb) && rb <= scan.range_max))
+    return true;
+  return rb + range_offset >= r + min_jump;
+}
+
+bool isArcIsolated(const PlanarScan& scan, const ScanArc& arc, double min_jump, double range_offset)
+{
+  return isArcSideIsolated(scan, arc, ArcSide::kFirst, min_jump, range_offset) &&
+         isArcSideIsolated(scan, arc, ArcSide::kLast, min_jump, range_offset);
 }
 
 }  // namespace core

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Eigenvalues>
+
 #include "rbpf_slam/core/ground_model.h"
 #include "rbpf_slam/core/tilt_estimator.h"
 #include "rbpf_slam/core/trunk_clustering.h"
@@ -257,9 +259,67 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
       ++st->rejected_size;
       continue;
     }
-    if (isArcOccluded(scan, arc, cfg.cluster_tolerance))
+    // A nearer object hides part of the arc: its silhouette does not end where the arc ends on that side, so the
+    // centre is fitted to the visible piece with the radius prior (fitPartialArc keeps it only when the points
+    // are consistent with a trunk's visible side). It must still be no wider than a trunk and bulge towards the
+    // sensor. When it has too few points or is too narrow to show its curvature (kArc), the radius prior and the
+    // one silhouette edge place the centre: then one side must be free and stand in front of its background (as
+    // both sides of a short arc must), and the fit must pin the centre to within half the prior radius (one
+    // standard deviation along its worst axis), which a few far beams beside an occluder do not.
+    const bool hidden_first = isArcSideOccluded(scan, arc, ArcSide::kFirst, cfg.cluster_tolerance);
+    const bool hidden_last = isArcSideOccluded(scan, arc, ArcSide::kLast, cfg.cluster_tolerance);
+    if (hidden_first || hidden_last)
     {
-      ++st->rejected_shape;
+      if (cfg.method != TrunkMethod::kCircle || !isTrunkShapedArc(arc.points, cfg))
+      {
+        ++st->rejected_shape;
+        continue;
+      }
+      // On a side not hidden the arc ends at the trunk's silhouette, between its last beam and the next
+      // informative one (which passes beside the trunk).
+      std::vector<SilhouetteEdge> edges;
+      const int count = static_cast<int>(scan.ranges.size());
+      for (const ArcSide side : { ArcSide::kFirst, ArcSide::kLast })
+      {
+        if (side == ArcSide::kFirst ? hidden_first : hidden_last)
+          continue;
+        const int step = side == ArcSide::kFirst ? -1 : 1;
+        const int end = side == ArcSide::kFirst ? arc.first_beam : arc.last_beam;
+        int beam = end + step;
+        while (beam >= 0 && beam < count &&
+               isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+          beam += step;
+        if (beam < 0 || beam >= count)
+          continue;  // the field of view ends: the trunk may go on beyond it
+        const double a = scan.angle_min + scan.angle_increment * 0.5 * static_cast<double>(end + beam);
+        SilhouetteEdge edge;
+        edge.direction = Eigen::Vector2d(std::cos(a), std::sin(a));
+        edge.spacing = std::abs(scan.angle_increment) * static_cast<double>(std::abs(beam - end));
+        edges.push_back(edge);
+      }
+      const TrunkFit fit = fitPartialArc(arc.points, edges, cfg);
+      if (fit.ok && fit.method == TrunkMethod::kArc &&
+          ((hidden_first && hidden_last) ||
+           Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(fit.covariance.topLeftCorner<2, 2>()).eigenvalues()(1) >
+               std::pow(0.5 * cfg.arc_radius_prior, 2) ||
+           (!hidden_first && !isArcSideIsolated(scan, arc, ArcSide::kFirst, cfg.scan_min_jump, cfg.range_offset)) ||
+           (!hidden_last && !isArcSideIsolated(scan, arc, ArcSide::kLast, cfg.scan_min_jump, cfg.range_offset))))
+      {
+        ++st->rejected_clutter;
+        continue;
+      }
+      const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
+      if (rejection != TrunkRejection::kNone)
+      {
+        countRejection(rejection, st);
+        continue;
+      }
+      if (fit.arc_angle > cfg.max_arc_angle)
+      {
+        ++st->rejected_shape;
+        continue;
+      }
+      out.push_back(toTrunkObservation(fit, n, 0.0));
       continue;
     }
     const bool short_arc = n < cfg.min_fit_points;

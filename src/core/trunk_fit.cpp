@@ -274,6 +274,141 @@ TrunkFit fitShortArc(const std::vector<Eigen::Vector2d>& points, double beam_spa
   return fit;
 }
 
+TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::vector<SilhouetteEdge>& edges,
+                       const TrunkDetectorConfig& config)
+{
+  constexpr int kIterations = 20;
+  constexpr double kMaxStep = 0.5;     // [m] per iteration
+  constexpr double kConverged = 1e-7;  // [m]
+  constexpr double kChi2Z = 3.09;      // standard normal quantile of 99.9 %
+  TrunkFit fit;
+  const int n = static_cast<int>(points.size());
+  if (n < 2)
+    return fit;
+  // Start one prior radius behind the middle of the arc's lateral extent (as fitShortArc places the centre).
+  const Eigen::Vector2d mean = meanOf(points);
+  if (!(mean.norm() > 0.0))
+    return fit;
+  const Eigen::Vector2d u0 = mean.normalized(), v0(-u0.y(), u0.x());
+  double x_lo = 0.0, x_hi = 0.0;
+  for (const auto& q : points)
+  {
+    x_lo = std::min(x_lo, v0.dot(q - mean));
+    x_hi = std::max(x_hi, v0.dot(q - mean));
+  }
+  const Eigen::Vector2d middle = mean + v0 * (0.5 * (x_lo + x_hi));
+  Eigen::Vector3d x;
+  x << middle + middle.normalized() * config.arc_radius_prior, config.arc_radius_prior;
+
+  // The centre lies on the arc's side of each edge ray: the sign of (mean x direction).
+  std::vector<double> side(edges.size());
+  for (std::size_t k = 0; k < edges.size(); ++k)
+    side[k] = mean.x() * edges[k].direction.y() - mean.y() * edges[k].direction.x() >= 0.0 ? 1.0 : -1.0;
+  const double sigma2 = config.range_sigma * config.range_sigma;
+  const double prior_w = 1.0 / (config.arc_radius_sigma * config.arc_radius_sigma);
+  // Information, gradient and chi-square at `at`.
+  const auto linearise = [&](const Eigen::Vector3d& at, Eigen::Matrix3d* info, Eigen::Vector3d* grad) {
+    info->setZero();
+    grad->setZero();
+    double sum = 0.0;
+    for (const auto& q : points)
+    {
+      const Eigen::Vector2d d = q - at.head<2>();
+      const double dn = d.norm();
+      if (dn < 1e-9)
+        continue;
+      const double res = dn - at.z();
+      const Eigen::Vector3d J(-d.x() / dn, -d.y() / dn, -1.0);
+      *info += J * J.transpose() / sigma2;
+      *grad += J * res / sigma2;
+      sum += res * res / sigma2;
+    }
+    (*info)(2, 2) += prior_w;
+    grad->z() += prior_w * (at.z() - config.arc_radius_prior);
+    sum += prior_w * std::pow(at.z() - config.arc_radius_prior, 2);
+    for (std::size_t k = 0; k < edges.size(); ++k)
+    {
+      // Distance from the centre to the edge ray, minus the radius. The edge lies anywhere between the two beams
+      // (uniform over their spacing s at the trunk's range: variance s^2/12), and each beam, about as wide as
+      // its spacing, returns from anywhere across it (as much again); the range noise does not move it sideways.
+      const Eigen::Vector2d& e = edges[k].direction;
+      const double lateral = at.head<2>().norm() * edges[k].spacing;
+      const double var = 2.0 * lateral * lateral / 12.0;
+      const double res = side[k] * (at.x() * e.y() - at.y() * e.x()) - at.z();
+      const Eigen::Vector3d J(side[k] * e.y(), -side[k] * e.x(), -1.0);
+      *info += J * J.transpose() / var;
+      *grad += J * res / var;
+      sum += res * res / var;
+    }
+    return sum;
+  };
+  Eigen::Matrix3d H;
+  Eigen::Vector3d g;
+  for (int it = 0; it < kIterations; ++it)
+  {
+    linearise(x, &H, &g);
+    const Eigen::Vector3d step = H.ldlt().solve(-g);
+    if (!step.allFinite())
+      return fit;
+    x += step.norm() > kMaxStep ? (step * (kMaxStep / step.norm())).eval() : step;
+    if (step.norm() < kConverged)
+      break;
+  }
+  if (!x.allFinite() || x.z() <= 0.0)
+    return fit;
+  const double chi2 = linearise(x, &H, &g);
+  const Eigen::Matrix3d cov = H.inverse();
+  if (!cov.allFinite())
+    return fit;
+  // Chi-square's 99.9 % quantile by the Wilson-Hilferty approximation.
+  const auto quantile = [&](double dof) {
+    const double h = 2.0 / (9.0 * dof);
+    return dof * std::pow(1.0 - h + kChi2Z * std::sqrt(h), 3);
+  };
+  // Residuals against the noise.
+  const double dof = static_cast<double>(n + 1 + static_cast<int>(edges.size()) - 3);
+  if (dof < 1.0 || chi2 > quantile(dof))
+    return fit;
+  // The visible piece hardly measures the radius: a fit that needs one beyond three of the prior's standard
+  // deviations is no trunk of this kind (a wall's end fits a wide circle).
+  if (std::abs(x.z() - config.arc_radius_prior) > 3.0 * config.arc_radius_sigma)
+    return fit;
+  const Eigen::Vector2d c = x.head<2>();
+  // The sensor sees only the half of a circle that faces it: a point whose direction from the centre points away
+  // from the sensor (beyond the noise) says that the circle is the wrong one.
+  for (const auto& q : points)
+    if ((q - c).dot(q.normalized()) > 3.0 * config.range_sigma)
+      return fit;
+  if (!(c.norm() > mean.norm()))
+    return fit;
+  // The points must show the trunk's front, its point nearest the sensor: the centre's bearing lies within theirs,
+  // widened by a mean beam spacing of the arc and two standard deviations of the centre's bearing. Then the front
+  // pins the depth and the silhouette edge the side; a few beams beside an occluder, or the end of a wall, which a
+  // circle of the prior radius fits as well as a trunk's edge does, show no front.
+  const double bearing_c = std::atan2(c.y(), c.x());
+  double lo = 1e9, hi = -1e9;
+  for (const auto& q : points)
+  {
+    const double b = std::remainder(std::atan2(q.y(), q.x()) - bearing_c, 2.0 * kPi);
+    lo = std::min(lo, b);
+    hi = std::max(hi, b);
+  }
+  const Eigen::Vector2d across(-c.y() / c.norm(), c.x() / c.norm());
+  const double margin =
+      (hi - lo) / std::max(1, n - 1) + 2.0 * std::sqrt(across.dot(cov.topLeftCorner<2, 2>() * across)) / c.norm();
+  if (lo > margin || hi < -margin)
+    return fit;
+  fit.center = c;
+  fit.radius = x.z();
+  fit.covariance = cov;
+  fit.inliers = countCircleInliers(points, c, x.z(), config.ransac_threshold);
+  fit.arc_angle = subtendedAngle(points, c);
+  fit.method =
+      (n < config.min_fit_points || fit.arc_angle < config.min_fit_arc) ? TrunkMethod::kArc : TrunkMethod::kCircle;
+  fit.ok = true;
+  return fit;
+}
+
 bool isTrunkShapedArc(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config)
 {
   const int n = static_cast<int>(points.size());

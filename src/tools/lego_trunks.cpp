@@ -174,7 +174,10 @@ int main(int argc, char** argv)
     double heading = robot.start_yaw;
     double prev_l = motors[0].at(1), prev_r = motors[0].at(5);
     int expected = 0, found = 0, found_expected = 0, false_pos = 0, scans_used = 0;
-    std::vector<double> radii;
+    std::vector<double> radii, errors;  // errors: centre errors [m] of the cylinders in view that were found
+    // Recall by the cylinder's distance from the scanner: < 0.5 m, 0.5-1 m, 1-2.5 m.
+    const double band_edges[] = { 0.5, 1.0, kInViewRange };
+    int band_expected[3] = { 0, 0, 0 }, band_found[3] = { 0, 0, 0 };
     int clusters = 0, rej_size = 0, rej_radius = 0, rej_inliers = 0, rej_shape = 0;
     for (std::size_t k = 0; k < n; ++k)
     {
@@ -215,6 +218,7 @@ int main(int argc, char** argv)
 
       const double fov_lo = scan.angle_min, fov_hi = scan.angle_min + scan.angle_increment * (beams - 1);
       std::vector<bool> in_view(marks.size(), false), seen(marks.size(), false);
+      std::vector<int> band(marks.size(), 0);
       int expected_here = 0;
       for (std::size_t m = 0; m < marks.size(); ++m)
       {
@@ -222,6 +226,9 @@ int main(int argc, char** argv)
         const double bearing = std::remainder(std::atan2(dy, dx) - heading, 2.0 * M_PI);
         in_view[m] = std::hypot(dx, dy) < kInViewRange && bearing > fov_lo && bearing < fov_hi;
         expected_here += in_view[m];
+        while (band[m] < 2 && std::hypot(dx, dy) >= band_edges[band[m]])
+          ++band[m];
+        band_expected[band[m]] += in_view[m];
       }
       int found_here = 0, false_here = 0;
       for (const auto& o : obs)
@@ -252,7 +259,11 @@ int main(int argc, char** argv)
           seen[static_cast<std::size_t>(best)] = true;
           ++found_here;
           if (in_view[static_cast<std::size_t>(best)])
+          {
             ++found_expected;
+            ++band_found[band[static_cast<std::size_t>(best)]];
+            errors.push_back(best_d);
+          }
           radii.push_back(o.radius);
         }
       }
@@ -282,6 +293,21 @@ int main(int argc, char** argv)
                 kGate, found, false_pos, found + false_pos ? 100.0 * false_pos / (found + false_pos) : 0.0);
     std::printf("  arcs %d: rejected for size %d, radius %d, inlier ratio %d, shape (occluded edge, range, arc) %d\n",
                 clusters, rej_size, rej_radius, rej_inliers, rej_shape);
+    const char* band_names[] = { "< 0.5 m", "0.5-1 m", "1-2.5 m" };
+    for (int b = 0; b < 3; ++b)
+      std::printf("  recall %s: %d of %d (%.1f%%)\n", band_names[b], band_found[b], band_expected[b],
+                  band_expected[b] ? 100.0 * band_found[b] / band_expected[b] : 0.0);
+    if (!errors.empty())
+    {
+      std::sort(errors.begin(), errors.end());
+      double mean_error = 0.0;
+      for (double e : errors)
+        mean_error += e;
+      mean_error /= static_cast<double>(errors.size());
+      std::printf("  centre error of the cylinders found [mm] (reference pose, heading from ticks): mean %.1f, median "
+                  "%.1f, 90th percentile %.1f\n",
+                  1000.0 * mean_error, 1000.0 * errors[errors.size() / 2], 1000.0 * errors[errors.size() * 9 / 10]);
+    }
     if (!sorted.empty())
       std::printf("  radius estimates [mm] (true 55): mean %.1f, sd %.1f, median %.1f\n", 1000.0 * mean, 1000.0 * sd,
                   1000.0 * sorted[sorted.size() / 2]);

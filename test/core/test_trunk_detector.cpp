@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <vector>
 
@@ -504,4 +505,114 @@ TEST(TrunkDetector, ConfigValidationNamesTheParameter)
   EXPECT_TRUE(rbpf_slam::core::parseTrunkMethod("centroid", &m));
   EXPECT_EQ(m, TrunkMethod::kCentroid);
   EXPECT_FALSE(rbpf_slam::core::parseTrunkMethod("magic", &m));
+}
+
+namespace
+{
+/** Claus Brenner's LEGO robot's scanner: 660 beams 2 pi / 1024 apart, ranges to 5.6 m. */
+PlanarScan legoScan()
+{
+  PlanarScan scan;
+  scan.angle_increment = 2.0 * M_PI / 1024.0;
+  scan.angle_min = -330 * scan.angle_increment;
+  scan.range_min = 0.02;
+  scan.range_max = 5.6;
+  scan.ranges.assign(660, std::numeric_limits<float>::infinity());
+  return scan;
+}
+
+/** The LEGO arena's configuration (config/lego/trunk_extraction.yaml): cylinders of radius 55 mm. */
+TrunkDetectorConfig legoConfig()
+{
+  TrunkDetectorConfig c;
+  c.cluster_tolerance = 0.08;
+  c.min_points = 3;
+  c.min_radius = 0.02;
+  c.max_radius = 0.15;
+  c.arc_radius_prior = 0.055;
+  c.arc_radius_sigma = 0.01;
+  c.max_arc_angle = 4.5;
+  c.range_sigma = 0.01;
+  c.ransac_threshold = 0.02;
+  c.min_range = 0.1;
+  c.max_range = 10.0;
+  return c;
+}
+}  // namespace
+
+TEST(TrunkDetector, CylinderHalfHiddenBehindANearerPostIsFoundAndItsCovarianceCoversTheError)
+{
+  // A cylinder of radius 55 mm at 0.4 m and at 1.5 m; a post of radius 20 mm halfway to it hides the cylinder's
+  // silhouette from a random bearing within a fifth of its half width of the centre on. 1 cm range noise. Found
+  // (the detection nearest the cylinder within 0.1 m of it) in at least 90 % of the trials, within 40 mm at 0.4 m
+  // and 30 mm at 1.5 m, and the error inside the covariance's 3-sigma (99.7 %) ellipse in at least 95 % of them.
+  TrunkDetector det(legoConfig());
+  Random rnd(11);
+  for (const double range : { 0.4, 1.5 })
+  {
+    const int trials = 200;
+    int found = 0, covered = 0;
+    double worst = 0.0;
+    for (int k = 0; k < trials; ++k)
+    {
+      PlanarScan scan = legoScan();
+      const double bearing = rnd.uniform(-1.0, 1.0);
+      const Eigen::Vector2d c = range * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+      const double half = std::asin(0.055 / range);
+      const double post_range = 0.5 * range, post_half = std::asin(0.02 / post_range);
+      const double side = k % 2 == 0 ? 1.0 : -1.0;  // which side the post hides
+      const double edge = bearing + side * rnd.uniform(-0.2, 0.2) * half;
+      const double post_bearing = edge + side * post_half;
+      ASSERT_GT(2.0 * post_half, 1.2 * half);  // the post covers the cylinder beyond the edge
+      castCircle(&scan, c, 0.055);
+      castCircle(&scan, post_range * Eigen::Vector2d(std::cos(post_bearing), std::sin(post_bearing)), 0.02);
+      addRangeNoise(&scan, rnd, 0.01);
+      TrunkDetectorStats stats;
+      const auto obs = det.detectScan(scan, &stats);
+      const TrunkObservation* o = nearest(obs, c.x(), c.y());
+      if (!o || (o->center - c).norm() > 0.1)
+        continue;
+      ++found;
+      const Eigen::Vector2d e = o->center - c;
+      worst = std::max(worst, e.norm());
+      covered += e.dot(o->covariance.inverse() * e) <= 11.83;
+    }
+    EXPECT_GE(found, 0.9 * trials) << range;
+    EXPECT_LT(worst, range < 1.0 ? 0.04 : 0.03) << range;
+    EXPECT_GE(covered, 0.95 * found) << range;
+    std::printf("range %.1f m: found %d of %d, worst error %.1f mm, covered %d\n", range, found, trials, 1000.0 * worst,
+                covered);
+  }
+}
+
+TEST(TrunkDetector, WallPartlyHiddenBehindAPostIsNoTrunk)
+{
+  // A wall 0.6 m wide facing the sensor at 0.4 m and at 1.5 m, with a post of radius 20 mm halfway to it hiding a
+  // piece of it near its middle (the two visible pieces are each hidden on one side). 1 cm range noise, 200 trials
+  // each. At most 1 % of the scans give a detection on the wall (noise can bend a short piece at the wall's end into
+  // a trunk's edge; the 99.9 % tests reject the rest), none at 0.4 m.
+  TrunkDetector det(legoConfig());
+  Random rnd(12);
+  for (const double range : { 0.4, 1.5 })
+  {
+    const int trials = 200;
+    int false_trunks = 0;
+    for (int k = 0; k < trials; ++k)
+    {
+      const double bearing = rnd.uniform(-1.0, 1.0);
+      const Eigen::Vector2d u(std::cos(bearing), std::sin(bearing)), v(-u.y(), u.x());
+      const double post_range = 0.5 * range;
+      const double post_bearing = bearing + rnd.uniform(-0.1, 0.1) / range;
+      PlanarScan wall = legoScan();
+      castSegment(&wall, range * u - 0.3 * v, range * u + 0.3 * v);
+      castCircle(&wall, post_range * Eigen::Vector2d(std::cos(post_bearing), std::sin(post_bearing)), 0.02);
+      addRangeNoise(&wall, rnd, 0.01);
+      bool on_wall = false;
+      for (const auto& o : det.detectScan(wall))
+        on_wall = on_wall || o.center.norm() > 0.75 * range;  // not the post
+      false_trunks += on_wall;
+    }
+    EXPECT_LE(false_trunks, range < 1.0 ? 0 : trials / 100) << range;
+    std::printf("range %.1f m: %d of %d walls gave a trunk\n", range, false_trunks, trials);
+  }
 }

@@ -71,9 +71,22 @@ bool isUninformativeRange(double range, double range_min);
 std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance, double range_offset,
                                        int* valid_beams = nullptr);
 
+/** @brief A side of an arc: before its first beam or after its last. */
+enum class ArcSide
+{
+  kFirst,
+  kLast,
+};
+
 /**
- * @brief True when the arc is partly hidden behind a nearer object: the first informative beam on either side of
- * it is nearer than the arc's end by more than @p tolerance [m]. Such an arc is no whole side of a trunk.
+ * @brief True when the arc is hidden behind a nearer object on @p side: the first informative beam there is nearer
+ * than the arc's end by more than @p tolerance [m].
+ */
+bool isArcSideOccluded(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double tolerance);
+
+/**
+ * @brief True when the arc is partly hidden behind a nearer object: isArcSideOccluded() on either side. Such an arc
+ * is no whole side of a trunk: its silhouette ends behind the nearer object, not where the arc ends.
  */
 bool isArcOccluded(const PlanarScan& scan, const ScanArc& arc, double tolerance);
 
@@ -101,6 +114,10 @@ inline double singleRingReach(double radius, int min_points, double azimuth_step
  * False when the field of view ends beside the arc (the object may go on beyond it).
  */
 bool isArcIsolated(const PlanarScan& scan, const ScanArc& arc, double min_jump, double range_offset);
+
+/** @brief isArcIsolated() on one side: the first informative beam there returns nothing or is @p min_jump beyond. */
+bool isArcSideIsolated(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double min_jump,
+                       double range_offset);
 
 }  // namespace core
 }  // namespace rbpf_slam

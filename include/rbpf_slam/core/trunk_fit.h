@@ -49,6 +49,40 @@ TrunkFit fitTrunkCircle(const std::vector<Eigen::Vector2d>& points, const TrunkD
 TrunkFit fitShortArc(const std::vector<Eigen::Vector2d>& points, double beam_spacing, const TrunkDetectorConfig& config);
 
 /**
+ * @brief A silhouette edge of a 2D arc: on a side not hidden behind a nearer object, the trunk's outline ends
+ * between the arc's last beam there and the next beam (which passes beside it).
+ */
+struct SilhouetteEdge
+{
+  Eigen::Vector2d direction = Eigen::Vector2d::UnitX();  ///< unit ray halfway between the two beams
+  double spacing = 0.0;                                  ///< [rad] angle between the two beams
+};
+
+/**
+ * @brief A trunk from a 2D arc partly hidden behind a nearer object: its visible points are a piece of the circle
+ * that does not reach the silhouette on the hidden side, so the centre is not one radius behind the arc's middle.
+ *
+ * Least squares for (cx, cy, r) by Gauss-Newton from a centre one prior radius behind the arc's middle, with
+ *  - each point's distance to the circle, standard deviation config.range_sigma,
+ *  - the radius prior (config.arc_radius_prior, arc_radius_sigma),
+ *  - each silhouette edge in @p edges: the ray is tangent to the circle (distance from the centre = r), uncertain by
+ *    the beams' spacing there (uniform: range * spacing / sqrt(12)) and as much again for the beam's own width.
+ * The covariance is the inverse of the information (Jacobian and prior). The fit is kept (ok) only when
+ *  - the residuals are consistent with the noise: their normalised sum of squares is within the 99.9 % quantile of
+ *    chi-square with (n + 1 + edges - 3) degrees of freedom,
+ *  - the points show the trunk's front (the centre's bearing lies within theirs, widened by a mean beam spacing of
+ *    the arc and two standard deviations of the centre's bearing): the front pins the depth, the silhouette edge
+ *    the side; a few beams beside an occluder or a wall's end show none,
+ *  - the radius is within three of the prior's standard deviations of the prior (the piece hardly measures it),
+ *  - every point lies on the half of the circle that faces the sensor (within 3 range_sigma): the centre lies
+ *    behind the points.
+ * The method is kArc for fewer than config.min_fit_points points or an arc narrower than config.min_fit_arc, else
+ * kCircle.
+ */
+TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::vector<SilhouetteEdge>& edges,
+                       const TrunkDetectorConfig& config);
+
+/**
  * @brief Whether a short 2D arc can be a trunk's visible side: no wider (chord) than 2 config.max_radius, and, with
  * three points or more, bulging towards the sensor at least as a circle of config.max_radius through its ends does,
  * within the range noise (a straight wall or a car's side does not; a box's corner bulges away).
