@@ -42,6 +42,9 @@ rbpf_slam::TrunkExtractionConfig toDynamic(const core::TrunkDetectorConfig& c)
   d.max_range = c.max_range;
   d.level_by_trunks = c.level_by_trunks;
   d.voxel_size = c.voxel_size;
+  d.scan_min_beams = c.scan_min_beams;
+  d.scan_min_jump = c.scan_min_jump;
+  d.detection_probability = c.detection_probability;
   return d;
 }
 
@@ -62,6 +65,9 @@ std::string fromDynamic(const rbpf_slam::TrunkExtractionConfig& d, core::TrunkDe
   c->max_range = d.max_range;
   c->level_by_trunks = d.level_by_trunks;
   c->voxel_size = d.voxel_size;
+  c->scan_min_beams = d.scan_min_beams;
+  c->scan_min_jump = d.scan_min_jump;
+  c->detection_probability = d.detection_probability;
   return c->validate();
 }
 
