@@ -173,7 +173,15 @@ class TrunkExtractionCheck(unittest.TestCase):
     def test_scan_gives_trunks_in_its_frame(self):
         msg = self.scan()
         self.scan_pub.publish(msg)
-        self.assert_the_trunk(self.answer(msg.header))
+        array = self.answer(msg.header)
+        self.assert_the_trunk(array)
+        # The scope it states is the scan's own: its first and last beam, its ranges within the extraction's.
+        last = msg.angle_min + (len(msg.ranges) - 1) * msg.angle_increment
+        self.assertAlmostEqual(array.fov_min, min(msg.angle_min, last), places=6)
+        self.assertAlmostEqual(array.fov_max, max(msg.angle_min, last), places=6)
+        self.assertAlmostEqual(array.max_range, min(msg.range_max, rospy.get_param(self.node + '/max_range', 30.0)),
+                               places=6)
+        self.assertGreaterEqual(array.min_range, msg.range_min)
 
     def malformed_clouds(self):
         """Every malformed kind of cloud: each must be dropped (no TrunkArray), reported, and survived."""
@@ -294,6 +302,19 @@ class TrunkExtractionCheck(unittest.TestCase):
             array = self.answer(msg.header)
             self.assertTrue(array.trunks)
             self.assertTrue(all(t.method == Trunk.METHOD_CENTROID for t in array.trunks))
+
+            # Every array states the scope it was found in: a cloud all round, out to at most max_range, with the
+            # detection probability, which is live too.
+            self.assertAlmostEqual(array.fov_min, -math.pi)
+            self.assertAlmostEqual(array.fov_max, math.pi)
+            self.assertGreater(array.max_range, array.min_range)
+            self.assertLessEqual(array.max_range, current['max_range'] + 1e-9)
+            self.assertAlmostEqual(array.detection_probability, current['detection_probability'])
+            client.update_configuration({'detection_probability': 0.6})
+            msg = self.cloud()
+            self.cloud_pub.publish(msg)
+            self.assertAlmostEqual(self.answer(msg.header).detection_probability, 0.6)
+            client.update_configuration({'detection_probability': current['detection_probability']})
 
             refused = client.update_configuration({'min_radius': 0.5, 'max_radius': 0.3})
             self.assertAlmostEqual(refused['min_radius'], current['min_radius'], msg='an invalid set was applied')
