@@ -268,18 +268,25 @@ std::vector<ScanArc> splitScanIntoArcs(const PlanarScan& scan, double tolerance,
   return arcs;
 }
 
+int firstInformativeBeamBeside(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double* end_range)
+{
+  const int count = static_cast<int>(scan.ranges.size());
+  const int step = side == ArcSide::kFirst ? -1 : 1;
+  int beam = side == ArcSide::kFirst ? arc.first_beam - 1 : arc.last_beam + 1;
+  *end_range = side == ArcSide::kFirst ? arc.points.front().norm() : arc.points.back().norm();
+  while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
+    beam += step;
+  return beam >= 0 && beam < count ? beam : -1;
+}
+
 bool isArcSideOccluded(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double tolerance)
 {
   if (arc.points.empty())
     return false;
-  const int count = static_cast<int>(scan.ranges.size());
   // The first informative beam beside the arc is nearer than the arc's end by more than the tolerance.
-  const int step = side == ArcSide::kFirst ? -1 : 1;
-  int beam = side == ArcSide::kFirst ? arc.first_beam - 1 : arc.last_beam + 1;
-  const double r = side == ArcSide::kFirst ? arc.points.front().norm() : arc.points.back().norm();
-  while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
-    beam += step;
-  if (beam < 0 || beam >= count)
+  double r = 0.0;
+  const int beam = firstInformativeBeamBeside(scan, arc, side, &r);
+  if (beam < 0)
     return false;
   const double rb = scan.ranges[static_cast<std::size_t>(beam)];
   return std::isfinite(rb) && rb < r - tolerance;
@@ -323,14 +330,10 @@ bool isArcSideIsolated(const PlanarScan& scan, const ScanArc& arc, ArcSide side,
 {
   if (arc.points.empty())
     return false;
-  const int count = static_cast<int>(scan.ranges.size());
   // The first informative beam beside the arc has no return or one further than the arc's end + min_jump.
-  const int step = side == ArcSide::kFirst ? -1 : 1;
-  int beam = side == ArcSide::kFirst ? arc.first_beam - 1 : arc.last_beam + 1;
-  const double r = side == ArcSide::kFirst ? arc.points.front().norm() : arc.points.back().norm();
-  while (beam >= 0 && beam < count && isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
-    beam += step;
-  if (beam < 0 || beam >= count)
+  double r = 0.0;
+  const int beam = firstInformativeBeamBeside(scan, arc, side, &r);
+  if (beam < 0)
     return false;  // the field of view ends: the object may go on beyond it
   const double rb = scan.ranges[static_cast<std::size_t>(beam)];
   if (!(std::isfinite(rb) && rb <= scan.range_max))

@@ -248,6 +248,17 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   st->band_points = st->finite_points;
 
   const double beam_spacing = std::abs(scan.angle_increment);
+  // The checks every fit of an arc passes last: the fit's own rejections, then the arc it subtends (a straight wall
+  // segment fits a huge circle or the prior, and its arc does not bulge towards the sensor).
+  const auto accept = [&](const TrunkFit& fit, int n) {
+    const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
+    if (rejection != TrunkRejection::kNone)
+      countRejection(rejection, st);
+    else if (fit.method != TrunkMethod::kCentroid && fit.arc_angle > cfg.max_arc_angle)
+      ++st->rejected_shape;
+    else
+      out.push_back(toTrunkObservation(fit, n, 0.0));
+  };
   for (const ScanArc& arc : arcs)
   {
     // A far trunk gives an arc of one or two beams: too few to fit a circle, so the radius prior places its centre,
@@ -278,18 +289,14 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
       // On a side not hidden the arc ends at the trunk's silhouette, between its last beam and the next
       // informative one (which passes beside the trunk).
       std::vector<SilhouetteEdge> edges;
-      const int count = static_cast<int>(scan.ranges.size());
       for (const ArcSide side : { ArcSide::kFirst, ArcSide::kLast })
       {
         if (side == ArcSide::kFirst ? hidden_first : hidden_last)
           continue;
-        const int step = side == ArcSide::kFirst ? -1 : 1;
         const int end = side == ArcSide::kFirst ? arc.first_beam : arc.last_beam;
-        int beam = end + step;
-        while (beam >= 0 && beam < count &&
-               isUninformativeRange(scan.ranges[static_cast<std::size_t>(beam)], scan.range_min))
-          beam += step;
-        if (beam < 0 || beam >= count)
+        double end_range = 0.0;
+        const int beam = firstInformativeBeamBeside(scan, arc, side, &end_range);
+        if (beam < 0)
           continue;  // the field of view ends: the trunk may go on beyond it
         const double a = scan.angle_min + scan.angle_increment * 0.5 * static_cast<double>(end + beam);
         SilhouetteEdge edge;
@@ -308,18 +315,7 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
         ++st->rejected_clutter;
         continue;
       }
-      const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
-      if (rejection != TrunkRejection::kNone)
-      {
-        countRejection(rejection, st);
-        continue;
-      }
-      if (fit.arc_angle > cfg.max_arc_angle)
-      {
-        ++st->rejected_shape;
-        continue;
-      }
-      out.push_back(toTrunkObservation(fit, n, 0.0));
+      accept(fit, n);
       continue;
     }
     const bool short_arc = n < cfg.min_fit_points;
@@ -331,19 +327,7 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
       ++st->rejected_clutter;
       continue;
     }
-    const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
-    if (rejection != TrunkRejection::kNone)
-    {
-      countRejection(rejection, st);
-      continue;
-    }
-    // A straight wall segment fits a huge circle or the prior: its arc must bulge towards the sensor.
-    if (fit.method != TrunkMethod::kCentroid && fit.arc_angle > cfg.max_arc_angle)
-    {
-      ++st->rejected_shape;
-      continue;
-    }
-    out.push_back(toTrunkObservation(fit, n, 0.0));
+    accept(fit, n);
   }
   st->trunks = static_cast<int>(out.size());
   return out;

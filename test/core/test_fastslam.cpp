@@ -8,38 +8,15 @@
 #include <Eigen/Dense>
 
 #include "rbpf_slam/core/evaluation.h"
+#include "fastslam_test_util.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/landmark_map.h"
 #include "rbpf_slam/core/particle_filter.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
-
-namespace
-{
-/** An exact observation of world point (x, y) from sensor pose s. */
-LandmarkObservation observe(const Pose2& s, double x, double y, double sigma_r = 0.02, double sigma_b = 0.003,
-                            double radius = 0.2)
-{
-  LandmarkObservation o;
-  const double dx = x - s.x, dy = y - s.y;
-  o.range = std::hypot(dx, dy);
-  o.bearing = wrapAngle(std::atan2(dy, dx) - s.theta);
-  o.covariance << sigma_r * sigma_r, 0, 0, sigma_b * sigma_b;
-  o.radius = radius;
-  o.radius_variance = 0.01 * 0.01;
-  return o;
-}
-
-FastSlamConfig quietConfig(int particles = 1)
-{
-  FastSlamConfig c;
-  c.particles = particles;
-  c.motion.alpha1 = c.motion.alpha2 = c.motion.alpha3 = c.motion.alpha4 = 0.0;
-  c.confirm_observations = 1;
-  return c;
-}
-}  // namespace
+using rbpf_slam::test::observe;
+using rbpf_slam::test::quietConfig;
 
 TEST(ParticleFilter, OdometryMotionMomentsMatchTheModel)
 {

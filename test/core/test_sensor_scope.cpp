@@ -5,36 +5,18 @@
 #include <cmath>
 #include <vector>
 
+#include "fastslam_test_util.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/trunk_clustering.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/visibility_scope.h"
 
 using namespace rbpf_slam::core;
+using rbpf_slam::test::observe;
+using rbpf_slam::test::quietConfig;
 
 namespace
 {
-LandmarkObservation observe(const Pose2& s, double x, double y, double sigma_r = 0.02, double sigma_b = 0.003)
-{
-  LandmarkObservation o;
-  const double dx = x - s.x, dy = y - s.y;
-  o.range = std::hypot(dx, dy);
-  o.bearing = wrapAngle(std::atan2(dy, dx) - s.theta);
-  o.covariance << sigma_r * sigma_r, 0, 0, sigma_b * sigma_b;
-  o.radius = 0.2;
-  o.radius_variance = 1e-4;
-  return o;
-}
-
-FastSlamConfig quiet(int particles = 1)
-{
-  FastSlamConfig c;
-  c.particles = particles;
-  c.motion.alpha1 = c.motion.alpha2 = c.motion.alpha3 = c.motion.alpha4 = 0.0;
-  c.confirm_observations = 1;
-  return c;
-}
-
 SensorScope forwardScope(double max_range, double half_fov, double detection_probability = NAN)
 {
   SensorScope s;
@@ -83,7 +65,7 @@ TEST(SensorScope, TheSensorsScopeHoldsUnlessTheConfigurationBoundsIt)
 TEST(SensorScope, ALandmarkOutsideANarrowSensorsViewIsNotMissed)
 {
   // A camera that sees 5 m and 70 degrees: the landmark behind it and the one at 8 m are outside, not missed.
-  FastSlam f(quiet());
+  FastSlam f(quietConfig());
   const SensorScope camera = forwardScope(5.0, 35.0 * M_PI / 180.0);
   f.update({ observe(Pose2(), 3.0, 0.0) }, Pose2(), camera);
   ASSERT_EQ(f.best().map.size(), 1u);
@@ -93,7 +75,7 @@ TEST(SensorScope, ALandmarkOutsideANarrowSensorsViewIsNotMissed)
     f.update({}, Pose2(), camera);
   EXPECT_EQ(f.best().map.size(), 1u);
   // The same with the all-round fallback scope: missed and removed.
-  FastSlam g(quiet());
+  FastSlam g(quietConfig());
   g.update({ observe(Pose2(), 3.0, 0.0) }, Pose2());
   g.predict(decomposeOdometry(Pose2(), Pose2(0, 0, M_PI)));
   for (int i = 0; i < 20; ++i)
@@ -103,7 +85,7 @@ TEST(SensorScope, ALandmarkOutsideANarrowSensorsViewIsNotMissed)
 
 TEST(SensorScope, AMissWeighsTheDetectionProbability)
 {
-  FastSlamConfig c = quiet();
+  FastSlamConfig c = quietConfig();
   c.delete_evidence = -100.0;  // nothing is removed: the evidence itself is compared
   FastSlam full(c), camera(c);
   full.update({ observe(Pose2(), 3.0, 0.0) }, Pose2(), forwardScope(5.0, 1.0, 1.0));
@@ -120,7 +102,7 @@ TEST(SensorScope, ALandmarkPredictedAtTheRangeEdgeIsNotMissed)
 {
   // A landmark seen once at 4.0 m (its prediction uncertain by a few centimetres) and then predicted 0.01 m inside
   // a 4.0 m range: it may lie outside; one predicted 1 m inside is missed.
-  FastSlamConfig c = quiet();
+  FastSlamConfig c = quietConfig();
   c.delete_evidence = -100.0;
   FastSlam f(c);
   f.update({ observe(Pose2(), 4.0, 0.0, 0.05, 0.003), observe(Pose2(), 3.0, 1.0, 0.05, 0.003) }, Pose2(),
@@ -137,7 +119,7 @@ TEST(FastSlamEstimate, TheBestParticleIsFollowedThroughResamplingNotTakenAsTheFi
   // Particles spread by a noisy motion; one known landmark seen from the true pose. A twin filter that never
   // resamples (same seed, so the same particles) shows which particle weighs most; the filter that resamples at
   // this update must keep that particle's pose as its best, not the first of the equal-weight copies.
-  FastSlamConfig c = quiet(50);
+  FastSlamConfig c = quietConfig(50);
   c.motion.alpha2 = 0.005;
   c.motion.alpha3 = 0.03;
   c.use_radius = false;
@@ -221,7 +203,7 @@ TEST(SensorScope, AScansScopeIsItsAnglesAndRangesWithinTheDetectors)
 
 TEST(KnownIds, AnObservationUpdatesTheLandmarkOfItsIdWhereverItLies)
 {
-  FastSlamConfig c = quiet();
+  FastSlamConfig c = quietConfig();
   c.use_known_ids = true;
   FastSlam f(c);
   LandmarkObservation a = observe(Pose2(), 4.0, 0.0), b = observe(Pose2(), 4.0, 1.0);
@@ -246,7 +228,7 @@ TEST(KnownIds, AnObservationUpdatesTheLandmarkOfItsIdWhereverItLies)
       EXPECT_EQ(l.id, 3);
   }
   // Without known ids the same observations are associated by distance (b2 takes landmark 7).
-  FastSlamConfig u = quiet();
+  FastSlamConfig u = quietConfig();
   FastSlam g(u);
   g.update({ a, b }, Pose2());
   const FastSlamUpdateStats su = g.update({ a2, b2 }, Pose2());

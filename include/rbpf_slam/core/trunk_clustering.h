@@ -79,6 +79,12 @@ enum class ArcSide
 };
 
 /**
+ * @brief The first beam beside @p arc on @p side that tells something (dropouts skipped), or -1 when the field of
+ * view ends first; @p end_range [m] is set to the range of the arc's point on that side.
+ */
+int firstInformativeBeamBeside(const PlanarScan& scan, const ScanArc& arc, ArcSide side, double* end_range);
+
+/**
  * @brief True when the arc is hidden behind a nearer object on @p side: the first informative beam there is nearer
  * than the arc's end by more than @p tolerance [m].
  */
