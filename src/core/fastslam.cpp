@@ -28,6 +28,10 @@ constexpr int kDualIterations = 4;
 constexpr double kDualMinConditioning = 1e-9;
 // [m] A fit further than this from the prior is taken for a wrong association, not a pose.
 constexpr double kDualMaxShift = 3.0;
+// Health: the positions of the last this many confirmed landmarks the best particle deleted, and how near [m] to
+// one of them a new landmark counts as re-created (a trunk is not planted where one was just removed).
+constexpr std::size_t kDeletedMemory = 256;
+constexpr double kRecreatedDistance = 1.0;
 
 Eigen::Vector3d poseDifference(const Pose2& a, const Pose2& b)
 {
@@ -173,6 +177,8 @@ std::string FastSlamConfig::validate() const
     return "motion: " + m;
   if (!(motion_step > 0.0) || !(motion_step_angle > 0.0))
     return "motion_step and motion_step_angle must be > 0";
+  if (!(update_min_travel >= 0.0) || !(update_min_turn >= 0.0))
+    return "update_min_travel and update_min_turn must be >= 0";
   if (!(range_sigma_floor > 0.0) || !(bearing_sigma_floor > 0.0))
     return "range_sigma_floor and bearing_sigma_floor must be > 0";
   if (!(min_range >= 0.0) || !(max_range >= 0.0) || (max_range > 0.0 && !(max_range > min_range)))
@@ -200,6 +206,8 @@ std::string FastSlamConfig::validate() const
     return "roughening sigmas must be >= 0";
   if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
     return "mixture_fraction must be in [0, 1)";
+  if (!(relocalization_spread >= 0.0))
+    return "relocalization_spread must be >= 0 (0: off)";
   return "";
 }
 
@@ -227,21 +235,51 @@ void FastSlam::initialize(const Pose2& start)
     p.log_weight = -std::log(static_cast<double>(config_.particles));
     p.motion_covariance.setZero();
     p.history.reset();
+    p.heading_drift = 0.0;
+    p.scale_drift = 0.0;
+    if (drifting())
+    {
+      p.heading_drift = random_.gaussian(config_.motion.heading_drift);
+      p.scale_drift = random_.gaussian(config_.motion.scale_drift);
+    }
   }
   best_ = 0;
   next_id_ = 0;
+  deleted_positions_.clear();
+}
+
+OdometryIncrement FastSlam::driftedIncrement(Particle* p, const OdometryIncrement& u)
+{
+  const OdometryMotionNoise& n = config_.motion;
+  OdometryIncrement v = u;
+  // The odometry measured (1 + scale) times the distance, and turned heading_drift per metre on its own; the
+  // drift's turn is split over both rotations (it builds up along the step).
+  v.trans = u.trans / (1.0 + p->scale_drift);
+  const double turn = p->heading_drift * std::abs(v.trans);
+  v.rot1 -= 0.5 * turn;
+  v.rot2 -= 0.5 * turn;
+  if (n.drift_distance > 0.0 && u.trans != 0.0)
+  {
+    const double walk = std::sqrt(std::abs(u.trans) / n.drift_distance);
+    if (n.heading_drift > 0.0)
+      p->heading_drift += random_.gaussian(n.heading_drift * walk);
+    if (n.scale_drift > 0.0)
+      p->scale_drift = std::max(-0.5 * 0.99, std::min(0.5 * 0.99, p->scale_drift + random_.gaussian(n.scale_drift * walk)));
+  }
+  return v;
 }
 
 void FastSlam::predict(const OdometryIncrement& u)
 {
+  const bool drift = drifting();
   if (gaussianPose())
   {
     for (auto& p : particles_)
-      propagatePoseGaussian(&p.pose, &p.motion_covariance, u, config_.motion);
+      propagatePoseGaussian(&p.pose, &p.motion_covariance, drift ? driftedIncrement(&p, u) : u, config_.motion);
     return;
   }
   for (auto& p : particles_)
-    p.pose = sampleOdometryMotion(p.pose, u, config_.motion, random_);
+    p.pose = sampleOdometryMotion(p.pose, drift ? driftedIncrement(&p, u) : u, config_.motion, random_);
 }
 
 void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)
@@ -256,17 +294,45 @@ void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
                               FastSlamUpdateStats* stats)
 {
-  const bool gaussian = gaussianPose();
-  // The landmarks the sensor may see from the particle's pose, then which observation each one took.
-  association_.selectCandidates(p->map, p->pose, sensor_in_base, scope_, gaussian ? &p->motion_covariance : nullptr);
+  bool gaussian = gaussianPose();
+  // The landmarks the sensor may see from the particle's pose, then which observation each one took; while
+  // relocalising, the gate spans the whole cloud's uncertainty.
+  Eigen::Matrix3d gate_covariance = p->motion_covariance;
+  if (relocalizing_)
+    gate_covariance += cloud_covariance_;
+  association_.selectCandidates(p->map, p->pose, sensor_in_base, scope_,
+                                gaussian || relocalizing_ ? &gate_covariance : nullptr);
   association_.associate(p->map, obs, scratch_.R);
+  if (relocalizing_)
+  {
+    bool matched = false;
+    for (std::size_t i = 0; i < obs.size() && !matched; ++i)
+      matched = association_.match(i) >= 0;
+    if (matched)
+    {
+      // The kernel around the particle (centre shrunk towards the cloud's mean so that the spread is kept), to
+      // be conditioned on the matched observations.
+      const double h = kernelBandwidth(), a = std::sqrt(1.0 - h * h);
+      p->pose = Pose2(a * p->pose.x + (1.0 - a) * cloud_mean_.x, a * p->pose.y + (1.0 - a) * cloud_mean_.y,
+                      wrapAngle(cloud_mean_.theta + a * wrapAngle(p->pose.theta - cloud_mean_.theta)));
+      p->motion_covariance += h * h * cloud_covariance_;
+      gaussian = true;
+    }
+    else if (!gaussian)
+      association_.repredict(p->map, p->pose * sensor_in_base, obs, scratch_.R, true);
+  }
   double log_w = 0.0;
   double dual_weight = std::numeric_limits<double>::quiet_NaN();
   if (gaussian)
     drawPoseAndRepredict(p, obs, sensor_in_base, &log_w, &dual_weight);
   // The maps are updated from the drawn pose.
   updateMap(p, obs, p->pose * sensor_in_base, &log_w, stats);
-  const std::size_t deleted = evidence_.applyMisses(&p->map, association_, scope_);
+  // No landmark is missed while the pose is too uncertain to say where it should have been seen.
+  const std::size_t deleted =
+      relocalizing_ ? 0 : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr);
+  if (stats && deleted_positions_.size() > kDeletedMemory)
+    deleted_positions_.erase(deleted_positions_.begin(),
+                             deleted_positions_.begin() + static_cast<std::ptrdiff_t>(deleted_positions_.size() - kDeletedMemory));
   if (stats)
     stats->deleted += static_cast<int>(deleted);
   p->log_weight += std::isnan(dual_weight) ? log_w : dual_weight;
@@ -306,6 +372,7 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       const Eigen::Vector2d& v = association_.innovation(i, kc);
       const Eigen::Matrix2d& R = scratch_.R[i];
       const LandmarkObservation& o = obs[i];
+      const bool confirmed = !p->map[cd.index].provisional;
       p->map.modify(cd.index, [&](Landmark& l) {
         updateLandmarkPosition(&l, cd.H, s_inv, v, R);
         fuseLandmarkRadius(&l, o);
@@ -313,7 +380,12 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       });
       *log_w += association_.logLikelihood(i, kc);
       if (stats)
+      {
         ++stats->matched;
+        stats->innovation_nis += v.dot(s_inv * v);
+        if (confirmed)
+          ++stats->matched_confirmed;
+      }
       continue;
     }
     // Unmatched: new if no landmark could explain it, else it lost the matching (ignored).
@@ -351,10 +423,19 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
     }
     else
       l.id = next_id_++;
+    if (stats)
+    {
+      ++stats->created;
+      // A new landmark where the map lost one: the map is being rebuilt rather than re-observed.
+      for (const Eigen::Vector2d& d : deleted_positions_)
+        if ((d - l.mean).norm() < kRecreatedDistance)
+        {
+          ++stats->recreated;
+          break;
+        }
+    }
     p->map.add(l);
     *log_w += scratch_.log_new[i];
-    if (stats)
-      ++stats->created;
   }
 }
 
@@ -377,7 +458,7 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
     if (k < 0)
       continue;
     ++matched;
-    if (c.proposal == PoseProposal::kFastSlam2 && !degenerate)
+    if ((c.proposal == PoseProposal::kFastSlam2 || relocalizing_) && !degenerate)
       conditionPoseOnLandmark(&mu, &cov, p->map[candidates[static_cast<std::size_t>(k)].index],
                               Eigen::Vector2d(obs[i].range, obs[i].bearing), w.R[i], sensor);
   }
@@ -463,6 +544,18 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     scratch_.log_new[i] = -0.5 * config_.association_gate - kLog2Pi - 0.5 * std::log(R.determinant());
   }
   scratch_.dual_flags.clear();
+  // Relocalisation: is the cloud too wide for the particles' own gates?
+  relocalizing_ = false;
+  if (config_.relocalization_spread > 0.0 && particles_.size() > 1)
+  {
+    const PoseMoments m = moments();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m.covariance.topLeftCorner<2, 2>());
+    stats.pose_spread = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+    relocalizing_ = stats.pose_spread > config_.relocalization_spread;
+    cloud_mean_ = m.mean;
+    cloud_covariance_ = m.covariance;
+  }
+  stats.relocalizing = relocalizing_;
   for (std::size_t i = 0; i < particles_.size(); ++i)
     updateParticle(&particles_[i], observations, sensor, i == best_before ? &stats : nullptr);
   stats.dual = static_cast<int>(std::count(scratch_.dual_flags.begin(), scratch_.dual_flags.end(), 1));
@@ -517,6 +610,12 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     p.history = std::make_shared<const HistoryNode<Pose2>>(p.pose, std::move(p.history));
   stats.landmarks = static_cast<int>(particles_[best_].map.size());
   return stats;
+}
+
+double FastSlam::kernelBandwidth() const
+{
+  const double n = static_cast<double>(particles_.size()), d = 3.0;
+  return std::min(1.0, std::pow(4.0 / (n * (d + 2.0)), 1.0 / (d + 4.0)));
 }
 
 std::vector<Pose2> FastSlam::bestHistory() const

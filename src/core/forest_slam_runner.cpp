@@ -101,6 +101,9 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         res.estimate.push_back(u.estimate);
         res.odometry.push_back(u.odometry);
         res.truth.push_back(truth);
+        res.update_stats.push_back(u.stats);
+        if (u.health.level == HealthLevel::kWarn)
+          ++res.health_warnings;
         // Trees inside the true sensor's scope at this instant.
         const Pose2 true_sensor = truth * mount_pose;
         for (std::size_t k = 0; k < res.trees.size(); ++k)

@@ -52,7 +52,7 @@ MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandid
 }
 
 std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociation& association,
-                                          const VisibilityScope& scope)
+                                          const VisibilityScope& scope, std::vector<Eigen::Vector2d>* removed)
 {
   const std::vector<AssociationCandidate>& candidates = association.candidates();
   to_delete_.clear();
@@ -88,7 +88,12 @@ std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociatio
   // Highest index first: remove() moves the last landmark into the hole, which must not be one still to go.
   std::sort(to_delete_.rbegin(), to_delete_.rend());
   for (std::size_t j : to_delete_)
+  {
+    // Only confirmed landmarks are reported: a provisional one was never part of the map.
+    if (removed && !(*map)[j].provisional)
+      removed->push_back((*map)[j].mean);
     map->remove(j);
+  }
   return to_delete_.size();
 }
 

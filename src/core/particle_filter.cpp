@@ -19,6 +19,10 @@ std::string OdometryMotionNoise::validate() const
     return "alpha3 must be >= 0";
   if (!ok(alpha4))
     return "alpha4 must be >= 0";
+  if (!ok(heading_drift) || !ok(scale_drift) || !ok(drift_distance))
+    return "heading_drift, scale_drift and drift_distance must be >= 0";
+  if (scale_drift >= 0.5)
+    return "scale_drift must be < 0.5";
   return "";
 }
 

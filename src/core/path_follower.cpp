@@ -54,7 +54,9 @@ VelocityCommand PathFollower::command(const Pose2& pose)
   }
   segment_ = best_seg;
   progress_ = std::max(progress_, best_s);
-  if ((path_.back() - p).norm() < config_.goal_tolerance || progress_ >= cumulative_.back() - 1e-6)
+  // Done near the last waypoint once on the last segment (a closed loop starts at its own end), or at its end.
+  const bool last_segment = segment_ + 2 >= path_.size();
+  if ((last_segment && (path_.back() - p).norm() < config_.goal_tolerance) || progress_ >= cumulative_.back() - 1e-6)
   {
     done_ = true;
     return {};

@@ -31,8 +31,10 @@ void TrunkSlamPipeline::resetFilter()
   // Filter and detector start over with their seeds, so that each timeline is reproducible on its own.
   detector_.reset(new TrunkDetector(detector_config_));
   filter_.reset(new FastSlam(filter_config_));
+  health_ = FilterHealth();
   initialized_ = false;
   last_odometry_ = Pose2();
+  last_estimate_ = Pose2();
 }
 
 void TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
@@ -178,6 +180,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   const TrunkSweep& sw = sweep;
   const double t_mid = sw.stamp + 0.5 * sw.period;
   const Pose2 odom_mid = odometry_.at(t_mid);
+  const bool first = !initialized_;
   if (!initialized_)
   {
     // The map frame is the odometry frame at the first update: map -> odom starts as the identity.
@@ -188,6 +191,27 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   }
   // The motion since the last update in steps of about motion_step along the odometry's samples.
   const FastSlamConfig& fc = filter_->config();
+  if (!first && (fc.update_min_travel > 0.0 || fc.update_min_turn > 0.0))
+  {
+    const Pose2 d = between(last_odometry_, odom_mid);
+    if (std::hypot(d.x, d.y) < fc.update_min_travel && std::abs(d.theta) < fc.update_min_turn)
+    {
+      // Too little motion for a new look at the trunks: the estimate follows the odometry from the last update.
+      PipelineUpdate u;
+      u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);
+      u.stamp = t_mid;
+      u.odometry = odom_mid;
+      u.estimate = last_estimate_ * d;
+      u.odometry_covered = covered;
+      u.filtered = false;
+      u.stats.landmarks = static_cast<int>(filter_->best().map.size());
+      u.stats.observations = static_cast<int>(sw.trunks.size());
+      u.health = health_.status();
+      u.trunks = std::move(sweep.trunks);
+      seconds_filter_ += since(t0);
+      return u;
+    }
+  }
   Pose2 from = last_odometry_;
   odometry_.forEachBetween(last_stamp_, t_mid, [&](double, const Pose2& pose) {
     const OdometryIncrement u = decomposeOdometry(from, pose);
@@ -206,9 +230,11 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   PipelineUpdate u;
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
   u.stats = filter_->update(obs, u.mount, sw.scope);
+  u.health = health_.add(u.stats, filter_->config().particles);
   u.stamp = t_mid;
   u.odometry = odom_mid;
   u.estimate = filter_->estimate();
+  last_estimate_ = u.estimate;
   u.odometry_covered = covered;
   u.trunks = std::move(sweep.trunks);
   seconds_filter_ += since(t0);

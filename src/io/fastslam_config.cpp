@@ -15,8 +15,13 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("motion/alpha2", &c->motion.alpha2);
   p.get("motion/alpha3", &c->motion.alpha3);
   p.get("motion/alpha4", &c->motion.alpha4);
+  p.get("motion/heading_drift", &c->motion.heading_drift);
+  p.get("motion/scale_drift", &c->motion.scale_drift);
+  p.get("motion/drift_distance", &c->motion.drift_distance);
   p.get("motion_step", &c->motion_step);
   p.get("motion_step_angle", &c->motion_step_angle);
+  p.get("update_min_travel", &c->update_min_travel);
+  p.get("update_min_turn", &c->update_min_turn);
   p.get("range_sigma_floor", &c->range_sigma_floor);
   p.get("bearing_sigma_floor", &c->bearing_sigma_floor);
   p.get("min_range", &c->min_range);
@@ -35,6 +40,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("confirm_observations", &c->confirm_observations);
   p.get("drop_unconfirmed_leaving_scope", &c->drop_unconfirmed_leaving_scope);
   readResamplingPolicy(p, &c->resampling);
+  p.get("relocalization_spread", &c->relocalization_spread);
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);

@@ -77,11 +77,13 @@ FastSlamRunRecord::FastSlamRunRecord()
 {
   for (std::ostringstream* s : { &estimate_, &odometry_, &table_ })
     s->precision(12);
-  table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored\n";
+  table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
+            "pose_spread,relocalizing,health\n";
 }
 
 void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2& estimate,
-                                  const core::Pose2& odometry, const core::FastSlamUpdateStats& st)
+                                  const core::Pose2& odometry, const core::FastSlamUpdateStats& st,
+                                  const core::HealthStatus& health)
 {
   if (timeline != timeline_)
   {
@@ -93,7 +95,31 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
   writeTumLine(estimate_, stamp, estimate);
   writeTumLine(odometry_, stamp, odometry);
   table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ',' << st.observations
-         << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored << '\n';
+         << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored << ','
+         << st.matched_confirmed << ',' << st.recreated << ',' << st.pose_spread << ',' << (st.relocalizing ? 1 : 0)
+         << ',' << core::toString(health.level) << '\n';
+  if (health.level == core::HealthLevel::kWarn)
+  {
+    if (warnings_ == 0)
+      first_warning_ = stamp;
+    ++warnings_;
+    last_warning_ = stamp;
+    last_warning_message_ = health.message;
+  }
+}
+
+std::string FastSlamRunRecord::healthSummary() const
+{
+  std::ostringstream s;
+  s.precision(12);
+  if (warnings_ == 0)
+  {
+    s << "health ok: no update of " << updates_ << " warned that the map was being rebuilt";
+    return s.str();
+  }
+  s << "health WARNING: " << warnings_ << " of " << updates_ << " updates warned that the map was being rebuilt "
+    << "(from " << first_warning_ << " to " << last_warning_ << "); last: " << last_warning_message_;
+  return s.str();
 }
 
 std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const core::FastSlam& filter) const
@@ -110,6 +136,7 @@ std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const 
     writeTumLine(h, stamps_[stamps_.size() - n + i], history[history.size() - n + i]);
   out.emplace_back(dir + "/estimate_best_history.tum", h.str());
   out.emplace_back(dir + "/updates.csv", table_.str());
+  out.emplace_back(dir + "/health.txt", healthSummary() + "\n");
   const core::Particle& best = filter.best();
   std::vector<core::Landmark> landmarks;
   for (std::size_t i = 0; i < best.map.size(); ++i)

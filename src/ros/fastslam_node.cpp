@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <boost/make_shared.hpp>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -158,6 +159,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   odom_path_.header.frame_id = config_.map_frame;
   odom_path_pub_ = nh_.advertise<nav_msgs::Path>("odom_path", 2);
   scope_pub_ = nh_.advertise<visualization_msgs::Marker>("scope", 2);
+  diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
   save_run_srv_ = pnh_.advertiseService("save_run", &FastSlamRos::onSaveRun, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
@@ -309,11 +311,63 @@ void FastSlamRos::processPending()
       ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); used the newest",
                         name_.c_str(), u.stamp, config_.odom_timeout, pipeline_->odometry().latest());
     ++updates_;
-    record_.addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats);
+    record_.addUpdate(u);
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
+    publishHealth(u);
     publish(ros::Time(u.stamp), u.odometry);
   }
+}
+
+void FastSlamRos::publishHealth(const core::PipelineUpdate& u)
+{
+  const core::HealthStatus& h = u.health;
+  if (h.level != last_level_)
+  {
+    if (h.level == core::HealthLevel::kWarn)
+      ROS_WARN("%s: %s", name_.c_str(), h.message.c_str());
+    else
+      ROS_INFO("%s: health back to %s", name_.c_str(), h.message.c_str());
+  }
+  else if (h.level == core::HealthLevel::kWarn)
+    ROS_WARN_THROTTLE(10.0, "%s: %s", name_.c_str(), h.message.c_str());
+  const bool changed = h.level != last_level_;
+  last_level_ = h.level;
+  if (!changed && last_diagnostics_ >= 0.0 && u.stamp - last_diagnostics_ < 1.0 && u.stamp >= last_diagnostics_)
+    return;
+  last_diagnostics_ = u.stamp;
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = ros::Time(u.stamp);
+  diagnostic_msgs::DiagnosticStatus s;
+  s.name = name_ + ": FastSLAM";
+  s.hardware_id = config_.map_frame;
+  s.level = h.level == core::HealthLevel::kWarn ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                : diagnostic_msgs::DiagnosticStatus::OK;
+  s.message = h.message;
+  const auto kv = [&s](const std::string& key, const std::string& value) {
+    diagnostic_msgs::KeyValue k;
+    k.key = key;
+    k.value = value;
+    s.values.push_back(k);
+  };
+  const auto num = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof(b), "%.3g", v);
+    return std::string(b);
+  };
+  kv("updates in window", std::to_string(h.updates));
+  kv("mean Neff / N", num(h.neff_ratio));
+  kv("resampled share", num(h.resampled_share));
+  kv("observations", std::to_string(h.observations));
+  kv("matched to confirmed landmarks", num(h.matched_confirmed_share));
+  kv("new landmarks", std::to_string(h.created));
+  kv("re-created where deleted", std::to_string(h.recreated));
+  kv("deleted", std::to_string(h.deleted));
+  kv("relocalizing share", num(h.relocalizing_share));
+  kv("pose spread [m]", num(h.pose_spread));
+  kv("landmarks", std::to_string(u.stats.landmarks));
+  array.status.push_back(s);
+  diagnostics_pub_.publish(array);
 }
 
 bool FastSlamRos::sensorPose(const std::string& frame, core::Pose2* pose)

@@ -453,7 +453,7 @@ int runFastSlam(const Options& o)
     for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
     {
       ++updates;
-      record.addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats);
+      record.addUpdate(u);
     }
   };
   replay(bag, { sensor_topic, o.odom_topic }, feed, process);
@@ -483,6 +483,7 @@ int runFastSlam(const Options& o)
     std::printf("  final estimate (%s; map frame = the odometry frame at the first update): %.3f %.3f %.1f deg; "
                 "%zu landmarks in the best particle's map\n",
                 core::toString(fc.estimate), estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
+    std::printf("  %s\n", record.healthSummary().c_str());
     std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
                 pipeline.secondsFilter(),
                 clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));

@@ -272,3 +272,36 @@ TEST(Scenario, StraightDriveFollowsOdometryToItsEnd)
   EXPECT_NEAR(odom.x, 30.0, 0.6);
   EXPECT_NEAR(odom.y, 0.0, 0.3);
 }
+
+namespace
+{
+/** Drives @p follower with a perfect unicycle from its start until it is done (or @p max_steps). */
+int driveToEnd(rbpf_slam::core::PathFollower* follower, int max_steps)
+{
+  rbpf_slam::core::Pose2 pose;
+  const double dt = 0.05;
+  for (int step = 0; step < max_steps; ++step)
+  {
+    const rbpf_slam::core::VelocityCommand cmd = follower->command(pose);
+    if (follower->done())
+      return step;
+    pose.theta = rbpf_slam::core::wrapAngle(pose.theta + cmd.angular * dt);
+    pose.x += cmd.linear * dt * std::cos(pose.theta);
+    pose.y += cmd.linear * dt * std::sin(pose.theta);
+  }
+  return max_steps;
+}
+}  // namespace
+
+TEST(PathFollower, ClosedLoopIsDrivenToItsEndNotStoppedAtItsStart)
+{
+  using rbpf_slam::core::PathFollower;
+  // A 40 m square that ends where it starts, driven twice.
+  const std::vector<Eigen::Vector2d> square{ { 0, 0 }, { 10, 0 }, { 10, 10 }, { 0, 10 }, { 0, 0 },
+                                             { 10, 0 }, { 10, 10 }, { 0, 10 }, { 0, 0 } };
+  PathFollower follower(square, rbpf_slam::core::PathFollowerConfig());
+  const int steps = driveToEnd(&follower, 100000);
+  EXPECT_TRUE(follower.done());
+  EXPECT_GT(follower.progress(), 75.0);
+  EXPECT_GT(steps * 0.05, 70.0);  // about 80 m at 1 m/s
+}

@@ -20,6 +20,12 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.motion.alpha2, defaults.motion.alpha2);
   EXPECT_EQ(read.motion.alpha3, defaults.motion.alpha3);
   EXPECT_EQ(read.motion.alpha4, defaults.motion.alpha4);
+  EXPECT_EQ(read.motion.heading_drift, defaults.motion.heading_drift);
+  EXPECT_EQ(read.motion.scale_drift, defaults.motion.scale_drift);
+  EXPECT_EQ(read.motion.drift_distance, defaults.motion.drift_distance);
+  EXPECT_EQ(read.update_min_travel, defaults.update_min_travel);
+  EXPECT_EQ(read.update_min_turn, defaults.update_min_turn);
+  EXPECT_EQ(read.relocalization_spread, defaults.relocalization_spread);
   EXPECT_EQ(read.range_sigma_floor, defaults.range_sigma_floor);
   EXPECT_EQ(read.bearing_sigma_floor, defaults.bearing_sigma_floor);
   EXPECT_EQ(read.min_range, defaults.min_range);

@@ -158,7 +158,7 @@ def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(b
         header = f.readline().strip().split(',')
         rows = [line.strip().split(',') for line in f]
     assert header == ['stamp', 'neff', 'resampled', 'landmarks', 'observations', 'matched', 'new', 'deleted',
-                      'ignored']
+                      'ignored', 'matched_confirmed', 'recreated', 'pose_spread', 'relocalizing', 'health']
     assert len(rows) == len(est)
     neff = np.array([float(r[1]) for r in rows])
     assert ((neff > 0) & (neff <= 100.0 + 1e-9)).all()

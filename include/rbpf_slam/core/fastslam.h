@@ -59,6 +59,12 @@ struct FastSlamConfig
   /// path the odometry drove rather than one straight chord.
   double motion_step = 0.2;
   double motion_step_angle = 0.2;
+  /// The filter takes a sweep only once the robot has driven update_min_travel [m] or turned update_min_turn
+  /// [rad] since its last update (0, 0: every sweep); in between, the estimate follows the odometry. The errors of
+  /// successive sweeps of the same trunks are not independent (the same fit bias, the same clutter): taking
+  /// every sweep of a 10 Hz lidar as independent evidence makes the weights far too sure and the cloud collapse.
+  double update_min_travel = 0.0;
+  double update_min_turn = 0.0;
 
   // Observation noise floor (added in quadrature to each observation's own covariance): the detector's
   // covariance is that of its fit and does not know of the sensor's systematic errors.
@@ -115,6 +121,15 @@ struct FastSlamConfig
   /// (every sample weighs p(z | x, m) p(x | u) over the mixture's density).
   bool mixture_balance = false;
 
+  /// Relocalisation [m]: when the particles' position spread (the standard deviation along the cloud's widest
+  /// axis) exceeds this, the pose is too uncertain for each particle's own gate to find the landmarks it comes
+  /// back to. Association then gates with the cloud's covariance added to each particle's innovation
+  /// covariance; a particle that matches a landmark draws its pose from a kernel around it (the regularised
+  /// particle filter's: bandwidth h = (4 / (N (d + 2)))^(1 / (d + 4)), d = 3, centres shrunk towards the mean
+  /// so that the cloud's spread is kept) conditioned on its matched observations, as FastSLAM 2.0 draws, and
+  /// weighs by their likelihood under that prior; no landmark loses evidence for a miss while the pose is that
+  /// uncertain. 0: off.
+  double relocalization_spread = 0.25;
   /// The published pose: the weighted mean of the particles, or the best particle (the one of the largest weight
   /// before resampling, followed through its copies).
   PoseEstimate estimate = PoseEstimate::kMean;
@@ -141,6 +156,10 @@ struct Particle
   /// The particle's own pose after each update, newest first; ancestors shared with the particles that descend
   /// from the same ones (a resampled copy shares its original's history).
   HistoryNode<Pose2>::Ptr history;
+  /// The particle's own systematic odometry errors (OdometryMotionNoise's heading_drift [rad/m] and scale_drift
+  /// [-]): the odometry increments are corrected by them before the motion noise is drawn.
+  double heading_drift = 0.0;
+  double scale_drift = 0.0;
 };
 
 /** @brief Counters of one update() for diagnostics. */
@@ -155,6 +174,13 @@ struct FastSlamUpdateStats
   int dual = 0;        ///< particles (all of them) whose pose came from the dual proposal (mixture)
   double neff = 0.0;   ///< before resampling
   bool resampled = false;
+  double pose_spread = 0.0;  ///< [m] the particles' position spread before the update (widest axis, 1 sigma)
+  bool relocalizing = false; ///< the update gated with the cloud's covariance (relocalization_spread)
+  int matched_confirmed = 0; ///< observations matched to confirmed landmarks (best particle)
+  int recreated = 0;         ///< new landmarks within a gate's reach of one deleted before (best particle)
+  /// Sum over the best particle's matches of the squared Mahalanobis distance of the innovation: a filter whose
+  /// pose error stays within its uncertainty averages 2 per match (chi-square, 2 dof).
+  double innovation_nis = 0.0;
 };
 
 /**
@@ -198,7 +224,7 @@ public:
   void initialize(const Pose2& start = Pose2());
   /** @brief All particles at @p start sharing the prior map @p map (copy-on-write), equal weights. */
   void initialize(const Pose2& start, const LandmarkMap& map);
-  /** @brief Samples every particle's motion for one odometry increment. */
+  /** @brief Samples every particle's motion for one odometry increment (after its own drift). */
   void predict(const OdometryIncrement& u);
   /**
    * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
@@ -237,6 +263,10 @@ public:
   }
 
 private:
+  /** @brief Whether the particles carry odometry drifts. */
+  bool drifting() const { return config_.motion.heading_drift > 0.0 || config_.motion.scale_drift > 0.0; }
+  /** @brief @p u as particle @p p's drifting odometry would have measured it; walks its drifts on. */
+  OdometryIncrement driftedIncrement(Particle* p, const OdometryIncrement& u);
   /** @brief Buffers of one update, kept between calls so that an update allocates nothing. */
   struct Scratch
   {
@@ -253,6 +283,8 @@ private:
                       FastSlamUpdateStats* stats);
   /** @brief Pose carried as a Gaussian between updates (FastSLAM 2.0 or the mixture). */
   bool gaussianPose() const { return config_.proposal == PoseProposal::kFastSlam2 || config_.mixture_fraction > 0.0; }
+  /** @brief The regularised particle filter's kernel bandwidth for this many particles (3 dimensions). */
+  double kernelBandwidth() const;
   /**
    * @brief Pose draw step of a Gaussian-pose particle: draws the pose (drawPose), predicts the candidates
    * again from it, and adds the mixture's weight correction to @p log_w or sets @p dual_weight (the weight of
@@ -283,6 +315,10 @@ private:
   std::size_t best_ = 0;
   Scratch scratch_;
   VisibilityScope scope_;
+  bool relocalizing_ = false;                              ///< this update gates with the cloud's covariance
+  Eigen::Matrix3d cloud_covariance_ = Eigen::Matrix3d::Zero();  ///< of the particles, before this update
+  Pose2 cloud_mean_;
+  std::vector<Eigen::Vector2d> deleted_positions_;  ///< confirmed landmarks the best particle lost, newest last
   DataAssociation association_;
   LandmarkEvidence evidence_;
 };

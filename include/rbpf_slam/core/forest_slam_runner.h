@@ -43,6 +43,8 @@ struct ForestSlamRunResult
   double seconds_extraction = 0.0; ///< wall time spent in extraction
   double seconds_filter = 0.0;     ///< wall time spent in the filter
   int sweeps = 0;
+  std::vector<FastSlamUpdateStats> update_stats;  ///< of each filter update
+  int health_warnings = 0;         ///< updates whose health warned that the map was being rebuilt
 };
 
 /**

@@ -60,9 +60,11 @@ public:
   /**
    * @brief Applies the misses of the candidates of @p association that took no observation to @p map and
    * removes the landmarks dropped or below delete_below. Returns how many were removed. Landmarks added to
-   * @p map after the association are not candidates and are left alone.
+   * @p map after the association are not candidates and are left alone. With @p removed, the positions of the
+   * confirmed landmarks removed are added to it.
    */
-  std::size_t applyMisses(LandmarkMap* map, const DataAssociation& association, const VisibilityScope& scope);
+  std::size_t applyMisses(LandmarkMap* map, const DataAssociation& association, const VisibilityScope& scope,
+                          std::vector<Eigen::Vector2d>* removed = nullptr);
 
 private:
   EvidenceConfig config_;

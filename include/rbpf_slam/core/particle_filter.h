@@ -29,6 +29,16 @@ struct OdometryMotionNoise
   double alpha2 = 0.02;  ///< [rad/m] rotation noise from translation
   double alpha3 = 0.02;  ///< [m/m] translation noise from translation
   double alpha4 = 0.01;  ///< [m/rad] translation noise from rotation
+  // Systematic odometry errors (a left/right tyre mismatch, a steering encoder's offset, a wheel radius off
+  // by a few per cent) grow with the distance driven, not with its square root as the random walk above does:
+  // each particle carries its own drift, drawn from these standard deviations when the filter starts, so that
+  // the cloud's spread grows as a real drift does through stretches without landmarks, and the particles
+  // whose drift matches the robot's survive. 0 switches a drift off.
+  double heading_drift = 0.0;  ///< [rad/m] heading gained per metre driven (e.g. 0.005: a 0.6 % tyre mismatch, 1.2 m track)
+  double scale_drift = 0.0;    ///< [-] relative error of the distance driven (e.g. 0.01: a tyre's radius under load)
+  /// [m] each particle's drifts wander as a random walk that changes them by their standard deviation over this
+  /// distance (tyre pressure and load change): the cloud keeps a range of drifts after resampling. 0: constant.
+  double drift_distance = 200.0;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;

@@ -18,7 +18,7 @@ struct PathFollowerConfig
   double speed = 1.0;           ///< [m/s]
   double lookahead = 2.0;       ///< [m] pure-pursuit look-ahead distance
   double max_angular = 0.8;     ///< [rad/s]
-  double goal_tolerance = 0.3;  ///< [m] done within this of the last waypoint
+  double goal_tolerance = 0.3;  ///< [m] done within this of the last waypoint (on the last segment)
 };
 
 /**

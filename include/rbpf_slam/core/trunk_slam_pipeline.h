@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/filter_health.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/sensor_pipeline.h"
 #include "rbpf_slam/core/trunk_detector.h"
@@ -79,6 +80,10 @@ struct PipelineUpdate
   bool odometry_covered = true;       ///< false: processed after waiting, with odometry that ends before the sweep
   std::vector<TrunkObservation> trunks;  ///< as extracted (sensor frame, levelled)
   FastSlamUpdateStats stats;
+  HealthStatus health;                ///< the filter's health over its last updates, this one included
+  /// false: the robot had not moved update_min_travel or turned update_min_turn since the last filter update; the
+  /// sweep was not given to the filter and the estimate is the last one moved by the odometry since
+  bool filtered = true;
 };
 
 /**
@@ -125,6 +130,8 @@ public:
                        double clock = NAN, double arrival = NAN);
 
   const FastSlam& filter() const { return *filter_; }
+  /** @brief The filter's health monitor (restarts with the filter). */
+  const FilterHealth& health() const { return health_; }
   bool initialized() const { return initialized_; }
   /** @brief The odometry pose of the last update (map -> odom = filter pose * its inverse). */
   const Pose2& lastOdometry() const { return last_odometry_; }
@@ -140,8 +147,10 @@ private:
   FastSlamConfig filter_config_;
   std::unique_ptr<TrunkDetector> detector_;
   std::unique_ptr<FastSlam> filter_;
+  FilterHealth health_;
   bool initialized_ = false;
   Pose2 last_odometry_;
+  Pose2 last_estimate_;
   double last_stamp_ = 0.0;
   double seconds_extraction_ = 0.0, seconds_filter_ = 0.0;
 };

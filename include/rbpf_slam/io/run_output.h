@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/filter_health.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/landmark_map.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/core/pose2.h"
@@ -44,8 +46,10 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
  * @brief The run folder of a FastSLAM run, the same from the bag runner (slam_bag --out) and the node
  * (~run_folder): estimate.tum (the online estimate after each update, as published), odometry.tum (the odometry at
  * the same instants), estimate_best_history.tum (the final best particle's own trajectory over the last timeline),
- * updates.csv (per update: stamp, Neff, resampled, landmarks, observations, matched, new, deleted, ignored) and
- * map.csv (the best particle's map, landmarksCsv()).
+ * updates.csv (per update: stamp, Neff, resampled, landmarks, observations, matched, new, deleted, ignored,
+ * matched_confirmed, recreated, pose_spread, relocalizing, health), health.txt (the filter's health: how many updates
+ * warned that the map was being rebuilt, the first and the last warning) and map.csv (the best particle's map,
+ * landmarksCsv()).
  */
 class FastSlamRunRecord
 {
@@ -53,7 +57,13 @@ public:
   FastSlamRunRecord();
   /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
-                 const core::FastSlamUpdateStats& stats);
+                 const core::FastSlamUpdateStats& stats, const core::HealthStatus& health);
+  /** @brief One pipeline update (as above). */
+  void addUpdate(const core::PipelineUpdate& u) { addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health); }
+  /** @brief Updates whose health was a warning. */
+  std::size_t warnings() const { return warnings_; }
+  /** @brief The health summary of health.txt (one paragraph). */
+  std::string healthSummary() const;
   std::size_t updates() const { return updates_; }
   /** @brief The files of the folder @p dir with @p filter's present state (best history and map). */
   std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter) const;
@@ -63,6 +73,9 @@ private:
   std::vector<double> stamps_;  ///< of the current timeline
   int timeline_ = -1;
   std::size_t updates_ = 0;
+  std::size_t warnings_ = 0;
+  double first_warning_ = 0.0, last_warning_ = 0.0;
+  std::string last_warning_message_;
 };
 
 }  // namespace io

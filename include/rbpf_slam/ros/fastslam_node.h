@@ -115,6 +115,11 @@ private:
 
   ros::Subscriber odom_sub_, trunks_sub_;
   ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_, odom_path_pub_, scope_pub_;
+  ros::Publisher diagnostics_pub_;  ///< /diagnostics: the filter's health (diagnostic_msgs, for rqt_robot_monitor)
+  double last_diagnostics_ = -1.0;  ///< [s] stamp of the last diagnostics message
+  core::HealthLevel last_level_ = core::HealthLevel::kOk;
+  /** @brief Publishes the filter's health at 1 Hz of data time and at every change of level; warns on a change. */
+  void publishHealth(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_;
   io::FastSlamRunRecord record_;  ///< the run folder's content
   ros::WallTimer timer_;
