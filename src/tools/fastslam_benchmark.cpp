@@ -7,12 +7,12 @@
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
 //                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
 //                                       [--odometry-noise K] [--sim-config FILE] [--config FILE]...
-//                                       [--detector-config FILE] [--start X Y YAW_DEG] [--gate M] [--fail-ate M]
+//                                       [--extraction-config FILE] [--start X Y YAW_DEG] [--gate M] [--fail-ate M]
 //
 // --sim-config: simulator, follower and relay keys (config/forest_sim.yaml); the robot, its odometry and the
 //   sensor: with the 3D lidar disabled and the 2D scanner enabled the runs use the scanner.
 // --config: filter keys (config/fastslam.yaml), repeatable, later files over earlier ones (e.g. config/fastslam.yaml
-//   then config/odometry/car.yaml); --detector-config: extraction keys (config/trunk_extraction.yaml). Without them
+//   then config/odometry/car.yaml); --extraction-config: extraction keys (config/trunk_extraction.yaml). Without them
 //   the built-in defaults; --particles, --method, --proposal and --mixture override the files where given.
 // --start: the start pose in the world (default: the simulator configuration's, (0, 15, 0)); the drive's waypoints
 //   are in the start frame.
@@ -128,7 +128,7 @@ int main(int argc, char** argv)
       sim_config_path = argv[++i];
     else if (a == "--config" && has)
       filter_config_paths.push_back(argv[++i]);
-    else if (a == "--detector-config" && has)
+    else if (a == "--extraction-config" && has)
       detector_config_path = argv[++i];
     else if (a == "--start" && i + 3 < argc)
     {
@@ -183,7 +183,7 @@ int main(int argc, char** argv)
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N[,N...]] [--seeds K] "
                    "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
                    "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n"
-                   "       [--sim-config FILE] [--config FILE]... [--detector-config FILE] [--start X Y YAW_DEG]\n"
+                   "       [--sim-config FILE] [--config FILE]... [--extraction-config FILE] [--start X Y YAW_DEG]\n"
                    "       [--gate M] [--fail-ate M]\n"
                    "A run fails when its final error exceeds 1 m (with --fail-ate M: its ATE exceeds M m) or the robot "
                    "collided.\n",
@@ -200,7 +200,8 @@ int main(int argc, char** argv)
     // Configuration files: each key a file gives must be one its reader knows.
     const auto warnUnused = [](const io::YamlParamSource& params, const std::string& path) {
       for (const auto& k : params.unusedKeys())
-        std::fprintf(stderr, "fastslam_benchmark: warning: %s: unknown key '%s' ignored\n", path.c_str(), k.c_str());
+        if (std::find(io::nodeOnlyKeys().begin(), io::nodeOnlyKeys().end(), k) == io::nodeOnlyKeys().end())
+          std::fprintf(stderr, "fastslam_benchmark: warning: %s: unknown key '%s' ignored\n", path.c_str(), k.c_str());
     };
     if (!sim_config_path.empty())
     {
