@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rbpf_slam/core/ackermann.h"
+
 namespace rbpf_slam
 {
 namespace core
@@ -20,11 +22,61 @@ bool OdometryConfig::validate(std::string* error) const
     return fail("odometry wheel_sigma must be >= 0");
   if (!(track_width > 0.0))
     return fail("odometry track_width must be > 0");
+  if (!(speed_scale > 0.0) || !(speed_sigma >= 0.0))
+    return fail("odometry speed_scale must be > 0 and speed_sigma >= 0");
+  if (!std::isfinite(steer_bias) || std::abs(steer_bias) >= 0.5 * M_PI || !(steer_sigma >= 0.0))
+    return fail("odometry steer_bias_deg must be within (-90, 90) and steer_sigma_deg >= 0");
+  if (!(wheelbase > 0.0))
+    return fail("odometry wheelbase must be > 0");
   if (!(rate > 0.0))
     return fail("odometry rate must be > 0");
   if (!(latency >= 0.0))
     return fail("odometry latency must be >= 0");
   return true;
+}
+
+bool parseRobotModel(const std::string& name, RobotModel* model)
+{
+  if (name == "diff_drive")
+    *model = RobotModel::kDiffDrive;
+  else if (name == "ackermann")
+    *model = RobotModel::kAckermann;
+  else
+    return false;
+  return true;
+}
+
+const char* robotModelName(RobotModel model)
+{
+  return model == RobotModel::kAckermann ? "ackermann" : "diff_drive";
+}
+
+bool RobotConfig::validate(std::string* error) const
+{
+  auto fail = [&](const std::string& what) {
+    if (error)
+      *error = what;
+    return false;
+  };
+  if (!(track_width > 0.0) || !(turn_slip > -1.0))
+    return fail("robot track_width must be > 0 and turn_slip > -1");
+  if (!(max_linear_accel > 0.0) || !(max_angular_accel > 0.0))
+    return fail("robot max_linear_accel and max_angular_accel must be > 0");
+  if (!(footprint_radius >= 0.0))
+    return fail("robot footprint_radius must be >= 0");
+  if (!(wheelbase > 0.0) || !(max_steer > 0.0) || !(max_steer < 0.5 * M_PI) || !(max_steer_rate > 0.0))
+    return fail("robot wheelbase must be > 0, max_steer_deg within (0, 90), max_steer_rate_deg > 0");
+  if (!(length >= 0.0) || !(width >= 0.0) || !(rear_overhang >= 0.0) || !(rear_overhang <= length))
+    return fail("robot length and width must be >= 0, rear_overhang within [0, length]");
+  return true;
+}
+
+std::unique_ptr<Robot> makeRobot(const RobotConfig& robot, const OdometryConfig& odometry, const Pose2& start,
+                                 Random* random)
+{
+  if (robot.model == RobotModel::kAckermann)
+    return std::unique_ptr<Robot>(new AckermannRobot(robot, odometry, start, random));
+  return std::unique_ptr<Robot>(new DiffDriveRobot(robot, odometry, start, random));
 }
 
 DiffDriveRobot::DiffDriveRobot(const RobotConfig& robot, const OdometryConfig& odometry, const Pose2& start,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "rbpf_slam/core/occupancy_image.h"
@@ -29,6 +30,8 @@ float intensityOf(HitKind kind)
       return 45.0f;
     case HitKind::kBranch:
       return 40.0f;
+    case HitKind::kBox:
+      return 80.0f;
     case HitKind::kGround:
       return 15.0f;
     default:
@@ -58,8 +61,8 @@ bool SimulatorConfig::validate(std::string* error) const
     return fail("physics_rate must be > 0");
   if (!odometry.validate(error))
     return false;
-  if (!(robot.track_width > 0.0) || !(robot.turn_slip > -1.0))
-    return fail("robot track_width must be > 0 and turn_slip > -1");
+  if (!robot.validate(error))
+    return false;
   if (lidar3d.enabled && (lidar3d.rings < 1 || !(lidar3d.azimuth_resolution > 0.0) || !(lidar3d.rate > 0.0) ||
                           !(lidar3d.min_range < lidar3d.max_range) || lidar3d.min_elevation > lidar3d.max_elevation))
     return fail("lidar3d: need rings >= 1, azimuth_resolution > 0, rate > 0, min_range < max_range, "
@@ -100,7 +103,7 @@ ForestSimulator::ForestSimulator(const ForestWorld& world, const SimulatorConfig
   , sensor_random_(config.seed ^ 0x9E3779B97F4A7C15ull)
   , caster_(world)
   , image_(std::move(image))
-  , robot_(config.robot, config.odometry, config.start, &random_)
+  , robot_(makeRobot(config.robot, config.odometry, config.start, &random_))
 {
   init();
 }
@@ -132,7 +135,7 @@ void ForestSimulator::init()
     ring_sin_.push_back(std::sin(el));
     ring_cos_.push_back(std::cos(el));
   }
-  history_.emplace_back(0, robot_.pose());
+  history_.emplace_back(0, robot_->pose());
 }
 
 Eigen::Isometry3d ForestSimulator::bodyPose(const Pose2& pose) const
@@ -239,11 +242,95 @@ void ForestSimulator::castScan(double stamp, LaserScan2D* scan)
   }
 }
 
+std::string Collision::what(const ForestWorld& world) const
+{
+  char text[160];
+  if (kind == HitKind::kTrunk && index >= 0 && index < static_cast<int>(world.trunks.size()))
+  {
+    const TrunkSpec& t = world.trunks[static_cast<std::size_t>(index)];
+    std::snprintf(text, sizeof(text), "trunk %d (r %.2f m at %.2f, %.2f)", index, t.radius, t.x, t.y);
+  }
+  else if (kind == HitKind::kBox && index >= 0 && index < static_cast<int>(world.boxes.size()))
+  {
+    const BoxSpec& b = world.boxes[static_cast<std::size_t>(index)];
+    std::snprintf(text, sizeof(text), "box %d (%.1f x %.1f m at %.2f, %.2f)", index, b.length, b.width, b.x, b.y);
+  }
+  else
+  {
+    std::snprintf(text, sizeof(text), "nothing");
+  }
+  return text;
+}
+
+Collision ForestSimulator::touching(const Pose2& pose) const
+{
+  Collision c;
+  c.pose = pose;
+  const ForestWorld& w = caster_.world();
+  const RobotConfig& r = config_.robot;
+  const bool car = r.model == RobotModel::kAckermann;
+  BoxSpec body;
+  double reach = r.footprint_radius;  // [m] from base_link to the farthest point of the footprint
+  if (car)
+  {
+    const double ahead = 0.5 * r.length - r.rear_overhang;  // body centre ahead of the rear axle
+    body.x = pose.x + ahead * std::cos(pose.theta);
+    body.y = pose.y + ahead * std::sin(pose.theta);
+    body.yaw = pose.theta;
+    body.length = r.length;
+    body.width = r.width;
+    reach = std::hypot(std::max(r.rear_overhang, r.length - r.rear_overhang), 0.5 * r.width);
+  }
+  const Eigen::Vector2d at(pose.x, pose.y);
+  for (std::size_t i = 0; i < w.trunks.size(); ++i)
+  {
+    const TrunkSpec& t = w.trunks[i];
+    const Eigen::Vector2d foot(t.x, t.y);
+    const double bound = reach + t.radius;
+    if ((foot - at).squaredNorm() > bound * bound)
+      continue;
+    if (car ? boxDistance(body, foot) < t.radius : (foot - at).norm() < r.footprint_radius + t.radius)
+    {
+      c.kind = HitKind::kTrunk;
+      c.index = static_cast<int>(i);
+      return c;
+    }
+  }
+  for (std::size_t i = 0; i < w.boxes.size(); ++i)
+  {
+    const BoxSpec& b = w.boxes[i];
+    const double bound = reach + 0.5 * std::hypot(b.length, b.width);
+    if ((Eigen::Vector2d(b.x, b.y) - at).squaredNorm() > bound * bound)
+      continue;
+    if (car ? boxesOverlap(body, b) : boxDistance(b, at) < r.footprint_radius)
+    {
+      c.kind = HitKind::kBox;
+      c.index = static_cast<int>(i);
+      return c;
+    }
+  }
+  return c;
+}
+
 void ForestSimulator::step(SimulatorOutput* out)
 {
-  robot_.step(command_, dt());
+  if (!collided_)
+  {
+    robot_->step(command_, dt());
+    if (!image_)
+    {
+      const Collision c = touching(robot_->pose());
+      if (c.kind != HitKind::kNone)
+      {
+        robot_->halt();
+        collided_ = true;
+        collision_ = c;
+        collision_.stamp = static_cast<double>(tick_ + 1) / config_.physics_rate;
+      }
+    }
+  }
   ++tick_;
-  history_.emplace_back(tick_, robot_.pose());
+  history_.emplace_back(tick_, robot_->pose());
   const std::int64_t keep = static_cast<std::int64_t>(config_.physics_rate) + sweep_period_ + scan_period_ + 2;
   while (static_cast<std::int64_t>(history_.size()) > keep)
     history_.pop_front();
@@ -253,7 +340,7 @@ void ForestSimulator::step(SimulatorOutput* out)
   {
     OdometrySample s;
     s.stamp = now;
-    s.pose = robot_.readOdometry(&s.linear, &s.angular, static_cast<double>(tick_ - last_odom_tick_) * dt());
+    s.pose = robot_->readOdometry(&s.linear, &s.angular, static_cast<double>(tick_ - last_odom_tick_) * dt());
     last_odom_tick_ = tick_;
     pending_odometry_.emplace_back(tick_ + latency_ticks_, s);
   }
@@ -265,7 +352,7 @@ void ForestSimulator::step(SimulatorOutput* out)
 
   if (config_.imu.enabled && tick_ % imu_period_ == 0)
   {
-    const Eigen::Isometry3d body = bodyPose(robot_.pose());
+    const Eigen::Isometry3d body = bodyPose(robot_->pose());
     const double h = static_cast<double>(imu_period_) * dt();
     const Eigen::Vector3d velocity = (body.translation() - last_imu_body_.translation()) / h;
     if (have_imu_state_)
@@ -300,7 +387,7 @@ void ForestSimulator::step(SimulatorOutput* out)
     castScan(static_cast<double>(tick_ - scan_period_) * dt(), &out->scans.back());
   }
   if (tick_ % truth_period_ == 0)
-    out->truth.push_back({ now, robot_.pose(), bodyPose(robot_.pose()) });
+    out->truth.push_back({ now, robot_->pose(), bodyPose(robot_->pose()) });
 }
 
 }  // namespace core

@@ -9,13 +9,25 @@ namespace rbpf_slam
 namespace core
 {
 
+PlanarScan toPlanarScan(const LaserScan2D& scan)
+{
+  PlanarScan p;
+  p.ranges = scan.ranges;
+  p.angle_min = scan.angle_min;
+  p.angle_increment = scan.angle_increment;
+  p.range_min = scan.range_min;
+  p.range_max = scan.range_max;
+  return p;
+}
+
 ForestSlamRunResult runForestSlam(const ForestWorld& world, const ForestSlamRunConfig& config)
 {
   return runForestSlamVariants(world, config.scenario, { ForestSlamVariant{ config.detector, config.filter } }).front();
 }
 
 std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world, const ScenarioConfig& scenario_config,
-                                                       const std::vector<ForestSlamVariant>& variants)
+                                                       const std::vector<ForestSlamVariant>& variants,
+                                                       double match_gate)
 {
   const std::size_t n = variants.size();
   std::vector<ForestSlamRunResult> results(n);
@@ -24,11 +36,14 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   Scenario scenario(world, scenario_config);
   ForestSimulator& sim = scenario.simulator();
   const SimulatorConfig& sc = sim.config();
+  // The 2D scanner is the sensor when the 3D lidar is off.
+  const bool scans = !sc.lidar3d.enabled && sc.lidar2d.enabled;
+  const Mount& sensor_mount = scans ? sc.lidar2d.mount : sc.lidar3d.mount;
   SensorMount mount;
-  mount.x = sc.lidar3d.mount.x;
-  mount.y = sc.lidar3d.mount.y;
-  mount.z = sc.lidar3d.mount.z;
-  mount.yaw = sc.lidar3d.mount.yaw;
+  mount.x = sensor_mount.x;
+  mount.y = sensor_mount.y;
+  mount.z = sensor_mount.z;
+  mount.yaw = sensor_mount.yaw;
   std::vector<std::unique_ptr<TrunkSlamPipeline>> pipelines;
   std::vector<FastSlamConfig> filters;
   for (const auto& v : variants)
@@ -43,6 +58,8 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   }
   const Pose2 mount_pose(mount.x, mount.y, mount.yaw);
   const double period = 1.0 / sc.lidar3d.rate;
+  // The scanner's field of view (for the trees it saw): its bearings in the sensor frame.
+  const double fov_min = sc.lidar2d.angle_min, fov_max = sc.lidar2d.angle_max;
   const Pose2 start = sc.start;
 
   // The truth (for scoring only): trees at breast height in the start frame.
@@ -87,6 +104,17 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
       truth_at.emplace_back(sw.stamp + 0.5 * period, between(start, sim.poseAt(sw.stamp + 0.5 * period)));
       ++sweeps;
     }
+    for (const auto& scan : out.scans)
+    {
+      if (!scans)
+        break;
+      const PlanarScan planar = toPlanarScan(scan);
+      const double scan_period = scanPeriod(scan.time_increment, scan.ranges.size());
+      for (auto& pl : pipelines)
+        pl->addScan(scan.stamp, scan_period, planar, mount);
+      truth_at.emplace_back(scan.stamp + 0.5 * scan_period, between(start, sim.poseAt(scan.stamp + 0.5 * scan_period)));
+      ++sweeps;
+    }
     for (std::size_t v = 0; v < n; ++v)
     {
       ForestSlamRunResult& res = results[v];
@@ -97,6 +125,8 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         while (next < truth_at.size() && truth_at[next].first < u.stamp - 1e-9)
           ++next;
         const Pose2 truth = next < truth_at.size() ? truth_at[next].second : Pose2();
+        if (!res.truth.empty())
+          res.distance += std::hypot(truth.x - res.truth.back().x, truth.y - res.truth.back().y);
         res.stamps.push_back(u.stamp);
         res.estimate.push_back(u.estimate);
         res.odometry.push_back(u.odometry);
@@ -108,9 +138,17 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         const Pose2 true_sensor = truth * mount_pose;
         for (std::size_t k = 0; k < res.trees.size(); ++k)
         {
-          const double d = (res.trees[k].position - Eigen::Vector2d(true_sensor.x, true_sensor.y)).norm();
-          if (d >= fc.min_range && d <= fc.max_range)
-            res.tree_seen[k] = true;
+          const Eigen::Vector2d rel = res.trees[k].position - Eigen::Vector2d(true_sensor.x, true_sensor.y);
+          const double d = rel.norm();
+          if (d < fc.min_range || d > fc.max_range)
+            continue;
+          if (scans)
+          {
+            const double bearing = wrapAngle(std::atan2(rel.y(), rel.x()) - true_sensor.theta);
+            if (bearing < fov_min || bearing > fov_max)
+              continue;
+          }
+          res.tree_seen[k] = true;
         }
       }
     }
@@ -132,7 +170,14 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
       res.landmarks.push_back(best.map[i]);
       features.push_back({ best.map[i].mean, best.map[i].radius });
     }
-    res.map = scoreMap(res.trees, res.tree_seen, features);
+    res.map = scoreMap(res.trees, res.tree_seen, features, match_gate);
+    res.simulated_seconds = sim.time();
+    if (const Collision* c = sim.collision())
+    {
+      res.collided = true;
+      res.collision = *c;
+      res.collision_what = c->what(sim.world());
+    }
     if (!res.estimate.empty())
     {
       const auto err = [](const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y); };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -174,6 +175,11 @@ private:
       if (gap(f, trunkFootprint(trunk, top)) < spec_.clearance)
         return false;
     }
+    for (const BoxSpec& box : world_.boxes)
+    {
+      if (boxSegmentDistance(box, f.a, f.b) - f.radius < spec_.clearance)
+        return false;
+    }
     for (const Footprint& g : placed_)
     {
       if (gap(f, g) < spec_.clearance)
@@ -249,6 +255,100 @@ inline double groundCos(double x)
   return groundSin(x + 1.5707963267948966);
 }
 }  // namespace
+
+namespace
+{
+/** @p p in the box's frame (x along its length), relative to its centre. */
+Eigen::Vector2d boxLocal(const BoxSpec& box, const Eigen::Vector2d& p)
+{
+  const double c = std::cos(box.yaw), s = std::sin(box.yaw);
+  const Eigen::Vector2d w = p - Eigen::Vector2d(box.x, box.y);
+  return Eigen::Vector2d(c * w.x() + s * w.y(), -s * w.x() + c * w.y());
+}
+
+std::vector<Eigen::Vector2d> boxCorners(const BoxSpec& box)
+{
+  const double c = std::cos(box.yaw), s = std::sin(box.yaw);
+  const Eigen::Vector2d u(c, s), v(-s, c), o(box.x, box.y);
+  const double hl = 0.5 * box.length, hw = 0.5 * box.width;
+  return { o + hl * u + hw * v, o - hl * u + hw * v, o - hl * u - hw * v, o + hl * u - hw * v };
+}
+}  // namespace
+
+double boxDistance(const BoxSpec& box, const Eigen::Vector2d& p)
+{
+  const Eigen::Vector2d l = boxLocal(box, p);
+  const double dx = std::max(0.0, std::abs(l.x()) - 0.5 * box.length);
+  const double dy = std::max(0.0, std::abs(l.y()) - 0.5 * box.width);
+  return std::hypot(dx, dy);
+}
+
+double boxSegmentDistance(const BoxSpec& box, const Eigen::Vector2d& a, const Eigen::Vector2d& b)
+{
+  if (boxDistance(box, a) == 0.0 || boxDistance(box, b) == 0.0)
+    return 0.0;
+  // Both ends outside: the segment meets the rectangle iff it crosses an edge; otherwise the nearest points are an
+  // end of the segment or a corner of the rectangle.
+  const std::vector<Eigen::Vector2d> corners = boxCorners(box);
+  double best = std::min(boxDistance(box, a), boxDistance(box, b));
+  for (std::size_t i = 0; i < corners.size(); ++i)
+    best = std::min(best, segmentDistance(a, b, corners[i], corners[(i + 1) % corners.size()]));
+  return best;
+}
+
+bool boxesOverlap(const BoxSpec& a, const BoxSpec& b)
+{
+  const std::vector<Eigen::Vector2d> ca = boxCorners(a), cb = boxCorners(b);
+  for (const BoxSpec* box : { &a, &b })
+  {
+    for (int k = 0; k < 2; ++k)
+    {
+      const double angle = box->yaw + k * 0.5 * kPi;
+      const Eigen::Vector2d axis(std::cos(angle), std::sin(angle));
+      double min_a = axis.dot(ca[0]), max_a = min_a, min_b = axis.dot(cb[0]), max_b = min_b;
+      for (int i = 1; i < 4; ++i)
+      {
+        min_a = std::min(min_a, axis.dot(ca[i]));
+        max_a = std::max(max_a, axis.dot(ca[i]));
+        min_b = std::min(min_b, axis.dot(cb[i]));
+        max_b = std::max(max_b, axis.dot(cb[i]));
+      }
+      if (max_a < min_b || max_b < min_a)
+        return false;
+    }
+  }
+  return true;
+}
+
+double intersectBox(const BoxSpec& box, double ground_z, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir)
+{
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  constexpr double kBuried = 0.5;  // [m] as the trunks: no gap under the box on undulating ground
+  const Eigen::Vector2d lo = boxLocal(box, origin.head<2>());
+  const double c = std::cos(box.yaw), s = std::sin(box.yaw);
+  const double local_o[3] = { lo.x(), lo.y(), origin.z() - ground_z };
+  const double local_d[3] = { c * dir.x() + s * dir.y(), -s * dir.x() + c * dir.y(), dir.z() };
+  const double low[3] = { -0.5 * box.length, -0.5 * box.width, -kBuried };
+  const double high[3] = { 0.5 * box.length, 0.5 * box.width, box.height };
+  double t0 = 0.0, t1 = kInf;
+  for (int k = 0; k < 3; ++k)
+  {
+    if (std::abs(local_d[k]) < 1e-12)
+    {
+      if (local_o[k] < low[k] || local_o[k] > high[k])
+        return kInf;
+      continue;
+    }
+    double ta = (low[k] - local_o[k]) / local_d[k], tb = (high[k] - local_o[k]) / local_d[k];
+    if (ta > tb)
+      std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  if (t0 > t1)
+    return kInf;
+  return t0 > 0.0 ? t0 : kInf;
+}
 
 Ground::Ground(const GroundSpec& spec)
 {

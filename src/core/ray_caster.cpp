@@ -128,6 +128,13 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
                       std::min(b.a.y(), b.b.y()) - b.radius, std::max(b.a.x(), b.b.x()) + b.radius,
                       std::max(b.a.y(), b.b.y()) + b.radius });
   }
+  for (std::size_t i = 0; i < world_.boxes.size(); ++i)
+  {
+    const BoxSpec& b = world_.boxes[i];
+    box_base_z_.push_back(ground_.height(b.x, b.y));
+    const double r = 0.5 * std::hypot(b.length, b.width);  // the base's circumscribed circle
+    boxes.push_back({ { HitKind::kBox, static_cast<int>(i) }, b.x - r, b.y - r, b.x + r, b.y + r });
+  }
   extent_min_x_ = world_.min_x - world_.ground.margin;
   extent_min_y_ = world_.min_y - world_.ground.margin;
   extent_max_x_ = world_.max_x + world_.ground.margin;
@@ -140,6 +147,8 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
     top_z_ = std::max(top_z_, rock_center_[i].z() + world_.rocks[i].radius);
   for (std::size_t i = 0; i < world_.branches.size(); ++i)
     top_z_ = std::max(top_z_, std::max(branch_a_[i].z(), branch_b_[i].z()) + world_.branches[i].radius);
+  for (std::size_t i = 0; i < world_.boxes.size(); ++i)
+    top_z_ = std::max(top_z_, box_base_z_[i] + world_.boxes[i].height);
   top_z_ += 1e-6;
   for (const Box& b : boxes)
     grow(b.x0, b.y0, b.x1, b.y1);
@@ -171,6 +180,10 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
       case HitKind::kBranch:
         b.z0 = std::min(branch_a_[i].z(), branch_b_[i].z()) - world_.branches[i].radius;
         b.z1 = std::max(branch_a_[i].z(), branch_b_[i].z()) + world_.branches[i].radius;
+        break;
+      case HitKind::kBox:
+        b.z0 = box_base_z_[i] - kTrunkBuried;
+        b.z1 = box_base_z_[i] + world_.boxes[i].height;
         break;
       default:
         break;
@@ -251,6 +264,8 @@ double ForestRayCaster::intersectShape(const Shape& shape, const Eigen::Vector3d
     case HitKind::kBranch:
       return intersectCapsule(branch_a_[shape.index], branch_b_[shape.index], world_.branches[shape.index].radius, o,
                               d);
+    case HitKind::kBox:
+      return intersectBox(world_.boxes[shape.index], box_base_z_[shape.index], o, d);
     case HitKind::kFoliage:
     {
       const FoliageSpec& f = world_.foliage[shape.index];

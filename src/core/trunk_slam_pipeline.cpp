@@ -107,6 +107,13 @@ TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z)
   return config;
 }
 
+double scanPeriod(double time_increment, std::size_t beams)
+{
+  if (!(std::isfinite(time_increment) && time_increment > 0.0) || beams < 2)
+    return 0.0;
+  return time_increment * static_cast<double>(beams - 1);
+}
+
 SweepGeometry scanGeometry(const PlanarScan& scan)
 {
   SweepGeometry g;

@@ -17,6 +17,16 @@ bool ParamSource::getSeed(const std::string& key, std::uint64_t* seed) const
   return true;
 }
 
+const std::vector<std::string>& nodeOnlyKeys()
+{
+  static const std::vector<std::string> keys = { "map_frame",           "odom_frame",          "base_frame",
+                                                 "tf_timeout",          "transform_tolerance", "map_update_interval",
+                                                 "publish_tf",          "map_path",            "max_path_poses",
+                                                 "odom_timeout",        "inventory_path",      "run_folder",
+                                                 "time_jump_threshold", "level_frame",         "debug_report_address" };
+  return keys;
+}
+
 void readResamplingPolicy(const ParamSource& p, core::ResamplingPolicy* policy)
 {
   std::string name = core::resamplingMethodName(policy->method);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace rbpf_slam
 {
@@ -38,15 +39,31 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
   p.get("start/y", &c->start.y);
   readDegrees(p, "start/yaw_deg", &c->start.theta);
 
+  std::string model;
+  if (p.get("robot/model", &model) && !core::parseRobotModel(model, &c->robot.model))
+    throw std::runtime_error("invalid simulator parameter: robot/model must be diff_drive or ackermann, got '" +
+                             model + "'");
   p.get("robot/track_width", &c->robot.track_width);
   p.get("robot/turn_slip", &c->robot.turn_slip);
   p.get("robot/max_linear_accel", &c->robot.max_linear_accel);
   p.get("robot/max_angular_accel", &c->robot.max_angular_accel);
+  p.get("robot/footprint_radius", &c->robot.footprint_radius);
+  p.get("robot/wheelbase", &c->robot.wheelbase);
+  readDegrees(p, "robot/max_steer_deg", &c->robot.max_steer);
+  readDegrees(p, "robot/max_steer_rate_deg", &c->robot.max_steer_rate);
+  p.get("robot/length", &c->robot.length);
+  p.get("robot/width", &c->robot.width);
+  p.get("robot/rear_overhang", &c->robot.rear_overhang);
 
   p.get("odometry/left_scale", &c->odometry.left_scale);
   p.get("odometry/right_scale", &c->odometry.right_scale);
   p.get("odometry/wheel_sigma", &c->odometry.wheel_sigma);
   p.get("odometry/track_width", &c->odometry.track_width);
+  p.get("odometry/speed_scale", &c->odometry.speed_scale);
+  p.get("odometry/speed_sigma", &c->odometry.speed_sigma);
+  readDegrees(p, "odometry/steer_bias_deg", &c->odometry.steer_bias);
+  readDegrees(p, "odometry/steer_sigma_deg", &c->odometry.steer_sigma);
+  p.get("odometry/wheelbase", &c->odometry.wheelbase);
   p.get("odometry/rate", &c->odometry.rate);
   p.get("odometry/latency", &c->odometry.latency);
 
@@ -92,6 +109,9 @@ void readScenarioConfig(const ParamSource& p, core::ScenarioConfig* c)
   p.get("follower/lookahead", &c->follower.lookahead);
   p.get("follower/max_angular", &c->follower.max_angular);
   p.get("follower/goal_tolerance", &c->follower.goal_tolerance);
+  std::string steer_on;
+  if (p.get("follower/steer_on", &steer_on) && !core::parseSteerOn(steer_on, &c->steer_on))
+    throw std::runtime_error("invalid follower parameter: steer_on must be odometry or truth, got '" + steer_on + "'");
   p.get("relay/linear_sigma_abs", &c->relay.linear_sigma_abs);
   p.get("relay/linear_sigma_rel", &c->relay.linear_sigma_rel);
   p.get("relay/angular_sigma_abs", &c->relay.angular_sigma_abs);

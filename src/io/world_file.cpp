@@ -129,20 +129,24 @@ TreeRow makeTree(const std::vector<double>& values)
   return row;
 }
 
-std::vector<TreeRow> readTreeRows(const std::string& path)
+
+/** The number rows of a plain-text list ('#' comments, blank lines skipped); @p check gives why a row is wrong. */
+template <typename Check>
+std::vector<std::vector<double>> readNumberRows(const std::string& path, const char* what, const char* format,
+                                                Check check)
 {
   std::ifstream in(path);
   if (!in)
-    throw std::runtime_error(path + ": cannot open tree list");
-  std::vector<TreeRow> rows;
+    throw std::runtime_error(path + ": cannot open " + what);
+  std::vector<std::vector<double>> rows;
   std::string line;
   int line_number = 0;
   while (std::getline(in, line))
   {
     ++line_number;
-    if (!line.empty() && line.back() == '\r')  // a file written on Windows
+    if (!line.empty() && line.back() == '\r')
       line.pop_back();
-    if (line_number == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0)  // UTF-8 byte order mark
+    if (line_number == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0)
       line.erase(0, 3);
     std::istringstream fields(line.substr(0, line.find('#')));
     std::vector<double> values;
@@ -157,19 +161,56 @@ std::vector<TreeRow> readTreeRows(const std::string& path)
         reason = "'" + token + "' is not a finite number";
     }
     if (values.empty() && reason.empty())
-      continue;  // blank or comment line
+      continue;
     if (reason.empty())
-      reason = checkTree(values);
+      reason = check(values);
     if (!reason.empty())
-    {
-      throw std::runtime_error(path + ":" + std::to_string(line_number) + ": " + kTreeLineFormat + ", got '" +
+      throw std::runtime_error(path + ":" + std::to_string(line_number) + ": " + format + ", got '" +
                                trimRight(line) + "' (" + reason + ")");
-    }
-    rows.push_back(makeTree(values));
+    rows.push_back(values);
   }
   if (in.bad())
-    throw std::runtime_error(path + ": read error in tree list");
+    throw std::runtime_error(path + ": read error in " + what);
   return rows;
+}
+
+std::vector<TreeRow> readTreeRows(const std::string& path)
+{
+  std::vector<TreeRow> rows;
+  for (const std::vector<double>& values : readNumberRows(path, "tree list", kTreeLineFormat, checkTree))
+    rows.push_back(makeTree(values));
+  return rows;
+}
+
+// --- Box lists -----------------------------------------------------------------------------------
+
+const char* const kBoxLineFormat = "expected 'x y yaw_deg [length width height]'";
+
+/** Checks the numbers of one box; returns an empty string or the reason why they are no box. */
+std::string checkBox(const std::vector<double>& values)
+{
+  if (values.size() < 3)
+    return "too few numbers";
+  if (values.size() != 3 && values.size() != 6)
+    return values.size() > 6 ? "too many numbers" : "give all of length, width and height or none";
+  if (values.size() == 6 && (values[3] <= 0.0 || values[4] <= 0.0 || values[5] <= 0.0))
+    return "length, width and height must be > 0";
+  return std::string();
+}
+
+core::BoxSpec makeBox(const std::vector<double>& values)
+{
+  core::BoxSpec box;
+  box.x = values[0];
+  box.y = values[1];
+  box.yaw = values[2] * kPi / 180.0;
+  if (values.size() == 6)
+  {
+    box.length = values[3];
+    box.width = values[4];
+    box.height = values[5];
+  }
+  return box;
 }
 
 // --- YAML world files -----------------------------------------------------------------------------
@@ -362,6 +403,32 @@ std::vector<TreeRow> readTrees(const YamlReader& reader, const YAML::Node& node)
   return rows;
 }
 
+std::vector<core::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node& node)
+{
+  if (node.IsScalar())
+  {
+    const std::string& file = node.Scalar();
+    if (file.empty())
+      reader.fail(node, "'boxes' must name a box list file or be a list of boxes");
+    return loadBoxList(file[0] == '/' ? file : folderOf(reader.path()) + file);
+  }
+  if (!node.IsSequence())
+    reader.fail(node, "'boxes' must name a box list file or be a list of [x, y, yaw_deg] / "
+                      "[x, y, yaw_deg, length, width, height]");
+  std::vector<core::BoxSpec> boxes;
+  for (std::size_t i = 0; i < node.size(); ++i)
+  {
+    const std::string key = "boxes[" + std::to_string(i) + "]";
+    const std::vector<double> values =
+        reader.numbers(node[i], key, 3, 6, "[x, y, yaw_deg] or [x, y, yaw_deg, length, width, height]");
+    const std::string reason = checkBox(values);
+    if (!reason.empty())
+      reader.fail(node[i], "'" + key + "': " + reason);
+    boxes.push_back(makeBox(values));
+  }
+  return boxes;
+}
+
 TreeDefaults readTreeDefaults(const YamlReader& reader, const YAML::Node& node)
 {
   TreeDefaults d;
@@ -467,12 +534,14 @@ core::ForestWorld loadYamlWorld(const std::string& path)
   if (root.IsNull())
     reader.fail("empty world file ('trees' is required)");
 
-  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node;
+  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node, boxes_node;
   bool has_trees = false;
   bool has_bounds = false;
-  for (const auto& entry : reader.entries(root, "", { "trees", "bounds", "tree", "ground", "clutter" }))
+  for (const auto& entry : reader.entries(root, "", { "trees", "boxes", "bounds", "tree", "ground", "clutter" }))
   {
-    if (entry.first == "trees")
+    if (entry.first == "boxes")
+      boxes_node = entry.second;
+    else if (entry.first == "trees")
     {
       trees_node = entry.second;
       has_trees = true;
@@ -493,8 +562,12 @@ core::ForestWorld loadYamlWorld(const std::string& path)
     reader.fail("'trees' is required (a tree list file or a list of trees)");
 
   const std::vector<TreeRow> rows = readTrees(reader, trees_node);
+  const std::vector<core::BoxSpec> boxes = boxes_node.IsDefined() && !boxes_node.IsNull() ?
+                                               readBoxes(reader, boxes_node) :
+                                               std::vector<core::BoxSpec>();
   const TreeDefaults tree = readTreeDefaults(reader, tree_node);
   core::ForestWorld world;
+  world.boxes = boxes;
   world.ground = readGround(reader, ground_node);
   const core::ClutterSpec clutter = readClutter(reader, clutter_node);
 
@@ -539,6 +612,14 @@ core::ForestWorld loadYamlWorld(const std::string& path)
   return world;
 }
 }  // namespace
+
+std::vector<core::BoxSpec> loadBoxList(const std::string& path)
+{
+  std::vector<core::BoxSpec> boxes;
+  for (const std::vector<double>& values : readNumberRows(path, "box list", kBoxLineFormat, checkBox))
+    boxes.push_back(makeBox(values));
+  return boxes;
+}
 
 std::vector<core::TrunkSpec> loadTreeList(const std::string& path)
 {

@@ -188,7 +188,16 @@ void ForestSim::run()
       sim_->setCommand(command_);
     }
     out.clear();
+    const bool had_collided = sim_->collision() != nullptr;
     sim_->step(&out);
+    if (!had_collided && sim_->collision())
+    {
+      const core::Collision& c = *sim_->collision();
+      ROS_ERROR("%s: COLLISION at %.2f s: the robot touched %s at true pose (%.2f, %.2f, %.1f deg) in the world; it "
+                "stays there (the sensors go on)",
+                pnh_.getNamespace().c_str(), c.stamp, c.what(sim_->world()).c_str(), c.pose.x, c.pose.y,
+                c.pose.theta * 180.0 / M_PI);
+    }
     if (publish_clock_)
     {
       rosgraph_msgs::Clock clock;

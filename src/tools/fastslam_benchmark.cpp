@@ -6,9 +6,22 @@
 //   rosrun rbpf_slam fastslam_benchmark [--world FILE] [--drive straight|loop|FILE] [--particles N]
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
 //                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
-//                                       [--odometry-noise K]
+//                                       [--odometry-noise K] [--sim-config FILE] [--config FILE]...
+//                                       [--extraction-config FILE] [--start X Y YAW_DEG] [--gate M] [--fail-ate M]
+//
+// --sim-config: simulator, follower and relay keys (config/forest_sim.yaml); the robot, its odometry and the
+//   sensor: with the 3D lidar disabled and the 2D scanner enabled the runs use the scanner.
+// --config: filter keys (config/fastslam.yaml), repeatable, later files over earlier ones (e.g. config/fastslam.yaml
+//   then config/odometry/car.yaml); --extraction-config: extraction keys (config/trunk_extraction.yaml). Without them
+//   the built-in defaults; --particles, --method, --proposal and --mixture override the files where given.
+// --start: the start pose in the world (default: the simulator configuration's, (0, 15, 0)); the drive's waypoints
+//   are in the start frame.
+// --gate: a feature counts as a tree within this distance [m] (default 0.5).
+// A run FAILS when its final error exceeds 1 m (with --fail-ate M: when its ATE exceeds M m instead) or when the
+// robot collided (a collision ends the run; it is printed with the run).
 #include <pcl/console/print.h>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,8 +32,11 @@
 
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/path_follower.h"
+#include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/io/sim_config.h"
+#include "rbpf_slam/io/trunk_detector_config.h"
 #include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
 
@@ -71,9 +87,9 @@ struct Series
 {
   std::string label, proposal, method;
   int particles = 0;
-  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate;
+  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate, driven, speed;
   std::vector<std::string> rows;
-  int failed = 0;
+  int failed = 0, collided = 0;
 };
 }  // namespace
 
@@ -88,16 +104,52 @@ int main(int argc, char** argv)
   bool mixture_balance = false;
   double odometry_noise = 1.0;  // --odometry-noise K: the simulated wheel noise and scale mismatch times K
   std::string out_dir;          // --out DIR: TUM trajectories, maps and summary.json
+  std::string sim_config_path, detector_config_path;
+  std::vector<std::string> filter_config_paths;
+  bool particles_given = false, method_given = false, proposal_given = false, mixture_given = false;
+  bool start_given = false;
+  core::Pose2 start_pose;
+  double gate = 0.5, fail_ate = 0.0;
+  auto number = [&](const char* option, const char* text) {
+    char* end = nullptr;
+    const double v = std::strtod(text, &end);
+    if (end == text || *end != '\0' || !std::isfinite(v))
+    {
+      std::fprintf(stderr, "fastslam_benchmark: %s takes a number, got '%s'\n", option, text);
+      std::exit(2);
+    }
+    return v;
+  };
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
-    if (a == "--world" && has)
+    if (a == "--sim-config" && has)
+      sim_config_path = argv[++i];
+    else if (a == "--config" && has)
+      filter_config_paths.push_back(argv[++i]);
+    else if (a == "--extraction-config" && has)
+      detector_config_path = argv[++i];
+    else if (a == "--start" && i + 3 < argc)
+    {
+      start_pose.x = number("--start", argv[++i]);
+      start_pose.y = number("--start", argv[++i]);
+      start_pose.theta = number("--start", argv[++i]) * M_PI / 180.0;
+      start_given = true;
+    }
+    else if (a == "--gate" && has)
+      gate = number("--gate", argv[++i]);
+    else if (a == "--fail-ate" && has)
+      fail_ate = number("--fail-ate", argv[++i]);
+    else if (a == "--world" && has)
       world_path = argv[++i];
     else if (a == "--drive" && has)
       drive = argv[++i];
     else if (a == "--particles" && has)
+    {
       particle_list = argv[++i];
+      particles_given = true;
+    }
     else if (a == "--seeds" && has)
       seeds = std::atoi(argv[++i]);
     else if (a == "--first-seed" && has)
@@ -107,11 +159,20 @@ int main(int argc, char** argv)
     else if (a == "--ideal-odometry")
       ideal = true;
     else if (a == "--method" && has)
+    {
       methods = argv[++i];
+      method_given = true;
+    }
     else if (a == "--proposal" && has)
+    {
       proposals = argv[++i];
+      proposal_given = true;
+    }
     else if (a == "--mixture" && has)
+    {
       mixture = std::atof(argv[++i]);
+      mixture_given = true;
+    }
     else if (a == "--mixture-balance")
       mixture_balance = true;
     else if (a == "--odometry-noise" && has)
@@ -121,15 +182,57 @@ int main(int argc, char** argv)
       std::fprintf(stderr,
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N[,N...]] [--seeds K] "
                    "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
-                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n",
+                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n"
+                   "       [--sim-config FILE] [--config FILE]... [--extraction-config FILE] [--start X Y YAW_DEG]\n"
+                   "       [--gate M] [--fail-ate M]\n"
+                   "A run fails when its final error exceeds 1 m (with --fail-ate M: its ATE exceeds M m) or the robot "
+                   "collided.\n",
                    argv[0]);
       return 2;
     }
   }
   try
   {
+    if (!(gate > 0.0) || fail_ate < 0.0)
+      throw std::runtime_error("--gate must be > 0 and --fail-ate >= 0");
     const core::ForestWorld world = io::loadForestWorld(world_path);
     core::ScenarioConfig scenario;
+    // Configuration files: each key a file gives must be one its reader knows.
+    const auto warnUnused = [](const io::YamlParamSource& params, const std::string& path) {
+      for (const auto& k : params.unusedKeys())
+        if (std::find(io::nodeOnlyKeys().begin(), io::nodeOnlyKeys().end(), k) == io::nodeOnlyKeys().end())
+          std::fprintf(stderr, "fastslam_benchmark: warning: %s: unknown key '%s' ignored\n", path.c_str(), k.c_str());
+    };
+    if (!sim_config_path.empty())
+    {
+      io::YamlParamSource params(sim_config_path);
+      io::readScenarioConfig(params, &scenario);
+      warnUnused(params, sim_config_path);
+    }
+    if (start_given)
+      scenario.sim.start = start_pose;
+    core::FastSlamConfig base_filter;
+    for (const std::string& path : filter_config_paths)
+    {
+      io::YamlParamSource params(path);
+      io::readFastSlamConfig(params, &base_filter);
+      warnUnused(params, path);
+    }
+    core::TrunkDetectorConfig base_detector;
+    if (!detector_config_path.empty())
+    {
+      io::YamlParamSource params(detector_config_path);
+      io::readTrunkDetectorConfig(params, &base_detector);
+      warnUnused(params, detector_config_path);
+    }
+    if (!particles_given)
+      particle_list = std::to_string(base_filter.particles);
+    if (!method_given)
+      methods = core::trunkMethodName(base_detector.method);
+    if (!proposal_given)
+      proposals = base_filter.proposal == core::PoseProposal::kFastSlam2 ? "fastslam2" : "fastslam1";
+    if (!mixture_given)
+      mixture = base_filter.mixture_fraction;
     std::string error;
     scenario.drive = io::namedDrive(drive, &error);
     if (!error.empty())
@@ -153,13 +256,15 @@ int main(int argc, char** argv)
         for (const std::string& np : splitList(particle_list))
         {
           core::ForestSlamVariant v;
+          v.detector = base_detector;
+          v.filter = base_filter;
           if (!core::parseTrunkMethod(method, &v.detector.method))
             throw std::runtime_error("--method must be circle or centroid");
           if (!core::parsePoseProposal(proposal, &v.filter.proposal))
             throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
           v.filter.particles = std::atoi(np.c_str());
           v.filter.mixture_fraction = mixture;
-          v.filter.mixture_balance = mixture_balance;
+          v.filter.mixture_balance = mixture_balance || base_filter.mixture_balance;
           const std::string err = v.filter.validate();
           if (!err.empty())
             throw std::runtime_error(err);
@@ -181,7 +286,10 @@ int main(int argc, char** argv)
         v.filter.seed = static_cast<std::uint64_t>(s);
         v.detector.seed = static_cast<std::uint64_t>(s);
       }
-      const std::vector<core::ForestSlamRunResult> results = core::runForestSlamVariants(world, scenario, variants);
+      const auto wall_start = std::chrono::steady_clock::now();
+      const std::vector<core::ForestSlamRunResult> results =
+          core::runForestSlamVariants(world, scenario, variants, gate);
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
       for (std::size_t k = 0; k < results.size(); ++k)
       {
         const core::ForestSlamRunResult& r = results[k];
@@ -222,7 +330,16 @@ int main(int argc, char** argv)
         q.spur.push_back(r.map.spurious);
         q.rate.push_back(hz);
         q.filter_rate.push_back(r.sweeps / std::max(1e-9, r.seconds_filter));
-        q.failed += r.final_error > 1.0;
+        const bool failed = (fail_ate > 0.0 ? r.ate > fail_ate : r.final_error > 1.0) || r.collided;
+        q.failed += failed;
+        q.collided += r.collided;
+        q.driven.push_back(r.distance);
+        q.speed.push_back(r.simulated_seconds / std::max(1e-9, wall));
+        if (r.collided)
+          std::printf("seed %d %s: COLLISION at %.1f s, true pose (%.2f, %.2f, %.1f deg) in the world: hit %s; the run "
+                      "ended there (FAILED)\n",
+                      s, q.label.c_str(), r.collision.stamp, r.collision.pose.x, r.collision.pose.y,
+                      r.collision.pose.theta * 180.0 / M_PI, r.collision_what.c_str());
         if (!out_dir.empty())
         {
           mkdir(out_dir.c_str(), 0755);
@@ -268,7 +385,10 @@ int main(int argc, char** argv)
         js << "{\"world\": \"" << world_path << "\", \"drive\": \"" << drive << "\", \"particles\": " << q.particles
            << ", \"method\": \"" << q.method << "\", \"proposal\": \"" << q.proposal << "\", \"mixture\": " << mixture
            << ", \"odometry_noise\": " << odometry_noise << ", \"first_seed\": " << first_seed
-           << ", \"seeds\": " << seeds << ", \"failed\": " << q.failed << ",\n " << jsonStats("final_error_m", q.fin)
+           << ", \"seeds\": " << seeds << ", \"failed\": " << q.failed << ", \"collisions\": " << q.collided
+           << ", \"gate_m\": " << gate << ", \"fail_ate_m\": " << fail_ate << ",\n "
+           << jsonStats("driven_m", q.driven, false) << ",\n " << jsonStats("real_time_factor", q.speed, false)
+           << ",\n " << jsonStats("final_error_m", q.fin)
            << ",\n " << jsonStats("final_error_dead_reckoning_m", q.fin_dr, false) << ",\n "
            << jsonStats("ate_m", q.ate) << ",\n " << jsonStats("ate_dead_reckoning_m", q.ate_dr, false) << ",\n "
            << jsonStats("tree_to_feature_m", q.dist) << ",\n " << jsonStats("recall", q.recall, false) << ",\n "
@@ -278,9 +398,16 @@ int main(int argc, char** argv)
         io::writeFileAtomic(dir + "/summary.json", js.str());
         std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
       }
-      std::printf("failed runs (final error > 1 m): %d of %d   (DR columns: the same runs' dead reckoning; "
-                  "'worst' DR = the smallest drift)\n",
-                  q.failed, seeds);
+      std::printf("driven %.0f m (median), %.1f x real time (median; simulation and all variants of a seed)\n",
+                  median(q.driven), median(q.speed));
+      if (fail_ate > 0.0)
+        std::printf("failed runs (ATE > %.1f m, or a collision): %d of %d, collisions %d   (DR columns: the same runs' "
+                    "dead reckoning; 'worst' DR = the smallest drift)\n",
+                    fail_ate, q.failed, seeds, q.collided);
+      else
+        std::printf("failed runs (final error > 1 m, or a collision): %d of %d, collisions %d   (DR columns: the same "
+                    "runs' dead reckoning; 'worst' DR = the smallest drift)\n",
+                    q.failed, seeds, q.collided);
     }
   }
   catch (const std::exception& e)

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cmath>
 #include <cstdlib>
 #include <exception>
 #include <memory>
@@ -43,9 +44,13 @@ const char* kUsage =
     "  --drive NAME        straight | loop | waypoint file (x y per line, start frame); default straight\n"
     "  --seed N            seed of the simulator and the relay; default 0\n"
     "  --config FILE       simulator parameters (keys of config/forest_sim.yaml); default: built-in\n"
+    "  --start X Y YAW_DEG start pose in the world (over --config's); default (0, 15, 0); the drive's\n"
+    "                      waypoints are in the start frame\n"
     "  --out BAG           output bag (written to a temporary name, renamed when complete)\n"
     "  --no-points         leave the 3D point clouds out (small bags for odometry studies)\n"
     "  --quiet             no progress bar\n"
+    "If the robot's footprint touches a trunk or a box, the simulator stops it there: the recorder reports the\n"
+    "collision (time, true pose, what was hit), writes no bag and exits with status 3.\n"
     "example:\n"
     "  record_scenario --world config/worlds/paper_forest.yaml --drive loop --seed 3 --out loop3.bag\n";
 
@@ -65,6 +70,8 @@ int main(int argc, char** argv)
 {
   std::string world_path, indoor_map, drive = "straight", config_path, out;
   int seed = 0;
+  bool start_given = false;
+  core::Pose2 start;
   bool points = true, quiet = !isatty(STDERR_FILENO);
   for (int i = 1; i < argc; ++i)
   {
@@ -98,6 +105,23 @@ int main(int argc, char** argv)
         std::fprintf(stderr, "record_scenario: --seed takes an integer, got '%s'\n", v.c_str());
         return 2;
       }
+    }
+    else if (a == "--start")
+    {
+      double* fields[3] = { &start.x, &start.y, &start.theta };
+      for (double* f : fields)
+      {
+        value(&v);
+        char* end = nullptr;
+        *f = std::strtod(v.c_str(), &end);
+        if (end == v.c_str() || *end != '\0' || !std::isfinite(*f))
+        {
+          std::fprintf(stderr, "record_scenario: --start takes three numbers X Y YAW_DEG, got '%s'\n", v.c_str());
+          return 2;
+        }
+      }
+      start.theta *= M_PI / 180.0;
+      start_given = true;
     }
     else if (a == "--no-points")
       points = false;
@@ -134,6 +158,8 @@ int main(int argc, char** argv)
                      k.c_str());
     }
     config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
+    if (start_given)
+      config.sim.start = start;
     std::string error;
     config.drive = io::namedDrive(drive, &error);
     if (config.drive.empty())
@@ -226,6 +252,17 @@ int main(int argc, char** argv)
         progress(t, expected, false);
         last_report = t;
       }
+    }
+    if (const core::Collision* c = scenario.simulator().collision())
+    {
+      if (!quiet)
+        std::fprintf(stderr, "\n");
+      std::fprintf(stderr,
+                   "record_scenario: COLLISION at %.2f s: the robot's footprint touched %s at true pose (%.2f, %.2f, "
+                   "%.1f deg) in the world; the run ended there; no bag written\n",
+                   c->stamp, c->what(scenario.simulator().world()).c_str(), c->pose.x, c->pose.y,
+                   c->pose.theta * 180.0 / M_PI);
+      return 3;  // the bag and the temporary file are removed as they go out of scope
     }
     truth_path.header.stamp = toRosTime(scenario.simulator().time(), base);
     bag.write("/ground_truth/path", truth_path.header.stamp, truth_path);

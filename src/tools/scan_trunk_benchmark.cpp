@@ -9,9 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -19,6 +17,7 @@
 #include <pcl/console/print.h>
 
 #include "rbpf_slam/core/forest_simulator.h"
+#include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/trunk_detector.h"
 #include "rbpf_slam/io/world_file.h"
@@ -31,56 +30,7 @@ const double kBands[] = { 0.0, 10.0, 20.0, 30.0, 50.0, 80.0 };
 constexpr int kNumBands = 5;
 constexpr double kGate = 0.5;       // [m] a detection within this of a true trunk's centre is that trunk's
 constexpr double kHitDistance = 0.08;  // [m] a return this close to a trunk's surface is a hit on it (4 sigma)
-constexpr double kCarLength = 4.5, kCarWidth = 1.8;  // [m]
 constexpr double kChi2Of2Dof997 = 11.83;            // 3-sigma ellipse (99.7 %) of a 2D Gaussian
-
-struct Car
-{
-  Eigen::Vector2d center;
-  double yaw;
-};
-
-std::vector<Car> loadCars(const std::string& path)
-{
-  std::ifstream in(path);
-  if (!in)
-    throw std::runtime_error("cannot read " + path);
-  std::vector<Car> cars;
-  std::string line;
-  while (std::getline(in, line))
-  {
-    line = line.substr(0, line.find('#'));
-    std::istringstream s(line);
-    double x, y, yaw_deg;
-    if (s >> x >> y >> yaw_deg)
-      cars.push_back({ Eigen::Vector2d(x, y), yaw_deg * M_PI / 180.0 });
-  }
-  return cars;
-}
-
-/** Range along the unit ray (o, d) to the car's box (slab method), or +inf. */
-double castCar(const Car& car, const Eigen::Vector2d& o, const Eigen::Vector2d& d)
-{
-  const Eigen::Rotation2Dd to_car(-car.yaw);
-  const Eigen::Vector2d lo = to_car * (o - car.center), ld = to_car * d;
-  const double half[2] = { 0.5 * kCarLength, 0.5 * kCarWidth };
-  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 2; ++k)
-  {
-    if (std::abs(ld[k]) < 1e-12)
-    {
-      if (std::abs(lo[k]) > half[k])
-        return std::numeric_limits<double>::infinity();
-      continue;
-    }
-    double a = (-half[k] - lo[k]) / ld[k], b = (half[k] - lo[k]) / ld[k];
-    if (a > b)
-      std::swap(a, b);
-    t0 = std::max(t0, a);
-    t1 = std::min(t1, b);
-  }
-  return t0 <= t1 && t0 > 0.0 ? t0 : std::numeric_limits<double>::infinity();
-}
 
 struct Band
 {
@@ -127,7 +77,9 @@ int main(int argc, char** argv)
   try
   {
     const core::ForestWorld world = io::loadForestWorld(world_path);
-    const std::vector<Car> cars = cars_path == "none" ? std::vector<Car>() : loadCars(cars_path);
+    // Parked cars: boxes of the default size (4.5 x 1.8 x 1.5 m).
+    const std::vector<core::BoxSpec> cars =
+        cars_path == "none" ? std::vector<core::BoxSpec>() : io::loadBoxList(cars_path);
 
     core::SimulatorConfig sim_config;
     sim_config.lidar3d.enabled = false;
@@ -163,7 +115,7 @@ int main(int argc, char** argv)
         for (const auto& t : world.trunks)
           clear = clear && std::hypot(t.x - x, t.y - y) > t.radius + 1.0;
         for (const auto& c : cars)
-          clear = clear && (c.center - Eigen::Vector2d(x, y)).norm() > 4.0;
+          clear = clear && std::hypot(c.x - x, c.y - y) > 4.0;
         const double heading = random.uniform(-M_PI, M_PI);
         if (clear)
           poses.emplace_back(x, y, heading);
@@ -181,12 +133,7 @@ int main(int argc, char** argv)
       const Eigen::Isometry3d sensor = sim.bodyPose(pose) * l.mount.transform();
       const Eigen::Vector2d origin = sensor.translation().head<2>();
       const double yaw = std::atan2(sensor.linear()(1, 0), sensor.linear()(0, 0));
-      core::PlanarScan scan;
-      scan.angle_min = s.angle_min;
-      scan.angle_increment = s.angle_increment;
-      scan.range_min = s.range_min;
-      scan.range_max = s.range_max;
-      scan.ranges = s.ranges;
+      core::PlanarScan scan = core::toPlanarScan(s);
       // Hits per true trunk (a return within kHitDistance of its surface).
       std::vector<int> hits(world.trunks.size(), 0);
       for (std::size_t b = 0; b < scan.ranges.size(); ++b)
@@ -195,7 +142,7 @@ int main(int argc, char** argv)
         const Eigen::Vector2d d(std::cos(a), std::sin(a));
         double car = std::numeric_limits<double>::infinity();
         for (const auto& c : cars)
-          car = std::min(car, castCar(c, origin, d));
+          car = std::min(car, core::intersectBox(c, 0.0, sensor.translation(), Eigen::Vector3d(d.x(), d.y(), 0.0)));
         float& r = scan.ranges[b];
         if (std::isfinite(car) && !(std::isfinite(r) && r < car))
         {

@@ -324,11 +324,6 @@ std::string timingJson(int sweeps, int updates, double extraction, double filter
   return timing.str();
 }
 
-/// Keys of the filters' YAML files that only the nodes read (frames, waits, files): known here, not used.
-const std::vector<std::string> kNodeKeys = { "map_frame",          "odom_frame",     "base_frame",   "tf_timeout",
-                                             "transform_tolerance", "map_update_interval", "publish_tf", "map_path",
-                                             "max_path_poses",     "odom_timeout",   "inventory_path", "run_folder",
-                                             "time_jump_threshold", "level_frame",  "debug_report_address" };
 
 /** @brief Reads a YAML file with @p reader (if a path is given); errors name the file, unknown keys are warned. */
 template <typename Reader>
@@ -348,7 +343,7 @@ void loadYaml(const std::string& path, const Reader& reader)
   for (const auto& notice : yaml.notices())
     std::fprintf(stderr, "slam_bag: warning: %s: %s\n", path.c_str(), notice.c_str());
   for (const auto& key : yaml.unusedKeys())
-    if (std::find(kNodeKeys.begin(), kNodeKeys.end(), key) == kNodeKeys.end())
+    if (std::find(io::nodeOnlyKeys().begin(), io::nodeOnlyKeys().end(), key) == io::nodeOnlyKeys().end())
       std::fprintf(stderr, "slam_bag: warning: %s: key '%s' is not one of this filter's (misspelt?); ignored\n",
                    path.c_str(), key.c_str());
 }

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -160,4 +161,16 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
     EXPECT_EQ(c.particles, d.particles) << name;
     EXPECT_EQ(c.association_gate, d.association_gate) << name;
   }
+}
+
+TEST(FastSlamConfigFile, TheShippedFileLeavesOnlyTheNodesKeysUnread)
+{
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
+  core::FastSlamConfig c;
+  io::readFastSlamConfig(params, &c);
+  const std::vector<std::string>& node = io::nodeOnlyKeys();
+  for (const auto& k : params.unusedKeys())
+    EXPECT_NE(std::find(node.begin(), node.end(), k), node.end()) << "key " << k << " is read by no one";
+  EXPECT_NE(std::find(node.begin(), node.end(), "map_frame"), node.end());
+  EXPECT_EQ(std::find(node.begin(), node.end(), "particles"), node.end());
 }

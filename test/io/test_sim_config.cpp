@@ -109,3 +109,53 @@ TEST(SimConfig, UnknownKeysAreReported)
   EXPECT_EQ(params.unusedKeys()[0], "odometry/latncy");
   std::remove(path.c_str());
 }
+
+TEST(SimConfig, ShippedConfigDocumentsTheCarAndTheFollowerInput)
+{
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
+  core::ScenarioConfig read, defaults;
+  io::readScenarioConfig(params, &read);
+  EXPECT_EQ(read.sim.robot.model, defaults.sim.robot.model);
+  EXPECT_EQ(read.sim.robot.footprint_radius, defaults.sim.robot.footprint_radius);
+  EXPECT_EQ(read.sim.robot.wheelbase, defaults.sim.robot.wheelbase);
+  EXPECT_NEAR(read.sim.robot.max_steer, defaults.sim.robot.max_steer, 1e-12);
+  EXPECT_NEAR(read.sim.robot.max_steer_rate, defaults.sim.robot.max_steer_rate, 1e-12);
+  EXPECT_EQ(read.sim.robot.length, defaults.sim.robot.length);
+  EXPECT_EQ(read.sim.robot.width, defaults.sim.robot.width);
+  EXPECT_EQ(read.sim.robot.rear_overhang, defaults.sim.robot.rear_overhang);
+  EXPECT_EQ(read.sim.odometry.speed_scale, defaults.sim.odometry.speed_scale);
+  EXPECT_EQ(read.sim.odometry.speed_sigma, defaults.sim.odometry.speed_sigma);
+  EXPECT_NEAR(read.sim.odometry.steer_bias, defaults.sim.odometry.steer_bias, 1e-12);
+  EXPECT_NEAR(read.sim.odometry.steer_sigma, defaults.sim.odometry.steer_sigma, 1e-12);
+  EXPECT_EQ(read.sim.odometry.wheelbase, defaults.sim.odometry.wheelbase);
+  EXPECT_EQ(read.steer_on, defaults.steer_on);
+  EXPECT_EQ(read.sim.robot.max_angular_accel, defaults.sim.robot.max_angular_accel);
+  EXPECT_EQ(read.sim.robot.max_linear_accel, defaults.sim.robot.max_linear_accel);
+}
+
+TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
+{
+  const std::string path = writeTemp("sim_car.yaml", "robot: {model: ackermann, wheelbase: 3.0, max_steer_deg: 30}\n"
+                                                      "odometry: {speed_scale: 1.05, steer_bias_deg: -1.0}\n"
+                                                      "follower: {steer_on: truth}\n");
+  io::YamlParamSource params(path);
+  core::ScenarioConfig c;
+  io::readScenarioConfig(params, &c);
+  EXPECT_EQ(c.sim.robot.model, core::RobotModel::kAckermann);
+  EXPECT_EQ(c.sim.robot.wheelbase, 3.0);
+  EXPECT_NEAR(c.sim.robot.max_steer, 30.0 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(c.sim.odometry.speed_scale, 1.05);
+  EXPECT_NEAR(c.sim.odometry.steer_bias, -M_PI / 180.0, 1e-12);
+  EXPECT_EQ(c.steer_on, core::SteerOn::kTruth);
+  std::remove(path.c_str());
+
+  for (const char* bad : { "robot: {model: tank}\n", "follower: {steer_on: gps}\n", "robot: {wheelbase: 0}\n",
+                           "odometry: {speed_scale: -1}\n" })
+  {
+    const std::string p = writeTemp("sim_bad_car.yaml", bad);
+    io::YamlParamSource ps(p);
+    core::ScenarioConfig s;
+    EXPECT_THROW(io::readScenarioConfig(ps, &s), std::runtime_error) << bad;
+    std::remove(p.c_str());
+  }
+}

@@ -396,3 +396,56 @@ TEST(ShippedWorlds, DenseForestKeepsTheDriveOpen)
   EXPECT_DOUBLE_EQ(world.ground.amplitude, 0.3);
   EXPECT_FALSE(world.branches.empty());
 }
+
+// --- Boxes ----------------------------------------------------------------------------------------
+
+TEST_F(WorldFileTest, BoxesComeFromAListFileOrInline)
+{
+  write("park.trees.txt", "10 10 0.2\n");
+  write("park.boxes.txt", "# x y yaw_deg [length width height]\n"
+                          "20 5 90\n"
+                          "30 6 0 6.0 2.5 3.0   # a van\n");
+  const ForestWorld from_file = loadForestWorld(write("park.yaml", "trees: park.trees.txt\nboxes: park.boxes.txt\n"
+                                                                    "bounds: [0, 0, 50, 50]\n"));
+  ASSERT_EQ(from_file.boxes.size(), 2u);
+  EXPECT_EQ(from_file.boxes[0].x, 20.0);
+  EXPECT_EQ(from_file.boxes[0].y, 5.0);
+  EXPECT_NEAR(from_file.boxes[0].yaw, M_PI / 2, 1e-12);
+  EXPECT_EQ(from_file.boxes[0].length, 4.5);  // a car by default
+  EXPECT_EQ(from_file.boxes[0].width, 1.8);
+  EXPECT_EQ(from_file.boxes[0].height, 1.5);
+  EXPECT_EQ(from_file.boxes[1].length, 6.0);
+  EXPECT_EQ(from_file.boxes[1].width, 2.5);
+  EXPECT_EQ(from_file.boxes[1].height, 3.0);
+
+  const ForestWorld inline_boxes =
+      loadForestWorld(write("inline.yaml", "trees: [[10, 10, 0.2]]\nboxes: [[1, 2, 45], [3, 4, 0, 1, 1, 1]]\n"));
+  ASSERT_EQ(inline_boxes.boxes.size(), 2u);
+  EXPECT_NEAR(inline_boxes.boxes[0].yaw, M_PI / 4, 1e-12);
+  EXPECT_EQ(inline_boxes.boxes[1].height, 1.0);
+
+  EXPECT_TRUE(loadForestWorld(write("none.yaml", "trees: [[10, 10, 0.2]]\n")).boxes.empty());
+}
+
+TEST_F(WorldFileTest, ABadBoxNamesFileLineAndReason)
+{
+  write("t.txt", "10 10 0.2\n");
+  write("bad.boxes.txt", "20 5 90\n20 5 90 4.5\n");
+  const std::string error = loadError(write("bad.yaml", "trees: t.txt\nboxes: bad.boxes.txt\n"));
+  EXPECT_NE(error.find("bad.boxes.txt:2: expected 'x y yaw_deg [length width height]'"), std::string::npos) << error;
+  EXPECT_NE(error.find("give all of length, width and height or none"), std::string::npos) << error;
+  write("neg.boxes.txt", "20 5 90 4.5 -1 1\n");
+  EXPECT_NE(loadError(write("neg.yaml", "trees: t.txt\nboxes: neg.boxes.txt\n")).find("must be > 0"),
+            std::string::npos);
+  EXPECT_NE(loadError(write("missing.yaml", "trees: t.txt\nboxes: nowhere.txt\n")).find("cannot open box list"),
+            std::string::npos);
+  EXPECT_NE(loadError(write("inl.yaml", "trees: t.txt\nboxes: [[1, 2]]\n")).find("'boxes[0]'"), std::string::npos);
+}
+
+TEST(ShippedWorlds, ParkCarsAreABoxList)
+{
+  const std::vector<rbpf_slam::core::BoxSpec> cars = rbpf_slam::io::loadBoxList(kWorldDir + "park.cars.txt");
+  ASSERT_FALSE(cars.empty());
+  EXPECT_EQ(cars[0].x, 77.331);
+  EXPECT_EQ(cars[0].length, 4.5);
+}

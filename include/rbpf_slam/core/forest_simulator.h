@@ -114,6 +114,17 @@ struct TruthSample
   Eigen::Isometry3d body;  ///< world -> base_link in 3D (on the ground)
 };
 
+/** @brief Where the robot's true footprint touched an obstacle; the simulator stopped it there. */
+struct Collision
+{
+  double stamp = 0.0;             ///< [s] simulated time
+  Pose2 pose;                     ///< true pose of base_link in the world when it touched
+  HitKind kind = HitKind::kNone;  ///< kTrunk (at the ground) or kBox
+  int index = -1;                 ///< into the world's trunks or boxes
+  /** @brief E.g. "trunk 12 (r 0.25 m at 10.00, 3.00)". */
+  std::string what(const ForestWorld& world) const;
+};
+
 struct SimulatorConfig
 {
   double physics_rate = 200.0;  ///< [Hz]; sensor rates and the latency are rounded to its ticks
@@ -143,10 +154,14 @@ struct SimulatorOutput
 };
 
 /**
- * @brief Deterministic forest (or indoor) simulator: a diff-drive robot on undulating ground,
- * drifting wheel odometry, a 3D and a 2D lidar cast from the pose the robot has at each beam's
+ * @brief Deterministic forest (or indoor) simulator: a diff-drive robot or a car on undulating ground,
+ * drifting odometry, a 3D and a 2D lidar cast from the pose the robot has at each beam's
  * instant, an IMU, and ground truth. Time advances in fixed physics ticks; the same world, config
  * and seed give the same outputs.
+ *
+ * Collisions: when the robot's true footprint (RobotConfig: a circle for the diff drive, the body's rectangle for
+ * the car) touches a trunk at the ground or a box, the robot stops there for good and collision() says where and
+ * what; the sensors go on.
  */
 class ForestSimulator
 {
@@ -162,7 +177,11 @@ public:
 
   double time() const { return static_cast<double>(tick_) / config_.physics_rate; }
   double dt() const { return 1.0 / config_.physics_rate; }
-  const DiffDriveRobot& robot() const { return robot_; }
+  const Robot& robot() const { return *robot_; }
+  /** @brief The collision that stopped the robot, or nullptr. */
+  const Collision* collision() const { return collided_ ? &collision_ : nullptr; }
+  /** @brief What the robot touches at @p pose (kind kNone: nothing); stamp left 0. Public for tests. */
+  Collision touching(const Pose2& pose) const;
   const SimulatorConfig& config() const { return config_; }
   const ForestWorld& world() const { return caster_.world(); }
 
@@ -183,7 +202,9 @@ private:
   Random sensor_random_; ///< lidar noise and foliage (independent stream: enabling a sensor leaves the path alone)
   ForestRayCaster caster_;
   std::shared_ptr<const OccupancyImage> image_;
-  DiffDriveRobot robot_;
+  std::unique_ptr<Robot> robot_;
+  bool collided_ = false;
+  Collision collision_;
   VelocityCommand command_;
   std::int64_t tick_ = 0;
   std::deque<std::pair<std::int64_t, Pose2>> history_;

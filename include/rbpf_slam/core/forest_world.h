@@ -50,6 +50,32 @@ struct BranchSpec
 };
 
 /**
+ * @brief A box standing on the ground (a parked car, a container): its base is a rectangle centred at (x, y),
+ * length along the heading yaw, width across it; it rises @p height above the ground at its centre (and reaches
+ * as far below it as a trunk, so undulating ground leaves no gap under it).
+ */
+struct BoxSpec
+{
+  double x = 0.0, y = 0.0;  ///< [m] centre of the base
+  double yaw = 0.0;         ///< [rad] direction of the length
+  double length = 4.5;      ///< [m]
+  double width = 1.8;       ///< [m]
+  double height = 1.5;      ///< [m]
+};
+
+/** @brief Horizontal distance from @p p to the box's base rectangle (0 inside or on it). */
+double boxDistance(const BoxSpec& box, const Eigen::Vector2d& p);
+/** @brief Horizontal distance between the segment a-b and the box's base rectangle (0 where they meet). */
+double boxSegmentDistance(const BoxSpec& box, const Eigen::Vector2d& a, const Eigen::Vector2d& b);
+/** @brief Whether the base rectangles of two boxes overlap or touch (separating axes). */
+bool boxesOverlap(const BoxSpec& a, const BoxSpec& b);
+/**
+ * @brief Range along the ray origin + t dir (unit dir, not necessarily horizontal) to where it enters the box,
+ * whose base is at height @p ground_z; +inf if it misses or starts inside (the slab method).
+ */
+double intersectBox(const BoxSpec& box, double ground_z, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir);
+
+/**
  * @brief Gently undulating ground: h(x, y) = amplitude / K * sum_k sin(k_k . p + phase_k), so that
  * |h| <= amplitude everywhere. Waves are drawn from a seed: K = 3 directions, wavelengths within
  * [0.7, 1.3] x wavelength.
@@ -72,7 +98,7 @@ struct ClutterSpec
   int branches = 0;
   bool crowns = true;              ///< a foliage crown on each trunk
   double crown_base = 5.0;         ///< [m] lowest foliage above ground
-  double clearance = 0.8;          ///< [m] clutter keeps at least this from any trunk surface
+  double clearance = 0.8;          ///< [m] clutter keeps at least this from any trunk surface and box
   std::uint64_t seed = 1;
 };
 
@@ -83,6 +109,7 @@ struct ForestWorld
   std::vector<FoliageSpec> foliage;
   std::vector<RockSpec> rocks;
   std::vector<BranchSpec> branches;
+  std::vector<BoxSpec> boxes;
   GroundSpec ground;
   double min_x = 0.0, min_y = 0.0, max_x = 30.0, max_y = 30.0;  ///< [m] stand bounds (for clutter)
 };

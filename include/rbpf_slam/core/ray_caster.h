@@ -24,6 +24,7 @@ enum class HitKind : std::uint8_t
   kFoliage = 3,
   kRock = 4,
   kBranch = 5,
+  kBox = 6,
 };
 
 struct RayHit
@@ -38,7 +39,7 @@ struct RayHit
  *
  * Objects are bucketed in a uniform 2D grid and visited in ray order (Amanatides-Woo), so a ray
  * costs O(cells crossed + objects near it), not O(objects). Trunks are exact cone frusta (lean and
- * taper), rocks spheres, branches capsules, foliage porous spheres (the ray stops after an
+ * taper), rocks spheres, branches capsules, boxes oriented boxes, foliage porous spheres (the ray stops after an
  * exponential free path, drawn from the caller's generator). The ground is found by sphere tracing
  * with the ground's slope bound, refined by Newton steps.
  */
@@ -83,6 +84,7 @@ private:
   std::vector<Eigen::Vector3d> foliage_center_; ///< absolute centres
   std::vector<Eigen::Vector3d> rock_center_;
   std::vector<Eigen::Vector3d> branch_a_, branch_b_;
+  std::vector<double> box_base_z_;              ///< ground height under each box's centre
   std::vector<Shape> shapes_;
   std::vector<std::pair<double, double>> shape_z_;  ///< height range of each shape
 

@@ -2,6 +2,7 @@
 #define RBPF_SLAM_CORE_SCENARIO_H
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -14,11 +15,25 @@ namespace rbpf_slam
 {
 namespace core
 {
+/**
+ * @brief What the path follower steers on: the robot's odometry (a robot without SLAM), or the true pose (a human
+ * driver, who sees the road). Either way the filters see only odometry and sensor data.
+ */
+enum class SteerOn
+{
+  kOdometry,
+  kTruth,
+};
+
+/** @brief Parses "odometry" or "truth"; false for anything else. */
+bool parseSteerOn(const std::string& name, SteerOn* steer_on);
+
 struct ScenarioConfig
 {
   SimulatorConfig sim;
   VelocityNoiseConfig relay;  ///< motor noise between the follower and the robot
   PathFollowerConfig follower;
+  SteerOn steer_on = SteerOn::kOdometry;  ///< the follower's input (at each odometry message)
   std::vector<Eigen::Vector2d> drive = straightDrive();  ///< start frame
   double timeout = 600.0;  ///< [s] of simulated time
   double settle = 1.0;     ///< [s] run on after the follower is done, so the robot stops
@@ -35,7 +50,8 @@ public:
   Scenario(const ForestWorld& world, const ScenarioConfig& config,
            std::shared_ptr<const OccupancyImage> image = nullptr);
 
-  /** @brief One physics tick; false once the drive is finished (or timed out) and settled. */
+  /** @brief One physics tick; false once the drive is finished (or timed out) and settled, or the robot collided
+   * (simulator().collision()). */
   bool step(SimulatorOutput* out);
 
   ForestSimulator& simulator() { return sim_; }

@@ -42,6 +42,10 @@ struct SweepGeometry
  */
 TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z);
 
+/** @brief [s] from a 2D scan's first beam to its last, @p time_increment apart; 0 when that is not given (not
+ * finite or <= 0: every beam at the stamp) or the scan has fewer than 2 beams. */
+double scanPeriod(double time_increment, std::size_t beams);
+
 /** @brief The sweep geometry of a 2D scan: from angle_min through its last beam. */
 SweepGeometry scanGeometry(const PlanarScan& scan);
 

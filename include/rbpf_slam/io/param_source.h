@@ -60,6 +60,12 @@ private:
  */
 void readResamplingPolicy(const ParamSource& params, core::ResamplingPolicy* policy);
 
+/**
+ * @brief Keys of the filters' YAML files (config/fastslam.yaml, config/grid_slam.yaml) that only the ROS nodes read
+ * (frames, waits, files): offline tools know them and leave them unused without a warning.
+ */
+const std::vector<std::string>& nodeOnlyKeys();
+
 /** @brief A YAML file as a ParamSource; remembers which keys were read so typos can be reported. */
 class YamlParamSource : public ParamSource
 {

@@ -8,6 +8,7 @@
 
 #include "rbpf_slam/core/occupancy_grid.h"
 #include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {
@@ -75,9 +76,7 @@ inline std::string toPlanarScan(const sensor_msgs::LaserScan& msg, core::PlanarS
  */
 inline double scanPeriod(const sensor_msgs::LaserScan& msg)
 {
-  if (!(std::isfinite(msg.time_increment) && msg.time_increment > 0.0f) || msg.ranges.size() < 2)
-    return 0.0;
-  return static_cast<double>(msg.time_increment) * static_cast<double>(msg.ranges.size() - 1);
+  return core::scanPeriod(static_cast<double>(msg.time_increment), msg.ranges.size());
 }
 
 }  // namespace rbpf_slam
