@@ -49,9 +49,10 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   for (const auto& v : variants)
   {
     FastSlamConfig f = v.filter;
-    if (!(f.min_range > 0.0))
+    // A spinning lidar's runs keep the forest scope; a 2D scanner's scope is the one its scans state.
+    if (!scans && !(f.min_range > 0.0))
       f.min_range = kForestRunMinRange;
-    if (!(f.max_range > 0.0))
+    if (!scans && !(f.max_range > 0.0))
       f.max_range = kForestRunMaxRange;
     filters.push_back(f);
     pipelines.emplace_back(new TrunkSlamPipeline(v.detector, f));  // sensor height from the mount
@@ -140,7 +141,10 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         {
           const Eigen::Vector2d rel = res.trees[k].position - Eigen::Vector2d(true_sensor.x, true_sensor.y);
           const double d = rel.norm();
-          if (d < fc.min_range || d > fc.max_range)
+          // Counted as seen within the filter's configured ranges, else within the forest scope's 1-12 m.
+          const double seen_min = fc.min_range > 0.0 ? fc.min_range : kForestRunMinRange;
+          const double seen_max = fc.max_range > 0.0 ? fc.max_range : kForestRunMaxRange;
+          if (d < seen_min || d > seen_max)
             continue;
           if (scans)
           {

@@ -90,6 +90,7 @@ struct Series
   std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate, driven, speed;
   std::vector<std::string> rows;
   int failed = 0, collided = 0;
+  int warned = 0, failed_warned = 0;  ///< runs whose filter health warned; failed runs among them
 };
 }  // namespace
 
@@ -277,7 +278,7 @@ int main(int argc, char** argv)
           series.push_back(s);
         }
     const std::string world_name = world_path.substr(world_path.find_last_of('/') + 1);
-    const char* header = "%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s\n";
+    const char* header = "%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s %6s\n";
     for (int s = first_seed; s < first_seed + seeds; ++s)
     {
       scenario.sim.seed = static_cast<std::uint64_t>(s);
@@ -296,9 +297,10 @@ int main(int argc, char** argv)
         Series& q = series[k];
         const double hz = r.sweeps / std::max(1e-9, r.seconds_extraction + r.seconds_filter);
         char row[256];
-        std::snprintf(row, sizeof(row), "%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f\n", s,
+        std::snprintf(row, sizeof(row), "%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f %6d\n", s,
                       r.final_error, r.final_error_odometry, r.ate, r.ate_odometry, r.map.mean_distance,
-                      100.0 * r.map.recall, r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz);
+                      100.0 * r.map.recall, r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz,
+                      r.health_warnings);
         q.rows.push_back(row);
         if (series.size() == 1)
         {
@@ -309,7 +311,7 @@ int main(int argc, char** argv)
                         world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
                         odometry_noise, first_seed, first_seed + seeds - 1);
             std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
-                        "r RMS cm", "sweeps", "rate Hz");
+                        "r RMS cm", "sweeps", "rate Hz", "warned");
           }
           std::fputs(row, stdout);
           std::fflush(stdout);
@@ -333,6 +335,8 @@ int main(int argc, char** argv)
         const bool failed = (fail_ate > 0.0 ? r.ate > fail_ate : r.final_error > 1.0) || r.collided;
         q.failed += failed;
         q.collided += r.collided;
+        q.warned += r.health_warnings > 0;
+        q.failed_warned += failed && r.health_warnings > 0;
         q.driven.push_back(r.distance);
         q.speed.push_back(r.simulated_seconds / std::max(1e-9, wall));
         if (r.collided)
@@ -368,7 +372,7 @@ int main(int argc, char** argv)
                     world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
                     odometry_noise, first_seed, first_seed + seeds - 1);
         std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
-                    "r RMS cm", "sweeps", "rate Hz");
+                    "r RMS cm", "sweeps", "rate Hz", "warned");
         for (const auto& row : q.rows)
           std::fputs(row.c_str(), stdout);
       }
@@ -386,6 +390,7 @@ int main(int argc, char** argv)
            << ", \"method\": \"" << q.method << "\", \"proposal\": \"" << q.proposal << "\", \"mixture\": " << mixture
            << ", \"odometry_noise\": " << odometry_noise << ", \"first_seed\": " << first_seed
            << ", \"seeds\": " << seeds << ", \"failed\": " << q.failed << ", \"collisions\": " << q.collided
+           << ", \"health_warned\": " << q.warned << ", \"failed_and_warned\": " << q.failed_warned
            << ", \"gate_m\": " << gate << ", \"fail_ate_m\": " << fail_ate << ",\n "
            << jsonStats("driven_m", q.driven, false) << ",\n " << jsonStats("real_time_factor", q.speed, false)
            << ",\n " << jsonStats("final_error_m", q.fin)
@@ -400,6 +405,9 @@ int main(int argc, char** argv)
       }
       std::printf("driven %.0f m (median), %.1f x real time (median; simulation and all variants of a seed)\n",
                   median(q.driven), median(q.speed));
+      std::printf("health: the filter warned that its map was being rebuilt in %d of %d runs ('warned': updates), in %d "
+                  "of the %d failed runs\n",
+                  q.warned, seeds, q.failed_warned, q.failed);
       if (fail_ate > 0.0)
         std::printf("failed runs (ATE > %.1f m, or a collision): %d of %d, collisions %d   (DR columns: the same runs' "
                     "dead reckoning; 'worst' DR = the smallest drift)\n",

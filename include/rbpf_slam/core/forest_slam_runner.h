@@ -15,8 +15,9 @@ namespace rbpf_slam
 {
 namespace core
 {
-/// [m] The visibility scope of the simulated forest runs where a filter's configuration leaves it to the sensor:
-/// trees 1-12 m from the sensor count as seen (for the recall), and the filter's scope is the same.
+/// [m] The visibility scope of the simulated runs where a filter's configuration leaves it to the sensor: trees
+/// 1-12 m from the sensor (and, for a 2D scanner, inside its field of view) count as seen (for the recall). A
+/// spinning lidar's filter gets the same scope; a 2D scanner's filter takes the one its scans state.
 constexpr double kForestRunMinRange = 1.0, kForestRunMaxRange = 12.0;
 
 /** @brief A simulated 2D scan as the trunk detector takes it (ranges as they are: the detector applies REP-117). */
