@@ -22,6 +22,7 @@ constexpr double kCentroidBias = 0.5;    // [radii] the centroid's own error, to
 constexpr double kCentroidFloor = 1e-4;  // [m^2] (1 cm)^2 added to the centroid's variance
 constexpr int kMinHalfPoints = 3;        // [points] each half of a cluster needs this many for the verticality test
 constexpr double kFullCoverage = 0.5 * kPi;  // [rad] an arc this wide counts as fully covered in the score
+constexpr double kPoorFitOutliers = 0.05;  // [-] share of points beyond the inlier distance that may be a second trunk
 constexpr double kPoorFitRms = 1.5;     // [range sigmas] capped residuals beyond this RMS leave room for a second trunk
 constexpr int kPairCuts = 32;           // places along the bearing order where a cluster may be cut into two trunks
 constexpr double kPairRssRatio = 0.5;   // [-] two circles must at least halve the single circle's capped residuals
@@ -487,7 +488,7 @@ bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit&
     outliers += e > t;
     ss += std::pow(std::min(e, t), 2);
   }
-  if (outliers >= config.min_fit_points)
+  if (outliers >= std::max(static_cast<double>(config.min_fit_points), kPoorFitOutliers * points.size()))
     return true;
   return !points.empty() && ss / static_cast<double>(points.size()) > std::pow(kPoorFitRms * config.range_sigma, 2);
 }
@@ -576,6 +577,14 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
       return std::numeric_limits<double>::infinity();
     return s1 + s2;
   };
+  // The single circle's residuals, each capped at the inlier distance.
+  const double t = config.ransac_threshold;
+  double rss1 = 0.0;
+  for (const auto& q : points)
+    rss1 += single.ok ? std::pow(std::min(std::abs((q - single.center).norm() - single.radius), t), 2) : t * t;
+  const double floor = static_cast<double>(n) * std::pow(kRssFloor * config.range_sigma, 2);
+  rss1 = std::max(rss1, floor);
+
   // One cut: every place. Two cuts: a grid of kPairCuts places, then each cut moved to its best place nearby.
   double best_one = std::numeric_limits<double>::infinity();
   int one_cut = -1;
@@ -631,13 +640,7 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
   }
 
   // Each candidate partition: fit each part, give every point to the circle it lies nearer to, and again until
-  // the parts stay. The one whose circles pass every test and explain the points best is kept.
-  const double t = config.ransac_threshold;
-  double rss1 = 0.0;
-  for (const auto& q : points)
-    rss1 += single.ok ? std::pow(std::min(std::abs((q - single.center).norm() - single.radius), t), 2) : t * t;
-  const double floor = static_cast<double>(n) * std::pow(kRssFloor * config.range_sigma, 2);
-  rss1 = std::max(rss1, floor);
+  // the parts stay. Kept when its circles pass every test.
   double best_rss = std::numeric_limits<double>::infinity();
   std::vector<Eigen::Vector2d> part;
   const auto tryPartition = [&](int lo, int hi) {
@@ -715,8 +718,22 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
       pair.members[p] = member[p];
     }
   };
-  tryPartition(0, one_cut);
-  tryPartition(two_lo, two_hi);
+  // The partition the algebraic circles explain better first, the other only when it fails; neither when even the
+  // better one does not explain the points better than the single circle (its residuals uncapped).
+  if (!(std::min(best_one, best_two) < rss1))
+    return pair;
+  if (best_two < best_one)
+  {
+    tryPartition(two_lo, two_hi);
+    if (!pair.ok && std::isfinite(best_one))
+      tryPartition(0, one_cut);
+  }
+  else
+  {
+    tryPartition(0, one_cut);
+    if (!pair.ok && std::isfinite(best_two))
+      tryPartition(two_lo, two_hi);
+  }
   return pair;
 }
 

@@ -117,7 +117,7 @@ struct TrunkPairFit
 
 /**
  * @brief Whether a cluster's single fit may stand for two touching trunks: it was rejected, or at least
- * config.min_fit_points points lie beyond config.ransac_threshold of its circle, or its residuals (each capped at that
+ * config.min_fit_points points and 5 % of them lie beyond config.ransac_threshold of its circle, or its residuals (each capped at that
  * threshold) exceed 1.5 config.range_sigma (RMS).
  */
 bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit& fit, TrunkRejection rejection,
