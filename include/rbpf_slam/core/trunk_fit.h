@@ -129,13 +129,17 @@ bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit&
  * Seen from the sensor (the origin), each bearing meets one trunk: the nearer one hides what lies behind it, so the
  * visible points of two trunks fall into bearing intervals, one for each, or the far trunk's on both sides of the
  * near one's. Every such partition at a bearing (one cut, or two cuts with the outer pieces together) is scored by
- * the algebraic circles of its two parts (from running sums; their residuals scaled to distances); the best is fitted
- * by fitTrunkCircle() part by part, every point is given to the circle it lies nearer to, and the parts are fitted
- * again. Two trunks are kept (ok) only when
+ * the algebraic circles of its two parts (from running sums; their residuals scaled to distances, a part too short to
+ * show its curvature by its straight line's). The better of the best one-cut and two-cut partitions (the other only
+ * when it fails; neither when its sum of squares does not beat the single circle's) is fitted by fitTrunkCircle()
+ * part by part, every point is given to the circle it lies nearer to, and the parts are fitted again until they
+ * stay. Two trunks are kept (ok) only when
  *  - each part has at least max(config.min_fit_points, config.min_points) points and its fit passes checkTrunkFit()
  *    on them as a circle (kCircle: a wide enough arc);
  *  - the circles are two: their centres lie at least max(r1 + r2 - 2 ransac_threshold, max(r1, r2)) apart (the two
  *    sides of one trunk fit the same circle twice);
+ *  - each circle's silhouette (its bearing interval) ends within the points' bearings, widened by 2 ransac_threshold
+ *    at its range and about a beam: a noisy thin trunk fits two wide circles whose outlines the points do not show;
  *  - two circles explain the points clearly better than @p single: with every residual capped at ransac_threshold,
  *    the sum of squares falls to at most half and the Bayesian information criterion with the noise unknown,
  *    n ln(RSS1 / RSS2) - 4 ln n (three more parameters and the cut), is positive.
