@@ -27,6 +27,7 @@ constexpr double kPoorFitRms = 1.5;     // [range sigmas] capped residuals beyon
 constexpr int kPairCuts = 32;           // places along the bearing order where a cluster may be cut into two trunks
 constexpr double kPairRssRatio = 0.5;   // [-] two circles must at least halve the single circle's capped residuals
 constexpr int kPairIterations = 4;     // fits and reassignments of the two parts at most
+constexpr double kPairOverlap = 0.75;   // [inlier distances] two trunks' circles may overlap by this much (radius errors)
 constexpr double kRssFloor = 0.1;
 constexpr double kSilhouetteSlack = 0.005;  // [rad] a silhouette may end this much (about a beam) beyond its points       // [range sigmas] RMS floor of the residuals compared (exact data stay finite)
 
@@ -685,9 +686,10 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
           checkTrunkFit(fit[p], size, config) != TrunkRejection::kNone)
         return;
     }
-    // Two circles, not one fitted twice.
+    // Two trunks side by side, not one circle fitted twice nor a trunk and a sliver of itself: the circles overlap
+    // by at most kPairOverlap inlier distances (their radii's errors).
     const double apart = (fit[0].center - fit[1].center).norm();
-    if (apart < std::max(fit[0].radius + fit[1].radius - 2.0 * t, std::max(fit[0].radius, fit[1].radius)))
+    if (apart < fit[0].radius + fit[1].radius - kPairOverlap * t)
       return;
     // The two silhouettes end where the points end: nothing else hides the pair's outer edges.
     for (int p = 0; p < 2; ++p)

@@ -136,8 +136,8 @@ bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit&
  * stay. Two trunks are kept (ok) only when
  *  - each part has at least max(config.min_fit_points, config.min_points) points and its fit passes checkTrunkFit()
  *    on them as a circle (kCircle: a wide enough arc);
- *  - the circles are two: their centres lie at least max(r1 + r2 - 2 ransac_threshold, max(r1, r2)) apart (the two
- *    sides of one trunk fit the same circle twice);
+ *  - the circles are two trunks side by side: their centres lie at least r1 + r2 - 0.75 ransac_threshold apart (the
+ *    two sides of one trunk fit the same circle twice; a trunk and a sliver of its own points fit overlapping ones);
  *  - each circle's silhouette (its bearing interval) ends within the points' bearings, widened by 2 ransac_threshold
  *    at its range and about a beam: a noisy thin trunk fits two wide circles whose outlines the points do not show;
  *  - two circles explain the points clearly better than @p single: with every residual capped at ransac_threshold,
