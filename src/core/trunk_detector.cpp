@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Eigenvalues>
@@ -216,6 +217,35 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
     const int n = static_cast<int>(p2.size());
     const TrunkFit fit = fitTrunk(p2, cfg);
     const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
+    // Two trunks whose bark nearly touches make one cluster: when one circle explains it poorly, two may.
+    if (cfg.method == TrunkMethod::kCircle && isPoorSingleFit(p2, fit, rejection, cfg))
+    {
+      const TrunkPairFit pair = fitTrunkPair(p2, fit, cfg);
+      if (pair.ok)
+      {
+        ++st->split_clusters;
+        for (int k = 0; k < 2; ++k)
+        {
+          TrunkCandidate part;
+          std::vector<Eigen::Vector2d> part2;
+          part.z_lo = std::numeric_limits<double>::infinity();
+          part.z_hi = -std::numeric_limits<double>::infinity();
+          for (int i : pair.members[k])
+          {
+            const Eigen::Vector3d& q = c.points[static_cast<std::size_t>(i)];
+            part.points.push_back(q);
+            part2.push_back(p2[static_cast<std::size_t>(i)]);
+            part.z_lo = std::min(part.z_lo, q.z());
+            part.z_hi = std::max(part.z_hi, q.z());
+          }
+          if (part.z_hi - part.z_lo < cfg.min_vertical_extent || !isUpright(part, part2, cfg))
+            ++st->rejected_shape;
+          else
+            out.push_back(toTrunkObservation(pair.fits[k], static_cast<int>(part2.size()), part.zMid()));
+        }
+        continue;
+      }
+    }
     if (rejection != TrunkRejection::kNone)
     {
       countRejection(rejection, st);
@@ -321,6 +351,19 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
     const bool short_arc = n < cfg.min_fit_points;
     TrunkFit fit = short_arc && cfg.method == TrunkMethod::kCircle ? fitShortArc(arc.points, beam_spacing, cfg) :
                                                                      fitTrunk(arc.points, cfg);
+    // Two trunks whose bark nearly touches, side by side, make one arc: when one circle explains it poorly, two may.
+    if (!short_arc && cfg.method == TrunkMethod::kCircle &&
+        isPoorSingleFit(arc.points, fit, checkTrunkFit(fit, n, cfg), cfg))
+    {
+      const TrunkPairFit pair = fitTrunkPair(arc.points, fit, cfg);
+      if (pair.ok)
+      {
+        ++st->split_clusters;
+        for (int k = 0; k < 2; ++k)
+          accept(pair.fits[k], static_cast<int>(pair.members[k].size()));
+        continue;
+      }
+    }
     if ((short_arc || fit.method == TrunkMethod::kArc) &&
         !(isArcIsolated(scan, arc, cfg.scan_min_jump, cfg.range_offset) && isTrunkShapedArc(arc.points, cfg)))
     {

@@ -3,6 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
+
+#include <Eigen/Eigenvalues>
 
 #include "rbpf_slam/core/circle_fit.h"
 
@@ -18,6 +22,14 @@ constexpr double kCentroidBias = 0.5;    // [radii] the centroid's own error, to
 constexpr double kCentroidFloor = 1e-4;  // [m^2] (1 cm)^2 added to the centroid's variance
 constexpr int kMinHalfPoints = 3;        // [points] each half of a cluster needs this many for the verticality test
 constexpr double kFullCoverage = 0.5 * kPi;  // [rad] an arc this wide counts as fully covered in the score
+constexpr double kPoorFitOutliers = 0.05;  // [-] share of points beyond the inlier distance that may be a second trunk
+constexpr double kPoorFitRms = 1.5;     // [range sigmas] capped residuals beyond this RMS leave room for a second trunk
+constexpr int kPairCuts = 32;           // places along the bearing order where a cluster may be cut into two trunks
+constexpr double kPairRssRatio = 0.5;   // [-] two circles must at least halve the single circle's capped residuals
+constexpr int kPairIterations = 4;     // fits and reassignments of the two parts at most
+constexpr double kPairOverlap = 0.75;   // [inlier distances] two trunks' circles may overlap by this much (radius errors)
+constexpr double kRssFloor = 0.1;
+constexpr double kSilhouetteSlack = 0.005;  // [rad] a silhouette may end this much (about a beam) beyond its points       // [range sigmas] RMS floor of the residuals compared (exact data stay finite)
 
 Eigen::Vector2d meanOf(const std::vector<Eigen::Vector2d>& points)
 {
@@ -461,6 +473,270 @@ TrunkRejection checkTrunkFit(const TrunkFit& fit, int num_points, const TrunkDet
   if (range < config.min_range || range > config.max_range)
     return TrunkRejection::kShape;
   return TrunkRejection::kNone;
+}
+
+bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit& fit, TrunkRejection rejection,
+                     const TrunkDetectorConfig& config)
+{
+  if (rejection != TrunkRejection::kNone || !fit.ok)
+    return true;
+  const double t = config.ransac_threshold;
+  int outliers = 0;
+  double ss = 0.0;
+  for (const auto& q : points)
+  {
+    const double e = std::abs((q - fit.center).norm() - fit.radius);
+    outliers += e > t;
+    ss += std::pow(std::min(e, t), 2);
+  }
+  if (outliers >= std::max(static_cast<double>(config.min_fit_points), kPoorFitOutliers * points.size()))
+    return true;
+  return !points.empty() && ss / static_cast<double>(points.size()) > std::pow(kPoorFitRms * config.range_sigma, 2);
+}
+
+TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const TrunkFit& single,
+                          const TrunkDetectorConfig& config)
+{
+  TrunkPairFit pair;
+  const int n = static_cast<int>(points.size());
+  const int min_part = std::max(config.min_fit_points, config.min_points);
+  if (config.method != TrunkMethod::kCircle || n < 2 * min_part)
+    return pair;
+  const Eigen::Vector2d mean = meanOf(points);
+  if (!(mean.norm() > 0.0))
+    return pair;
+
+  // Bearing order, about the bearing of the cluster's mean.
+  const double b0 = std::atan2(mean.y(), mean.x());
+  std::vector<double> bearing(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    bearing[i] = std::remainder(std::atan2(points[i].y(), points[i].x()) - b0, 2.0 * kPi);
+  std::vector<int> order(points.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return bearing[static_cast<std::size_t>(a)] < bearing[static_cast<std::size_t>(b)];
+  });
+
+  const double bearing_lo = bearing[static_cast<std::size_t>(order.front())];
+  const double bearing_hi = bearing[static_cast<std::size_t>(order.back())];
+
+  // Running sums in that order of the algebraic fit's moments (about the mean, where they stay well conditioned):
+  // 1, x, y, xx, xy, yy, xz, yz, z, zz with z = xx + yy, and the range.
+  using Moments = Eigen::Matrix<double, 11, 1>;
+  std::vector<Moments> prefix(points.size() + 1, Moments::Zero());
+  for (std::size_t k = 0; k < order.size(); ++k)
+  {
+    const Eigen::Vector2d& p = points[static_cast<std::size_t>(order[k])];
+    const Eigen::Vector2d q = p - mean;
+    const double z = q.squaredNorm();
+    Moments m;
+    m << 1.0, q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y(), q.x() * z, q.y() * z, z, z * z, p.norm();
+    prefix[k + 1] = prefix[k] + m;
+  }
+  // A part's residuals' sum of squares as distances: to its algebraic circle (|p - c|^2 - r^2 is about 2 r times
+  // the distance) when that is a trunk-sized circle behind the part's points, else to its straight line (a piece too
+  // short or too noisy to show its curvature; its circle is fitted with the radius prior afterwards). Also the
+  // range of the part's centre (its circle's, or its mean range plus the prior radius).
+  const auto score = [&](const Moments& m, double* sse, double* centre_range) {
+    const double count = m(0);
+    Eigen::Matrix3d A;
+    A << m(3), m(4), m(1), m(4), m(5), m(2), m(1), m(2), m(0);
+    const Eigen::Vector3d b(m(6), m(7), m(8));
+    const Eigen::Vector3d s = A.ldlt().solve(-b);
+    const Eigen::Vector2d part_mean = mean + Eigen::Vector2d(m(1), m(2)) / count;
+    if (s.allFinite())
+    {
+      const double r2 = 0.25 * (s.x() * s.x() + s.y() * s.y()) - s.z();
+      const Eigen::Vector2d c = mean + Eigen::Vector2d(-0.5 * s.x(), -0.5 * s.y());
+      if (r2 >= config.min_radius * config.min_radius && r2 <= config.max_radius * config.max_radius &&
+          c.norm() > part_mean.norm())
+      {
+        *sse = std::max(0.0, m(9) + b.dot(s)) / (4.0 * r2);
+        *centre_range = c.norm();
+        return;
+      }
+    }
+    const Eigen::Vector2d d = Eigen::Vector2d(m(1), m(2)) / count;
+    Eigen::Matrix2d scatter;
+    scatter << m(3) - count * d.x() * d.x(), m(4) - count * d.x() * d.y(), m(4) - count * d.x() * d.y(),
+        m(5) - count * d.y() * d.y();
+    *sse = std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(scatter, Eigen::EigenvaluesOnly).eigenvalues()(0));
+    *centre_range = m(10) / count + config.arc_radius_prior;
+  };
+  // The middle interval [lo, hi) of the order against the rest. With two cuts the middle trunk hides the other
+  // on both sides, so it must be the nearer one.
+  const Moments total = prefix.back();
+  const auto partition = [&](int lo, int hi) {
+    const int inner = hi - lo;
+    if (inner < min_part || n - inner < min_part)
+      return std::numeric_limits<double>::infinity();
+    const Moments middle = prefix[static_cast<std::size_t>(hi)] - prefix[static_cast<std::size_t>(lo)];
+    double s1 = 0.0, s2 = 0.0, range1 = 0.0, range2 = 0.0;
+    score(middle, &s1, &range1);
+    score(total - middle, &s2, &range2);
+    if (lo > 0 && hi < n && !(range1 < range2))
+      return std::numeric_limits<double>::infinity();
+    return s1 + s2;
+  };
+  // The single circle's residuals, each capped at the inlier distance.
+  const double t = config.ransac_threshold;
+  double rss1 = 0.0;
+  for (const auto& q : points)
+    rss1 += single.ok ? std::pow(std::min(std::abs((q - single.center).norm() - single.radius), t), 2) : t * t;
+  const double floor = static_cast<double>(n) * std::pow(kRssFloor * config.range_sigma, 2);
+  rss1 = std::max(rss1, floor);
+
+  // One cut: every place. Two cuts: a grid of kPairCuts places, then each cut moved to its best place nearby.
+  double best_one = std::numeric_limits<double>::infinity();
+  int one_cut = -1;
+  for (int k = min_part; k + min_part <= n; ++k)
+  {
+    const double s = partition(0, k);
+    if (s < best_one)
+    {
+      best_one = s;
+      one_cut = k;
+    }
+  }
+  double best_two = std::numeric_limits<double>::infinity();
+  int two_lo = -1, two_hi = -1;
+  const int cuts = std::min(kPairCuts, n);
+  for (int i = 1; i < cuts; ++i)
+    for (int j = i + 1; j < cuts; ++j)
+    {
+      const int lo = static_cast<int>(static_cast<long>(i) * n / cuts), hi = static_cast<int>(static_cast<long>(j) * n / cuts);
+      const double s = partition(lo, hi);
+      if (s < best_two)
+      {
+        best_two = s;
+        two_lo = lo;
+        two_hi = hi;
+      }
+    }
+  if (two_lo >= 0)
+  {
+    const int reach = n / cuts + 1;
+    for (int pass = 0; pass < 2; ++pass)
+    {
+      const int lo0 = two_lo, hi0 = two_hi;
+      for (int lo = std::max(1, lo0 - reach); lo <= lo0 + reach; ++lo)
+      {
+        const double s = partition(lo, two_hi);
+        if (s < best_two)
+        {
+          best_two = s;
+          two_lo = lo;
+        }
+      }
+      for (int hi = hi0 - reach; hi <= std::min(n - 1, hi0 + reach); ++hi)
+      {
+        const double s = partition(two_lo, hi);
+        if (s < best_two)
+        {
+          best_two = s;
+          two_hi = hi;
+        }
+      }
+    }
+  }
+
+  // Each candidate partition: fit each part, give every point to the circle it lies nearer to, and again until
+  // the parts stay. Kept when its circles pass every test.
+  double best_rss = std::numeric_limits<double>::infinity();
+  std::vector<Eigen::Vector2d> part;
+  const auto tryPartition = [&](int lo, int hi) {
+    if (lo < 0)
+      return;
+    std::vector<int> member[2];
+    for (int k = 0; k < n; ++k)
+      member[k >= lo && k < hi ? 0 : 1].push_back(order[static_cast<std::size_t>(k)]);
+    TrunkFit fit[2];
+    const auto distanceTo = [&](int p, const Eigen::Vector2d& q) {
+      return std::abs((q - fit[p].center).norm() - fit[p].radius);
+    };
+    for (int it = 0; it < kPairIterations; ++it)
+    {
+      for (int p = 0; p < 2; ++p)
+      {
+        std::sort(member[p].begin(), member[p].end());
+        part.clear();
+        for (int i : member[p])
+          part.push_back(points[static_cast<std::size_t>(i)]);
+        fit[p] = fitTrunkCircle(part, config);
+        if (!fit[p].ok)
+          return;
+      }
+      std::vector<int> again[2];
+      for (int i = 0; i < n; ++i)
+      {
+        const Eigen::Vector2d& q = points[static_cast<std::size_t>(i)];
+        again[distanceTo(0, q) <= distanceTo(1, q) ? 0 : 1].push_back(i);
+      }
+      if (again[0] == member[0] || static_cast<int>(again[0].size()) < min_part ||
+          static_cast<int>(again[1].size()) < min_part)
+        break;
+      member[0].swap(again[0]);
+      member[1].swap(again[1]);
+    }
+    // Each part a trunk of its own, seen over a wide enough arc.
+    for (int p = 0; p < 2; ++p)
+    {
+      const int size = static_cast<int>(member[p].size());
+      if (size < min_part || fit[p].method != TrunkMethod::kCircle ||
+          checkTrunkFit(fit[p], size, config) != TrunkRejection::kNone)
+        return;
+    }
+    // Two trunks side by side, not one circle fitted twice nor a trunk and a sliver of itself: the circles overlap
+    // by at most kPairOverlap inlier distances (their radii's errors).
+    const double apart = (fit[0].center - fit[1].center).norm();
+    if (apart < fit[0].radius + fit[1].radius - kPairOverlap * t)
+      return;
+    // The two silhouettes end where the points end: nothing else hides the pair's outer edges.
+    for (int p = 0; p < 2; ++p)
+    {
+      const double range = fit[p].center.norm();
+      if (!(range > fit[p].radius))
+        return;
+      const double half = std::asin(fit[p].radius / range);
+      const double centre = std::remainder(std::atan2(fit[p].center.y(), fit[p].center.x()) - b0, 2.0 * kPi);
+      const double margin = 2.0 * t / range + kSilhouetteSlack;
+      if (centre - half < bearing_lo - margin || centre + half > bearing_hi + margin)
+        return;
+    }
+    // Clearly better than one circle: residuals capped at the inlier distance.
+    double rss2 = 0.0;
+    for (const auto& q : points)
+      rss2 += std::pow(std::min(std::min(distanceTo(0, q), distanceTo(1, q)), t), 2);
+    rss2 = std::max(rss2, floor);
+    if (!(rss2 <= kPairRssRatio * rss1) ||
+        !(static_cast<double>(n) * std::log(rss1 / rss2) - 4.0 * std::log(static_cast<double>(n)) > 0.0) ||
+        !(rss2 < best_rss))
+      return;
+    best_rss = rss2;
+    pair.ok = true;
+    for (int p = 0; p < 2; ++p)
+    {
+      pair.fits[p] = fit[p];
+      pair.members[p] = member[p];
+    }
+  };
+  // The partition the algebraic circles explain better first, the other only when it fails; neither when even the
+  // better one does not explain the points better than the single circle (its residuals uncapped).
+  if (!(std::min(best_one, best_two) < rss1))
+    return pair;
+  if (best_two < best_one)
+  {
+    tryPartition(two_lo, two_hi);
+    if (!pair.ok && std::isfinite(best_one))
+      tryPartition(0, one_cut);
+  }
+  else
+  {
+    tryPartition(0, one_cut);
+    if (!pair.ok && std::isfinite(best_two))
+      tryPartition(two_lo, two_hi);
+  }
+  return pair;
 }
 
 void countRejection(TrunkRejection rejection, TrunkDetectorStats* stats)

@@ -58,6 +58,7 @@ struct Result
   std::vector<double> times_ms;
   int spurious_within10 = 0;
   double stage_ms[4] = { 0.0, 0.0, 0.0, 0.0 };
+  int split_clusters = 0;  // clusters split into two touching trunks
 };
 
 /** CPU time of the calling thread [ms]: what a cloud costs, whatever else runs on a shared machine. */
@@ -175,6 +176,7 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
       res[m].stage_ms[1] += stats.ms_cluster;
       res[m].stage_ms[2] += stats.ms_tilt;
       res[m].stage_ms[3] += stats.ms_fit;
+      res[m].split_clusters += stats.split_clusters;
       res[m].times_ms.push_back(threadCpuMs() - t0);
 
       // Truth in the evaluation frame at each detection's height: greedy one-to-one by distance, 0.5 m gate.
@@ -279,9 +281,10 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
                 w.detections ? 100.0 * (w.detections - res[m].spurious_within10) / w.detections : 0.0,
                 median(res[m].times_ms), *std::max_element(res[m].times_ms.begin(), res[m].times_ms.end()));
     const double n = std::max<std::size_t>(1, res[m].times_ms.size());
-    std::printf("%-9s mean wall time per cloud: ground+band %.2f ms, clustering %.2f ms, tilt %.2f ms, fits %.2f ms\n",
+    std::printf("%-9s mean wall time per cloud: ground+band %.2f ms, clustering %.2f ms, tilt %.2f ms, fits %.2f ms; "
+                "clusters split into two trunks: %d\n",
                 core::trunkMethodName(methods[m]), res[m].stage_ms[0] / n, res[m].stage_ms[1] / n, res[m].stage_ms[2] / n,
-                res[m].stage_ms[3] / n);
+                res[m].stage_ms[3] / n, res[m].split_clusters);
   }
 }
 }  // namespace

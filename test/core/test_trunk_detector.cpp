@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "rbpf_slam/core/random.h"
@@ -615,4 +616,237 @@ TEST(TrunkDetector, WallPartlyHiddenBehindAPostIsNoTrunk)
     EXPECT_LE(false_trunks, range < 1.0 ? 0 : trials / 100) << range;
     std::printf("range %.1f m: %d of %d walls gave a trunk\n", range, false_trunks, trials);
   }
+}
+
+namespace
+{
+struct Cylinder
+{
+  double x, y, r;
+};
+
+/** Range along the unit ray @p d from the origin to the nearest cylinder, or +inf. */
+double castRay(const Eigen::Vector2d& d, const std::vector<Cylinder>& cylinders, int* hit = nullptr)
+{
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < cylinders.size(); ++k)
+  {
+    const Eigen::Vector2d c(cylinders[k].x, cylinders[k].y);
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - cylinders[k].r * cylinders[k].r);
+    if (disc >= 0.0 && b - std::sqrt(disc) > 0.0 && b - std::sqrt(disc) < best)
+    {
+      best = b - std::sqrt(disc);
+      if (hit)
+        *hit = static_cast<int>(k);
+    }
+  }
+  return best;
+}
+
+/**
+ * What a 3D lidar at the origin sees of vertical cylinders: rings every 0.1 m of height from the ground up to 1 m
+ * above the sensor, beams 0.2 deg apart, range noise @p sigma; the nearer cylinder hides what lies behind it.
+ * @param[out] visible_arc per cylinder, the angle its visible points subtend at its axis [rad]
+ */
+void addVisibleCylinders(std::vector<Eigen::Vector3f>* pts, const std::vector<Cylinder>& cylinders, Random& rnd,
+                         double sigma, std::vector<double>* visible_arc = nullptr)
+{
+  std::vector<double> lo(cylinders.size(), 1e9), hi(cylinders.size(), -1e9);
+  const double step = 0.2 * M_PI / 180.0;
+  for (double a = -M_PI; a < M_PI; a += step)
+  {
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    int k = -1;
+    const double range = castRay(d, cylinders, &k);
+    if (k < 0)
+      continue;
+    const Eigen::Vector2d q = d * range;
+    const double at = std::atan2(q.y() - cylinders[static_cast<std::size_t>(k)].y,
+                                 q.x() - cylinders[static_cast<std::size_t>(k)].x);
+    const double facing = std::atan2(-cylinders[static_cast<std::size_t>(k)].y, -cylinders[static_cast<std::size_t>(k)].x);
+    const double rel = std::remainder(at - facing, 2.0 * M_PI);
+    lo[static_cast<std::size_t>(k)] = std::min(lo[static_cast<std::size_t>(k)], rel);
+    hi[static_cast<std::size_t>(k)] = std::max(hi[static_cast<std::size_t>(k)], rel);
+    for (double z = -kSensorHeight; z <= 1.0; z += 0.1)
+    {
+      const double rr = range + rnd.gaussian(sigma);
+      pts->emplace_back(static_cast<float>(rr * d.x()), static_cast<float>(rr * d.y()), static_cast<float>(z));
+    }
+  }
+  if (visible_arc)
+  {
+    visible_arc->clear();
+    for (std::size_t k = 0; k < cylinders.size(); ++k)
+      visible_arc->push_back(hi[k] >= lo[k] ? hi[k] - lo[k] : 0.0);
+  }
+}
+}  // namespace
+
+TEST(TrunkDetector, TouchingTrunksSeenFromSeveralBearingsAreTwoTrunks)
+{
+  // Pairs whose bark gap is 2-10 cm, radii 0.1-0.3 m, the pair's axis turned from across the line of sight (90 deg)
+  // to 30 deg off it, at 5 and 8 m. Each trunk seen over at least 50 deg of its circumference must come out, with
+  // its centre within 4 cm, whether or not the clustering merged the two; never more than two detections.
+  const double radii[][2] = { { 0.1, 0.1 }, { 0.2, 0.3 }, { 0.3, 0.1 }, { 0.15, 0.25 } };
+  int both = 0, cases = 0, merged = 0, split = 0;
+  std::uint64_t seed = 100;
+  for (const auto& r : radii)
+    for (double gap : { 0.02, 0.05, 0.1 })
+      for (double axis_deg : { 90.0, 60.0, 30.0 })
+        for (double range : { 5.0, 8.0 })
+        {
+          Random rnd(++seed);
+          const double bearing = 0.3 * static_cast<double>(seed % 7) - 0.9;
+          const Eigen::Vector2d mid = range * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+          const double axis = bearing + axis_deg * M_PI / 180.0;
+          const Eigen::Vector2d u(std::cos(axis), std::sin(axis));
+          const double d = r[0] + r[1] + gap;
+          const Eigen::Vector2d c0 = mid - u * (0.5 * d), c1 = mid + u * (0.5 * d);
+          const std::vector<Cylinder> cyl{ { c0.x(), c0.y(), r[0] }, { c1.x(), c1.y(), r[1] } };
+          std::vector<Eigen::Vector3f> pts;
+          addGround(&pts);
+          std::vector<double> arc;
+          addVisibleCylinders(&pts, cyl, rnd, 0.01, &arc);
+          TrunkDetector det(config());
+          TrunkDetectorStats st;
+          const auto obs = det.detect(pts, Eigen::Matrix3d::Identity(), &st);
+          const std::string what = "r " + std::to_string(r[0]) + "/" + std::to_string(r[1]) + " gap " +
+                                   std::to_string(gap) + " axis " + std::to_string(axis_deg) + " range " +
+                                   std::to_string(range);
+          EXPECT_LE(obs.size(), 2u) << what;
+          merged += st.clusters == 1;
+          split += st.split_clusters;
+          if (arc[0] >= 50.0 * M_PI / 180.0 && arc[1] >= 50.0 * M_PI / 180.0)
+          {
+            ++cases;
+            EXPECT_EQ(obs.size(), 2u) << what;
+            if (obs.size() != 2u)
+              continue;
+            const TrunkObservation* o0 = nearest(obs, c0.x(), c0.y());
+            const TrunkObservation* o1 = nearest(obs, c1.x(), c1.y());
+            EXPECT_LT((o0->center - c0).norm(), 0.04) << what;
+            EXPECT_LT((o1->center - c1).norm(), 0.04) << what;
+            both += o0 != o1 && (o0->center - c0).norm() < 0.04 && (o1->center - c1).norm() < 0.04;
+          }
+        }
+  EXPECT_EQ(both, cases);
+  EXPECT_GE(cases, 50);   // most of the 72 set-ups show both trunks well enough
+  EXPECT_GE(merged, 50);  // and in most the clustering merged them: the split found them
+  EXPECT_GE(split, 50);
+}
+
+TEST(TrunkDetector, SingleTrunkIsNeverSplit)
+{
+  // Single trunks of 4-60 cm radius at 2-15 m, with range noise of 1-3 cm: one detection at the centre, never two.
+  std::uint64_t seed = 500;
+  for (double r : { 0.04, 0.1, 0.2, 0.3, 0.45, 0.6 })
+    for (double range : { 2.0, 4.0, 8.0, 15.0 })
+      for (double sigma : { 0.01, 0.02, 0.03 })
+      {
+        Random rnd(++seed);
+        const double bearing = 0.5 * static_cast<double>(seed % 11) - 2.5;
+        const Eigen::Vector2d c = range * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+        std::vector<Eigen::Vector3f> pts;
+        addGround(&pts);
+        addVisibleCylinders(&pts, { { c.x(), c.y(), r } }, rnd, sigma);
+        TrunkDetector det(config());
+        TrunkDetectorStats st;
+        const auto obs = det.detect(pts, Eigen::Matrix3d::Identity(), &st);
+        const std::string what =
+            "r " + std::to_string(r) + " range " + std::to_string(range) + " sigma " + std::to_string(sigma);
+        EXPECT_EQ(st.split_clusters, 0) << what;
+        ASSERT_LE(obs.size(), 1u) << what;
+        if (r >= 0.1 && range <= 8.0)
+        {
+          ASSERT_EQ(obs.size(), 1u) << what;
+          EXPECT_LT((obs[0].center - c).norm(), 0.05) << what;
+        }
+      }
+}
+
+TEST(TrunkDetector, TrunkWithABushAgainstItIsOneTrunk)
+{
+  // A porous bush whose edge is 10 cm from the bark: one cluster, one trunk, and the bush makes no second one.
+  for (std::uint64_t seed = 1; seed <= 5; ++seed)
+  {
+    Random rnd(seed);
+    std::vector<Eigen::Vector3f> pts;
+    addGround(&pts);
+    addVisibleCylinders(&pts, { { 6.0, 0.0, 0.2 } }, rnd, 0.01);
+    for (int i = 0; i < 1500; ++i)
+    {
+      Eigen::Vector3d q(rnd.uniform(-1, 1), rnd.uniform(-1, 1), rnd.uniform(-1, 1));
+      if (q.norm() > 1.0)
+        continue;
+      q = q * 0.6 + Eigen::Vector3d(6.0, 0.9, -kSensorHeight + 0.8);
+      pts.emplace_back(q.cast<float>());
+    }
+    TrunkDetector det(config());
+    const auto obs = det.detect(pts);
+    ASSERT_LE(obs.size(), 1u) << seed;
+    for (const auto& o : obs)
+      EXPECT_LT((o.center - Eigen::Vector2d(6.0, 0.0)).norm(), 0.03) << seed;
+  }
+}
+
+TEST(TrunkDetector, TouchingTrunksInOneScanArcAreTwoTrunks)
+{
+  // A planar scan (0.25 deg, 1 cm noise) of touching pairs at 5 m, bark gap 2-10 cm, the pair's axis 20-70 deg off
+  // the line of sight (side by side, a beam passes between them and they are two arcs anyway). Where one arc holds
+  // both and each trunk is seen over at least 50 deg and twice min_fit_points beams, both come out with their centres within 4 cm.
+  const double radii[][2] = { { 0.15, 0.15 }, { 0.2, 0.3 }, { 0.3, 0.15 } };
+  int cases = 0, merged = 0;
+  std::uint64_t seed = 900;
+  for (const auto& r : radii)
+    for (double gap : { 0.02, 0.05, 0.1 })
+      for (double axis_deg : { 20.0, 35.0, 50.0, 70.0 })
+      {
+        Random rnd(++seed);
+        const double bearing = 0.2 * static_cast<double>(seed % 5) - 0.4;
+        const Eigen::Vector2d mid = 5.0 * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+        const double axis = bearing + axis_deg * M_PI / 180.0;
+        const Eigen::Vector2d u(std::cos(axis), std::sin(axis));
+        const Eigen::Vector2d c0 = mid - u * (0.5 * (r[0] + r[1] + gap)), c1 = mid + u * (0.5 * (r[0] + r[1] + gap));
+        const std::vector<Cylinder> cyl{ { c0.x(), c0.y(), r[0] }, { c1.x(), c1.y(), r[1] } };
+        PlanarScan scan;
+        scan.angle_min = -M_PI / 2;
+        scan.angle_increment = M_PI / 720;
+        scan.range_min = 0.05;
+        scan.range_max = 30.0;
+        std::vector<double> lo(2, 1e9), hi(2, -1e9);
+        int beams[2] = { 0, 0 };
+        for (int i = 0; i <= 720; ++i)
+        {
+          const double a = scan.angle_min + i * scan.angle_increment;
+          const Eigen::Vector2d d(std::cos(a), std::sin(a));
+          int k = -1;
+          const double range = castRay(d, cyl, &k);
+          scan.ranges.push_back(std::isfinite(range) ? static_cast<float>(range + rnd.gaussian(0.01)) :
+                                                       std::numeric_limits<float>::infinity());
+          if (k < 0)
+            continue;
+          ++beams[k];
+          const Eigen::Vector2d c = k == 0 ? c0 : c1;
+          const Eigen::Vector2d q = d * range;
+          const double rel = std::remainder(std::atan2(q.y() - c.y(), q.x() - c.x()) - std::atan2(-c.y(), -c.x()), 2.0 * M_PI);
+          lo[static_cast<std::size_t>(k)] = std::min(lo[static_cast<std::size_t>(k)], rel);
+          hi[static_cast<std::size_t>(k)] = std::max(hi[static_cast<std::size_t>(k)], rel);
+        }
+        TrunkDetector det(config());
+        TrunkDetectorStats st;
+        const auto obs = det.detectScan(scan, &st);
+        const std::string what = "r " + std::to_string(r[0]) + "/" + std::to_string(r[1]) + " gap " +
+                                 std::to_string(gap) + " axis " + std::to_string(axis_deg);
+        EXPECT_LE(obs.size(), 2u) << what;
+        if (st.clusters != 1 || hi[0] - lo[0] < 50.0 * M_PI / 180.0 || hi[1] - lo[1] < 50.0 * M_PI / 180.0 ||
+            std::min(beams[0], beams[1]) < 2 * config().min_fit_points)
+          continue;
+        ++merged;
+        EXPECT_EQ(st.split_clusters, 1) << what;
+        ASSERT_EQ(obs.size(), 2u) << what;
+        EXPECT_LT((nearest(obs, c0.x(), c0.y())->center - c0).norm(), 0.04) << what;
+        EXPECT_LT((nearest(obs, c1.x(), c1.y())->center - c1).norm(), 0.04) << what;
+        ++cases;
+      }
+  EXPECT_GE(merged, 4);  // the set-ups where the scan cannot tell the two trunks apart by a range jump
 }

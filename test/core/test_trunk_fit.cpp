@@ -1,5 +1,7 @@
 // One cluster's trunk fit, acceptance and verticality, on clusters whose trunk is known.
+#include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -12,6 +14,7 @@ using rbpf_slam::core::fitTrunk;
 using rbpf_slam::core::fitTrunkCentroid;
 using rbpf_slam::core::fitPartialArc;
 using rbpf_slam::core::fitTrunkCircle;
+using rbpf_slam::core::fitTrunkPair;
 using rbpf_slam::core::isUpright;
 using rbpf_slam::core::Random;
 using rbpf_slam::core::SilhouetteEdge;
@@ -20,6 +23,7 @@ using rbpf_slam::core::TrunkCandidate;
 using rbpf_slam::core::TrunkDetectorConfig;
 using rbpf_slam::core::TrunkFit;
 using rbpf_slam::core::TrunkMethod;
+using rbpf_slam::core::TrunkPairFit;
 using rbpf_slam::core::TrunkRejection;
 
 namespace
@@ -224,4 +228,63 @@ TEST(TrunkFit, FlatPieceIsNoPartialArc)
   edge.spacing = 0.006;
   edge.direction = Eigen::Vector2d(1.0, 0.063).normalized();
   EXPECT_FALSE(fitPartialArc(points, { edge }, cfg).ok);
+}
+
+namespace
+{
+/** What a sensor at the origin sees of two circles, beams @p step [rad] apart: the nearer one hides the other. */
+std::vector<Eigen::Vector2d> visiblePair(const Eigen::Vector2d& c0, double r0, const Eigen::Vector2d& c1, double r1,
+                                         double step, double sigma, Random& rnd)
+{
+  std::vector<Eigen::Vector2d> p;
+  for (double a = -M_PI; a < M_PI; a += step)
+  {
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double best = INFINITY;
+    for (const auto& cr : { std::make_pair(c0, r0), std::make_pair(c1, r1) })
+    {
+      const double b = d.dot(cr.first), disc = b * b - (cr.first.squaredNorm() - cr.second * cr.second);
+      if (disc >= 0.0 && b - std::sqrt(disc) > 0.0)  // in front of the sensor
+        best = std::min(best, b - std::sqrt(disc));
+    }
+    if (std::isfinite(best))
+      p.push_back(d * (best + rnd.gaussian(sigma)));
+  }
+  return p;
+}
+}  // namespace
+
+TEST(TrunkFit, PairSeenOnBothSidesOfTheNearTrunkIsSplitInTwo)
+{
+  // A thin trunk (r 0.1) 5 cm in front of a thick one (r 0.3), both on the line of sight at 5 m: the thick one shows
+  // on both sides of the thin one. The single circle is poor; the pair is both trunks, each within 2 cm.
+  Random rnd(21);
+  const Eigen::Vector2d near(5.0, 0.0), far(5.0 + 0.1 + 0.05 + 0.3, 0.0);
+  const std::vector<Eigen::Vector2d> pts = visiblePair(near, 0.1, far, 0.3, 0.001, 0.005, rnd);
+  TrunkDetectorConfig cfg;
+  const TrunkFit single = fitTrunkCircle(pts, cfg);
+  const TrunkPairFit pair = fitTrunkPair(pts, single, cfg);
+  ASSERT_TRUE(pair.ok);
+  const int k = (pair.fits[0].center - near).norm() < (pair.fits[1].center - near).norm() ? 0 : 1;
+  EXPECT_LT((pair.fits[k].center - near).norm(), 0.02);
+  EXPECT_LT((pair.fits[1 - k].center - far).norm(), 0.02);
+  EXPECT_NEAR(pair.fits[k].radius, 0.1, 0.02);
+  EXPECT_NEAR(pair.fits[1 - k].radius, 0.3, 0.02);
+  EXPECT_EQ(pair.members[0].size() + pair.members[1].size(), pts.size());
+}
+
+TEST(TrunkFit, OneTrunkIsNoPair)
+{
+  // The visible side of one trunk, clean or noisy, with a tenth of its points scattered around it: no pair.
+  for (double sigma : { 0.005, 0.02 })
+    for (double r : { 0.08, 0.25, 0.5 })
+    {
+      Random rnd(static_cast<std::uint64_t>(1000 * r + 100000 * sigma));
+      std::vector<Eigen::Vector2d> pts = visibleSide(Eigen::Vector2d(6.0, 1.0), r, 2.6, 120, sigma, rnd);
+      for (int i = 0; i < 12; ++i)
+        pts.emplace_back(6.0 + rnd.uniform(-2.0 * r, 0.0), 1.0 + rnd.uniform(-1.5 * r, 1.5 * r));
+      TrunkDetectorConfig cfg;
+      const TrunkFit single = fitTrunkCircle(pts, cfg);
+      EXPECT_FALSE(fitTrunkPair(pts, single, cfg).ok) << "r " << r << " sigma " << sigma;
+    }
 }

@@ -448,4 +448,34 @@ TEST(ShippedWorlds, ParkCarsAreABoxList)
   ASSERT_FALSE(cars.empty());
   EXPECT_EQ(cars[0].x, 77.331);
   EXPECT_EQ(cars[0].length, 4.5);
+TEST(ShippedWorlds, GeneratedStandsKeepBothDrivesOpen)
+{
+  // The straight drive runs along y = 15, the loop circles (15, 15) at 8.5 m: no trunk surface within 1.5 m.
+  for (const char* name : { "touching_pairs.yaml", "clumped.yaml", "plantation_rows.yaml" })
+  {
+    const ForestWorld world = loadForestWorld(kWorldDir + name);
+    ASSERT_GE(world.trunks.size(), 30u) << name;
+    for (const TrunkSpec& t : world.trunks)
+    {
+      EXPECT_GE(std::fabs(t.y - 15.0) - t.radius, 1.5) << name << ": (" << t.x << ", " << t.y << ")";
+      EXPECT_GE(std::fabs(std::hypot(t.x - 15.0, t.y - 15.0) - 8.5) - t.radius, 1.5)
+          << name << ": (" << t.x << ", " << t.y << ")";
+    }
+  }
+  // Twelve pairs whose bark gap at breast height (the list's radii are at the ground, taper 0.01) is 2-10 cm.
+  const ForestWorld pairs = loadForestWorld(kWorldDir + "touching_pairs.yaml");
+  int touching = 0;
+  for (std::size_t i = 0; i < pairs.trunks.size(); ++i)
+    for (std::size_t j = i + 1; j < pairs.trunks.size(); ++j)
+    {
+      const TrunkSpec &a = pairs.trunks[i], &b = pairs.trunks[j];
+      const double gap = std::hypot(a.x - b.x, a.y - b.y) - a.radius - b.radius + 2.0 * 1.3 * 0.01;
+      if (gap < 0.5)
+      {
+        ++touching;
+        EXPECT_GE(gap, 0.02 - 1e-9);
+        EXPECT_LE(gap, 0.10 + 1e-9);
+      }
+    }
+  EXPECT_EQ(touching, 12);
 }

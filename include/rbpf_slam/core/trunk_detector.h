@@ -111,6 +111,7 @@ struct TrunkDetectorStats
   int rejected_inliers = 0;
   int rejected_shape = 0;  ///< too short, leaning, or an arc that is not a trunk's
   int rejected_clutter = 0; ///< 2D: a short arc that is no isolated convex object of a trunk's width
+  int split_clusters = 0;   ///< clusters (or arcs) split into two touching trunks
   int trunks = 0;
   double tilt_roll = 0.0;   ///< [rad] sensor tilt estimated (3D)
   double tilt_pitch = 0.0;  ///< [rad]

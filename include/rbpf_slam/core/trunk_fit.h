@@ -107,6 +107,47 @@ TrunkRejection checkTrunkFit(const TrunkFit& fit, int num_points, const TrunkDet
 /** @brief Bumps the stats counter of a rejection (none for kNone). */
 void countRejection(TrunkRejection rejection, TrunkDetectorStats* stats);
 
+/** @brief Two touching trunks fitted to one cluster (fitTrunkPair()). */
+struct TrunkPairFit
+{
+  bool ok = false;
+  TrunkFit fits[2];
+  std::vector<int> members[2];  ///< indices into the cluster's points, ascending: the points of each trunk
+};
+
+/**
+ * @brief Whether a cluster's single fit may stand for two touching trunks: it was rejected, or at least
+ * config.min_fit_points points and 5 % of them lie beyond config.ransac_threshold of its circle, or its residuals (each capped at that
+ * threshold) exceed 1.5 config.range_sigma (RMS).
+ */
+bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit& fit, TrunkRejection rejection,
+                     const TrunkDetectorConfig& config);
+
+/**
+ * @brief Two trunks whose bark nearly touches merge into one cluster; this splits it where the points allow.
+ *
+ * Seen from the sensor (the origin), each bearing meets one trunk: the nearer one hides what lies behind it, so the
+ * visible points of two trunks fall into bearing intervals, one for each, or the far trunk's on both sides of the
+ * near one's. Every such partition at a bearing (one cut, or two cuts with the outer pieces together) is scored by
+ * the algebraic circles of its two parts (from running sums; their residuals scaled to distances, a part too short to
+ * show its curvature by its straight line's). The better of the best one-cut and two-cut partitions (the other only
+ * when it fails; neither when its sum of squares does not beat the single circle's) is fitted by fitTrunkCircle()
+ * part by part, every point is given to the circle it lies nearer to, and the parts are fitted again until they
+ * stay. Two trunks are kept (ok) only when
+ *  - each part has at least max(config.min_fit_points, config.min_points) points and its fit passes checkTrunkFit()
+ *    on them as a circle (kCircle: a wide enough arc);
+ *  - the circles are two trunks side by side: their centres lie at least r1 + r2 - 0.75 ransac_threshold apart (the
+ *    two sides of one trunk fit the same circle twice; a trunk and a sliver of its own points fit overlapping ones);
+ *  - each circle's silhouette (its bearing interval) ends within the points' bearings, widened by 2 ransac_threshold
+ *    at its range and about a beam: a noisy thin trunk fits two wide circles whose outlines the points do not show;
+ *  - two circles explain the points clearly better than @p single: with every residual capped at ransac_threshold,
+ *    the sum of squares falls to at most half and the Bayesian information criterion with the noise unknown,
+ *    n ln(RSS1 / RSS2) - 4 ln n (three more parameters and the cut), is positive.
+ * Only for config.method kCircle.
+ */
+TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const TrunkFit& single,
+                          const TrunkDetectorConfig& config);
+
 /**
  * @brief Verticality: the centroids of the candidate's lower and upper halves, after levelling, sit above each other
  * within what config.max_tilt allows (a lying branch or a slanted bush does not).
