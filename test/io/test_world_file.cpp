@@ -448,6 +448,8 @@ TEST(ShippedWorlds, ParkCarsAreABoxList)
   ASSERT_FALSE(cars.empty());
   EXPECT_EQ(cars[0].x, 77.331);
   EXPECT_EQ(cars[0].length, 4.5);
+}
+
 TEST(ShippedWorlds, GeneratedStandsKeepBothDrivesOpen)
 {
   // The straight drive runs along y = 15, the loop circles (15, 15) at 8.5 m: no trunk surface within 1.5 m.
