@@ -365,6 +365,7 @@ void FastSlamRos::publishHealth(const core::PipelineUpdate& u)
   kv("deleted", std::to_string(h.deleted));
   kv("relocalizing share", num(h.relocalizing_share));
   kv("pose spread [m]", num(h.pose_spread));
+  kv("mean squared Mahalanobis distance of the matches", num(h.mean_nis));
   kv("landmarks", std::to_string(u.stats.landmarks));
   array.status.push_back(s);
   diagnostics_pub_.publish(array);

@@ -129,7 +129,7 @@ struct FastSlamConfig
   /// so that the cloud's spread is kept) conditioned on its matched observations, as FastSLAM 2.0 draws, and
   /// weighs by their likelihood under that prior; no landmark loses evidence for a miss while the pose is that
   /// uncertain. 0: off.
-  double relocalization_spread = 0.25;
+  double relocalization_spread = 0.0;
   /// The published pose: the weighted mean of the particles, or the best particle (the one of the largest weight
   /// before resampling, followed through its copies).
   PoseEstimate estimate = PoseEstimate::kMean;
