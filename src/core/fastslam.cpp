@@ -32,6 +32,8 @@ constexpr double kDualMaxShift = 3.0;
 // one of them a new landmark counts as re-created (a trunk is not planted where one was just removed).
 constexpr std::size_t kDeletedMemory = 256;
 constexpr double kRecreatedDistance = 1.0;
+// A particle's distance scale error stays inside the bound OdometryMotionNoise::validate() sets on its deviation.
+constexpr double kMaxScaleDrift = 0.49;
 
 Eigen::Vector3d poseDifference(const Pose2& a, const Pose2& b)
 {
@@ -240,7 +242,7 @@ void FastSlam::initialize(const Pose2& start)
     if (drifting())
     {
       p.heading_drift = random_.gaussian(config_.motion.heading_drift);
-      p.scale_drift = random_.gaussian(config_.motion.scale_drift);
+      p.scale_drift = std::max(-kMaxScaleDrift, std::min(kMaxScaleDrift, random_.gaussian(config_.motion.scale_drift)));
     }
   }
   best_ = 0;
@@ -264,7 +266,7 @@ OdometryIncrement FastSlam::driftedIncrement(Particle* p, const OdometryIncremen
     if (n.heading_drift > 0.0)
       p->heading_drift += random_.gaussian(n.heading_drift * walk);
     if (n.scale_drift > 0.0)
-      p->scale_drift = std::max(-0.5 * 0.99, std::min(0.5 * 0.99, p->scale_drift + random_.gaussian(n.scale_drift * walk)));
+      p->scale_drift = std::max(-kMaxScaleDrift, std::min(kMaxScaleDrift, p->scale_drift + random_.gaussian(n.scale_drift * walk)));
   }
   return v;
 }
@@ -318,8 +320,6 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
       p->motion_covariance += h * h * cloud_covariance_;
       gaussian = true;
     }
-    else if (!gaussian)
-      association_.repredict(p->map, p->pose * sensor_in_base, obs, scratch_.R, true);
   }
   double log_w = 0.0;
   double dual_weight = std::numeric_limits<double>::quiet_NaN();
@@ -546,12 +546,12 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   scratch_.dual_flags.clear();
   // Relocalisation: is the cloud too wide for the particles' own gates?
   relocalizing_ = false;
-  if (config_.relocalization_spread > 0.0 && particles_.size() > 1)
+  if (particles_.size() > 1)
   {
     const PoseMoments m = moments();
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m.covariance.topLeftCorner<2, 2>());
     stats.pose_spread = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
-    relocalizing_ = stats.pose_spread > config_.relocalization_spread;
+    relocalizing_ = config_.relocalization_spread > 0.0 && stats.pose_spread > config_.relocalization_spread;
     cloud_mean_ = m.mean;
     cloud_covariance_ = m.covariance;
   }
