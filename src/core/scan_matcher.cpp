@@ -10,8 +10,8 @@ namespace core
 {
 std::string ScanMatcherConfig::validate() const
 {
-  if (kernel < 0 || kernel > 10)
-    return "rbpf/kernel must be in [0, 10]";
+  if (kernel < 0 || kernel > kMaxKernel)
+    return "rbpf/kernel must be in [0, " + std::to_string(kMaxKernel) + "]";
   if (!(std::isfinite(match_sigma) && match_sigma > 0.0))
     return "rbpf/match_sigma must be > 0";
   if (!(std::isfinite(likelihood_sigma) && likelihood_sigma > 0.0))
@@ -28,8 +28,8 @@ std::string ScanMatcherConfig::validate() const
     return "rbpf/max_iterations must be >= 0";
   if (beam_step < 1)
     return "rbpf/beam_step must be >= 1";
-  if (coarse_kernel < 0 || coarse_kernel > 4)
-    return "rbpf/coarse_kernel must be in [0, 4]";
+  if (coarse_kernel < 0 || coarse_kernel > kMaxCoarseKernel)
+    return "rbpf/coarse_kernel must be in [0, " + std::to_string(kMaxCoarseKernel) + "]";
   if (!(std::isfinite(coarse_sigma) && coarse_sigma > 0.0))
     return "rbpf/coarse_sigma must be > 0";
   if (coarse_beam_step < 1)
@@ -52,17 +52,6 @@ ScanMatcher::ScanMatcher(const ScanMatcherConfig& config) : config_(config)
     exp_table_[static_cast<std::size_t>(i)] = std::exp(-static_cast<double>(i) / kExpTableScale);
 }
 
-double ScanMatcher::matchKernel(double x) const
-{
-  // x = d^2 / (2 sigma^2) >= 0
-  if (x >= kExpTableMax)
-    return 0.0;
-  const double f = x * kExpTableScale;
-  const std::size_t i = static_cast<std::size_t>(f);
-  const double t = f - static_cast<double>(i);
-  return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
-}
-
 ScanMatcher::Level ScanMatcher::fineLevel() const
 {
   return Level{ false, config_.kernel, config_.match_sigma, config_.beam_step, config_.refinements,
@@ -72,14 +61,44 @@ ScanMatcher::Level ScanMatcher::fineLevel() const
 ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
                                 const std::vector<std::pair<double, double>>& end_points) const
 {
-  return evaluateAt(fineLevel(), map, pose, sensor, end_points);
+  Rotated cache;
+  return evaluateAt(fineLevel(), map, pose, sensor, end_points, &cache);
+}
+
+const std::vector<std::pair<double, double>>& ScanMatcher::rotate(
+    const Level& level, double theta, const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const
+{
+  ++cache->clock;
+  Rotated::Slot* oldest = &cache->slots[0];
+  for (auto& slot : cache->slots)
+  {
+    if (slot.theta == theta)
+    {
+      slot.used = cache->clock;
+      return slot.points;
+    }
+    if (slot.used < oldest->used)
+      oldest = &slot;
+  }
+  Rotated::Slot& slot = *oldest;
+  slot.used = cache->clock;
+  const double c = std::cos(theta), sn = std::sin(theta);
+  slot.theta = theta;
+  slot.points.clear();
+  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(level.beam_step))
+  {
+    const auto& e = end_points[i];
+    slot.points.emplace_back(c * e.first - sn * e.second, sn * e.first + c * e.second);
+  }
+  return slot.points;
 }
 
 ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, const Pose2& pose,
-                                  const Pose2& sensor, const std::vector<std::pair<double, double>>& end_points) const
+                                  const Pose2& sensor, const std::vector<std::pair<double, double>>& end_points,
+                                  Rotated* cache) const
 {
   if (level.coarse)
-    return evaluateCoarse(level, map, pose, sensor, end_points);
+    return evaluateCoarse(level, map, pose, sensor, end_points, cache);
   ScanMatch m;
   m.pose = pose;
   m.evaluations = 1;
@@ -92,11 +111,12 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
   const int k = level.kernel;
   const double free_delta = std::sqrt(2.0) * res;
   const int occ = map.rawOccupiedThreshold();
-  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(level.beam_step))
+  const auto& rotated = rotate(level, s.theta, end_points, cache);
+  for (std::size_t j = 0; j < rotated.size(); ++j)
   {
-    const auto& e = end_points[i];
-    const double x = s.x + c * e.first - sn * e.second;
-    const double y = s.y + sn * e.first + c * e.second;
+    const auto& e = end_points[j * static_cast<std::size_t>(level.beam_step)];
+    const double x = s.x + rotated[j].first;
+    const double y = s.y + rotated[j].second;
     const double fx = x * inv, fy = y * inv;
     const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
     // GMapping's free-cell test: the point sqrt(2) cells back along the beam, with the same window offset, must
@@ -121,20 +141,39 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
       m.log_likelihood += no_hit;
       continue;
     }
-    for (int dy = -k; dy <= k; ++dy)
-      for (int dx = -k; dx <= k; ++dx)
+    // Squared distances along each axis from the end point to the window's cell centres.
+    double ax[2 * kMaxKernel + 1], ay[2 * kMaxKernel + 1];
+    for (int d = -k; d <= k; ++d)
+    {
+      const double ex = (cx + d + 0.5 - fx) * res, ey = (cy + d + 0.5 - fy) * res;
+      ax[d + k] = ex * ex;
+      ay[d + k] = ey * ey;
+    }
+    if (tile && !config_.free_check)
+    {
+      // In one tile the window's cells are rows of the tile's row-major array (branch-free inner loop).
+      const OccupancyGrid::Cell* centre = tile->cells.data() + OccupancyGrid::cellIndexInTile(cx, cy);
+      for (int dy = -k; dy <= k; ++dy)
       {
-        const int v = tile ? (*tile)[static_cast<std::size_t>(OccupancyGrid::cellIndexInTile(cx + dx, cy + dy))] :
-                             map.rawLogOdds(cx + dx, cy + dy);
-        if (v <= occ)
-          continue;
-        if (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ)
-          continue;
-        const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
-        const double d2 = ex * ex + ey * ey;
-        if (d2 < best)
-          best = d2;
+        const OccupancyGrid::Cell* row = centre + dy * OccupancyGrid::kTileSize;
+        const double yy = ay[dy + k];
+        for (int dx = -k; dx <= k; ++dx)
+        {
+          const double d2 = ax[dx + k] + yy;
+          best = (row[dx] > occ && d2 < best) ? d2 : best;
+        }
       }
+    }
+    else
+      for (int dy = -k; dy <= k; ++dy)
+        for (int dx = -k; dx <= k; ++dx)
+        {
+          if (map.rawLogOdds(cx + dx, cy + dy) <= occ)
+            continue;
+          if (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ)
+            continue;
+          best = std::min(best, ax[dx + k] + ay[dy + k]);
+        }
     if (std::isfinite(best))
     {
       m.score += matchKernel(best * inv_match);
@@ -149,31 +188,54 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
 
 ScanMatch ScanMatcher::evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose,
                                       const Pose2& sensor,
-                                      const std::vector<std::pair<double, double>>& end_points) const
+                                      const std::vector<std::pair<double, double>>& end_points,
+                                      Rotated* cache) const
 {
   // Score only (the weights come from the fine level): nearest coarse cell with an occupied cell.
   ScanMatch m;
   m.pose = pose;
   m.evaluations = 1;
   const Pose2 s = pose * sensor;
-  const double c = std::cos(s.theta), sn = std::sin(s.theta);
   const double res = map.resolution() * OccupancyGrid::kCoarseSize, inv = 1.0 / res;
   const double inv_match = 1.0 / (2.0 * level.sigma * level.sigma);
   const int k = level.kernel;
-  for (std::size_t i = 0; i < end_points.size(); i += static_cast<std::size_t>(level.beam_step))
+  for (const auto& e : rotate(level, s.theta, end_points, cache))
   {
-    const auto& e = end_points[i];
-    const double fx = (s.x + c * e.first - sn * e.second) * inv, fy = (s.y + sn * e.first + c * e.second) * inv;
+    const double fx = (s.x + e.first) * inv, fy = (s.y + e.second) * inv;
     const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
     double best = std::numeric_limits<double>::infinity();
-    for (int dy = -k; dy <= k; ++dy)
-      for (int dx = -k; dx <= k; ++dx)
+    const int tx = (cx - k) >> OccupancyGrid::kCoarseTileBits, ty = (cy - k) >> OccupancyGrid::kCoarseTileBits;
+    const bool one_tile = tx == ((cx + k) >> OccupancyGrid::kCoarseTileBits) &&
+                          ty == ((cy + k) >> OccupancyGrid::kCoarseTileBits);
+    const OccupancyGrid::Tile* tile = one_tile ? map.tileAt(tx, ty) : nullptr;
+    if (one_tile && !tile)
+      continue;
+    double ax[2 * kMaxCoarseKernel + 1], ay[2 * kMaxCoarseKernel + 1];
+    for (int d = -k; d <= k; ++d)
+    {
+      const double ex = (cx + d + 0.5 - fx) * res, ey = (cy + d + 0.5 - fy) * res;
+      ax[d + k] = ex * ex;
+      ay[d + k] = ey * ey;
+    }
+    if (tile)
+    {
+      const std::uint8_t* centre = tile->coarse.data() + OccupancyGrid::coarseIndex(cx, cy);
+      for (int dy = -k; dy <= k; ++dy)
       {
-        if (map.coarseCount(cx + dx, cy + dy) == 0)
-          continue;
-        const double ex = (cx + dx + 0.5 - fx) * res, ey = (cy + dy + 0.5 - fy) * res;
-        best = std::min(best, ex * ex + ey * ey);
+        const std::uint8_t* row = centre + dy * OccupancyGrid::kCoarsePerTile;
+        const double yy = ay[dy + k];
+        for (int dx = -k; dx <= k; ++dx)
+        {
+          const double d2 = ax[dx + k] + yy;
+          best = (row[dx] != 0 && d2 < best) ? d2 : best;
+        }
       }
+    }
+    else
+      for (int dy = -k; dy <= k; ++dy)
+        for (int dx = -k; dx <= k; ++dx)
+          if (map.coarseCount(cx + dx, cy + dy) != 0)
+            best = std::min(best, ax[dx + k] + ay[dy + k]);
     if (std::isfinite(best))
     {
       m.score += matchKernel(best * inv_match);
@@ -188,11 +250,13 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
                              int* evaluations) const
 {
   // Objective: the level's score minus the prior's penalty; the result keeps the score itself.
-  ScanMatch best = evaluateAt(level, map, start, sensor, end_points);
+  Rotated cache;
+  ScanMatch best = evaluateAt(level, map, start, sensor, end_points, &cache);
   double best_objective = best.score - penalty(best.pose, prior);
   ++*evaluations;
   double lin = level.linear_step, ang = level.angular_step;
   int refinements = 0, iterations = 0;
+  int back = -1;  // the move that undoes the last one taken: it scores the pose just left, which scored lower
   while (refinements <= level.refinements && iterations < config_.max_iterations)
   {
     ++iterations;
@@ -203,27 +267,33 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
                              Pose2(p.x, p.y, wrapAngle(p.theta - ang)) };
     ScanMatch step = best;
     double step_objective = best_objective;
-    for (const Pose2& q : moves)
+    int taken = -1;
+    for (int j = 0; j < 6; ++j)
     {
-      const ScanMatch m = evaluateAt(level, map, q, sensor, end_points);
+      if (j == back)
+        continue;
+      const ScanMatch m = evaluateAt(level, map, moves[j], sensor, end_points, &cache);
       ++*evaluations;
-      const double o = m.score - penalty(q, prior);
+      const double o = m.score - penalty(moves[j], prior);
       if (o > step_objective)
       {
         step = m;
         step_objective = o;
+        taken = j;
       }
     }
     if (step_objective > best_objective)
     {
       best = step;
       best_objective = step_objective;
+      back = taken ^ 1;  // moves come in pairs (+, -)
     }
     else
     {
       lin *= 0.5;
       ang *= 0.5;
       ++refinements;
+      back = -1;
     }
   }
   return best;

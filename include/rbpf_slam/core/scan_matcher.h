@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_SCAN_MATCHER_H
 #define RBPF_SLAM_CORE_SCAN_MATCHER_H
 
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,6 +20,11 @@ namespace core
  * exp(-d^2 / (2 match_sigma^2)) for the matcher and -d^2 / (2 likelihood_sigma^2) for the weight; an end point
  * with no occupied cell in its window scores 0 and no_hit_distance for the weight.
  */
+/// Largest window half-size of the likelihood field [cells].
+constexpr int kMaxKernel = 10;
+/// Largest window half-size of the coarse level [coarse cells].
+constexpr int kMaxCoarseKernel = 4;
+
 struct ScanMatcherConfig
 {
   int kernel = 1;                  ///< [cells] search window half-size around each end point
@@ -109,18 +115,45 @@ private:
     int refinements;
     double linear_step, angular_step;
   };
+  /**
+   * @brief The end points a level uses, rotated into the map's axes for one sensor heading: the climb's four
+   * translating moves keep the heading, so they reuse them.
+   */
+  struct Rotated
+  {
+    struct Slot
+    {
+      double theta = std::numeric_limits<double>::quiet_NaN();
+      long used = -1;  // when last read: the least recently used slot takes a new heading
+      std::vector<std::pair<double, double>> points;
+    };
+    Slot slots[3];  // a climb step's own heading and its two turning moves
+    long clock = 0;
+  };
+  const std::vector<std::pair<double, double>>& rotate(const Level& level, double theta,
+                                                       const std::vector<std::pair<double, double>>& end_points,
+                                                       Rotated* cache) const;
   ScanMatch evaluateAt(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
-                       const std::vector<std::pair<double, double>>& end_points) const;
+                       const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const;
   ScanMatch evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
-                           const std::vector<std::pair<double, double>>& end_points) const;
+                           const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const;
   ScanMatch climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                   const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
                   int* evaluations) const;
   double penalty(const Pose2& pose, const MatchPrior* prior) const;
   Level fineLevel() const;
 
-  /** @brief exp(-d2 / (2 match_sigma^2)) by linear interpolation in a table (the profile's second item). */
-  double matchKernel(double d2) const;
+  /** @brief exp(-x) for x = d^2 / (2 sigma^2) >= 0 by linear interpolation in a table (inline: it runs once per
+   * end point and pose). */
+  double matchKernel(double x) const
+  {
+    if (x >= kExpTableMax)
+      return 0.0;
+    const double f = x * kExpTableScale;
+    const std::size_t i = static_cast<std::size_t>(f);
+    const double t = f - static_cast<double>(i);
+    return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
+  }
 
   ScanMatcherConfig config_;
   std::vector<double> exp_table_;  // exp(-x) at x = i / kExpTableScale
