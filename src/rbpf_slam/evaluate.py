@@ -1,13 +1,16 @@
 """Evaluation of an offline run against a bag's reference (the truth never enters the filter: the runner
 reads only sensor topics; this module reads the truth topics afterwards). The package's one evaluator:
 evaluate_bag_run (evaluate) and trajectory_eval (trajectory_errors) use it, plot_forest_run its RPE, and it
-reads the package's one landmark CSV (read_landmarks_csv).
+reads the package's one landmark CSV (read_landmarks_csv) and trajectory files (read_tum; read_trajectory:
+TUM or ``t x y theta``).
 
 Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 
 * path RMS of the compared point (e.g. the scanner, ``point_offset`` on base_link) after a least-squares
   rigid 2D fit of the estimated path onto the reference (Horn / Umeyama without scale), or without a fit;
-  the same for the run's raw odometry, anchored at the start like the estimate;
+  the same for the run's raw odometry, anchored at the start like the estimate; where the reference has
+  headings, also the path RMS aligned at the first pose (first_pose_rmse: the run's first compared pose put on
+  the reference's, position and heading, no fit);
 * final position error (with the same fit); as a diagnostic, the path RMS after a similarity fit (with
   scale) and that scale, which separate a scale error (of the sensors or of the reference) from the shape;
 * RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
@@ -15,6 +18,9 @@ Metrics (REP-103 units: m, rad; printed in mm or deg where said):
 * the map against the true landmarks, moved by the same fit, counted as ../shared/scenarios/README.md pins
   it (score_map): recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS; without a
   reference path, after a rigid fit of the map itself onto the true landmarks (fit_map_rigid).
+
+trajectory_eval pairs a trajectory's poses with the reference's by stamp (match_by_stamp: nearest,
+order-preserving, equal stamps in file order) or by index (match_by_index) instead of interpolating.
 
 The reference (read_bag_reference) is a path of poses (nav_msgs/Odometry, PoseStamped), or of positions only:
 a GPS as geometry_msgs/PointStamped in a local metric frame, or sensor_msgs/NavSatFix converted to a local
@@ -41,6 +47,53 @@ def read_tum(path):
     if data.shape[1] != 8:
         raise ValueError('%s: expected 8 columns (TUM: t x y z qx qy qz qw), got %d' % (path, data.shape[1]))
     return data[:, 0], data[:, 1:3], yaw_of(data[:, 4:8])
+
+
+#: The layouts read_trajectory accepts, by column count.
+TRAJECTORY_LAYOUTS = {8: 'TUM: t x y z qx qy qz qw', 4: 't x y theta'}
+
+
+def _layouts():
+    return ' or '.join('%d (%s)' % (n, what) for n, what in sorted(TRAJECTORY_LAYOUTS.items(), reverse=True))
+
+
+def read_trajectory(path):
+    """(t, xy, yaw) of a trajectory file of one pose a line, in either layout, told apart per file by its
+    first pose line: TUM (8 columns: t x y z qx qy qz qw, the package's estimate.tum / odometry.tum) or
+    ``t x y theta`` (4 columns, theta in rad, as other SLAM systems write per scan). Blank lines and lines
+    starting with '#' are skipped; poses are kept in file order. Anything else is a ValueError
+    ``file:line: expected ...``."""
+    rows, width = [], None
+    try:
+        with open(path) as f:
+            for number, line in enumerate(f, 1):
+                fields = line.split()
+                if not fields or fields[0].startswith('#'):
+                    continue
+                if width is None:
+                    if len(fields) not in TRAJECTORY_LAYOUTS:
+                        raise ValueError('%s:%d: expected %s columns, got %d'
+                                         % (path, number, _layouts(), len(fields)))
+                    width = len(fields)
+                elif len(fields) != width:
+                    raise ValueError('%s:%d: expected %d columns (%s) as on the first pose line, got %d'
+                                     % (path, number, width, TRAJECTORY_LAYOUTS[width], len(fields)))
+                try:
+                    values = [float(v) for v in fields]
+                except ValueError:
+                    values = None
+                if values is None or not all(math.isfinite(v) for v in values):
+                    raise ValueError('%s:%d: expected %d finite numbers (%s), got %r'
+                                     % (path, number, width, TRAJECTORY_LAYOUTS[width], line.strip()[:80]))
+                rows.append(values)
+    except UnicodeDecodeError:
+        raise ValueError('%s: not a text file, expected lines of %s columns' % (path, _layouts()))
+    if not rows:
+        raise ValueError('%s: empty trajectory, expected lines of %s columns' % (path, _layouts()))
+    data = np.array(rows, dtype=float)
+    if width == 8:
+        return data[:, 0], data[:, 1:3], yaw_of(data[:, 4:8])
+    return data[:, 0], data[:, 1:3], data[:, 3]
 
 
 #: The columns of the package's one landmark CSV, in order (io::landmarksCsv writes it: slam_bag's map.csv,
@@ -122,6 +175,25 @@ def aligned_rmse(src, dst):
         return float('nan')
     r, t = fit_rigid_2d(src, dst)
     return float(np.sqrt(np.mean(np.sum((src @ r.T + t - dst) ** 2, axis=1))))
+
+
+def first_pose_fit(xy0, yaw0, ref_xy0, ref_yaw0):
+    """Rotation R (2x2) and translation t of the rigid motion that puts the pose (xy0, yaw0) on the pose
+    (ref_xy0, ref_yaw0), position and heading: R xy0 + t = ref_xy0, R turning by ref_yaw0 - yaw0."""
+    a = float(ref_yaw0) - float(yaw0)
+    r = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    return r, np.asarray(ref_xy0, float) - r @ np.asarray(xy0, float)
+
+
+def first_pose_rmse(xy, yaw, ref_xy, ref_yaw):
+    """ATE aligned at the first pose: the RMS [m] of the positions xy (n, 2) against their partners ref_xy
+    (n, 2) after the run is moved so that its first pose (xy[0], yaw[0]) lies on the reference's first
+    (ref_xy[0], ref_yaw[0]), position and heading (first_pose_fit; no fit over the path). nan without poses."""
+    xy, ref_xy = np.asarray(xy, float).reshape(-1, 2), np.asarray(ref_xy, float).reshape(-1, 2)
+    if not len(xy):
+        return float('nan')
+    r, t = first_pose_fit(xy[0], yaw[0], ref_xy[0], ref_yaw[0])
+    return float(np.sqrt(np.mean(np.sum((xy @ r.T + t - ref_xy) ** 2, axis=1))))
 
 
 def fit_similarity_2d(src, dst):
@@ -227,8 +299,9 @@ def score_map(features, trees, gate=0.5, duplicate_radius=1.0):
     return out
 
 
-def read_bag_truth(bag_path, odom_topic, landmarks_topic=None):
-    """(t, xy, yaw or None) of the reference and the true landmarks (m, 3) or None, from a bag."""
+def read_bag_truth(bag_path, odom_topic, landmarks_topic=None, what='the reference'):
+    """(t, xy, yaw or None) of the nav_msgs/Odometry on ``odom_topic`` (the reference; ``what`` names it in
+    the error where the topic has none) and the true landmarks (m, 3) or None, from a bag."""
     import rosbag
     ts, xy, yaw, has_orientation, marks = [], [], [], False, None
     try:
@@ -246,7 +319,7 @@ def read_bag_truth(bag_path, odom_topic, landmarks_topic=None):
             elif topic == landmarks_topic and marks is None:
                 marks = np.array([(tr.center.x, tr.center.y, tr.radius) for tr in msg.trunks], dtype=float).reshape(-1, 3)
     if not ts:
-        raise ValueError('%s: no nav_msgs/Odometry on %s (the reference)' % (bag_path, odom_topic))
+        raise ValueError('%s: no nav_msgs/Odometry on %s (%s)' % (bag_path, odom_topic, what))
     return np.array(ts), np.array(xy), (np.array(yaw) if has_orientation else None), marks
 
 
@@ -445,30 +518,80 @@ def read_bag_reference(bag_path, reference_topic=None, landmarks_topic=None):
 
 
 def match_by_stamp(t, ref_t, tolerance):
-    """Pairs of a trajectory's poses with the reference's by stamp (both sorted): for each stamp of ``t`` the
-    reference stamp nearest to it (the later one on a tie), kept where they are at most ``tolerance`` [s]
-    apart. Returns index arrays (into t, into ref_t) of the pairs."""
-    t, ref_t = np.asarray(t, float), np.asarray(ref_t, float)
+    """Pairs of a trajectory's poses with the reference's by stamp, order-preserving. The reference's stamps
+    must not go backwards (a ValueError); the trajectory's are taken in file order. For each pose:
+
+    * its candidate stamp is the reference stamp nearest to its own (the later one on a tie);
+    * where several reference poses share that stamp, the pose's rank among the trajectory's poses with
+      exactly its own stamp picks among them: the k-th pose stamped t is paired with the k-th reference
+      pose stamped t, in file order; a k-th pose without a k-th reference pose stays unpaired;
+    * the pairing is monotone: a pose is never paired with a reference pose before the previous paired
+      pose's partner (where it would be, it takes that partner too: e.g. a pose stamped just after a run
+      of equal stamps that all found partners);
+    * it is kept where its partner's stamp is at most ``tolerance`` [s] from its own.
+
+    Returns index arrays (into t, into ref_t) of the pairs; the second never decreases."""
+    t, ref_t = np.asarray(t, float).ravel(), np.asarray(ref_t, float).ravel()
     if not len(t) or not len(ref_t):
         return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-    right = np.clip(np.searchsorted(ref_t, t, side='right'), 0, len(ref_t) - 1)
-    left = np.clip(right - 1, 0, len(ref_t) - 1)
-    nearest = np.where(np.abs(ref_t[right] - t) <= np.abs(ref_t[left] - t), right, left)
-    keep = np.abs(ref_t[nearest] - t) <= tolerance
-    return np.flatnonzero(keep), nearest[keep]
+    back = np.flatnonzero(np.diff(ref_t) < 0)
+    if len(back):
+        k = int(back[0]) + 1
+        raise ValueError('the reference\'s stamps go backwards at pose %d (%.6f s after %.6f s): pairing by '
+                         'stamp needs them in order' % (k + 1, ref_t[k], ref_t[k - 1]))
+    values, first, counts = np.unique(ref_t, return_index=True, return_counts=True)
+    later = np.clip(np.searchsorted(values, t, side='left'), 0, len(values) - 1)
+    earlier = np.clip(later - 1, 0, len(values) - 1)
+    group = np.where(np.abs(values[later] - t) <= np.abs(values[earlier] - t), later, earlier)
+    seen, pairs, last = {}, [], 0
+    for i, (stamp, g) in enumerate(zip(t.tolist(), group.tolist())):
+        rank = seen.get(stamp, 0)
+        seen[stamp] = rank + 1
+        if rank >= counts[g]:
+            continue  # more poses with this stamp than reference poses with the nearest one
+        j = max(int(first[g]) + rank, last)
+        if abs(ref_t[j] - stamp) <= tolerance:
+            pairs.append((i, j))
+            last = j
+    if not pairs:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    i, j = np.array(pairs, dtype=int).T
+    return i, j
 
 
-def trajectory_errors(run, ref, travel=1.0, tolerance=1e-3):
-    """The trajectory metrics of ``trajectory_eval``: ``run`` and ``ref`` are (t, xy, yaw) as read_tum returns
-    them (ref's yaw None: a reference of positions only), paired by match_by_stamp. Returns a dict: ``poses``
-    paired; ``ate``, the ATE RMS [m] after a rigid SE(2) fit (aligned_rmse); over the RPE pairs ``travel``
-    metres of reference travel apart (relative_pose_errors), ``rpe_pairs``, ``rpe_translation_mean`` /
-    ``_rms`` [m] and ``rpe_rotation_mean_deg`` / ``_rms_deg`` (None without reference headings). Values
-    without a pair are nan."""
-    i, j = match_by_stamp(run[0], ref[0], tolerance)
-    ref_yaw = ref[2] if ref[2] is not None else np.zeros(len(ref[0]))
-    trans, rot = relative_pose_errors(np.column_stack([run[1][i], run[2][i]]),
-                                      np.column_stack([ref[1][j], ref_yaw[j]]), travel)
+def match_by_index(n, n_ref):
+    """Pairs by order: the k-th pose with the k-th reference pose; the counts must be equal (a ValueError
+    naming both). Returns index arrays (into the trajectory, into the reference)."""
+    if n != n_ref:
+        raise ValueError('%d poses against %d reference poses: pairing by index needs as many' % (n, n_ref))
+    return np.arange(n), np.arange(n)
+
+
+#: How trajectory_errors pairs a trajectory's poses with the reference's.
+PAIRINGS = ('stamp', 'index')
+
+
+def trajectory_errors(run, ref, travel=1.0, tolerance=1e-3, pair='stamp'):
+    """The trajectory metrics of ``trajectory_eval``: ``run`` and ``ref`` are (t, xy, yaw) as read_trajectory
+    returns them (ref's yaw None: a reference of positions only), paired by match_by_stamp (``pair`` 'stamp',
+    within ``tolerance`` [s]) or match_by_index ('index'). Returns a dict: ``poses`` paired; ``ate``, the ATE
+    RMS [m] after a rigid SE(2) fit (aligned_rmse); ``ate_first_pose``, the ATE RMS [m] with the run's first
+    paired pose put on the reference's (first_pose_rmse; None without reference headings); over the RPE pairs
+    ``travel`` metres of reference travel apart (relative_pose_errors), ``rpe_pairs``,
+    ``rpe_translation_mean`` / ``_rms`` [m] and ``rpe_rotation_mean_deg`` / ``_rms_deg`` (None without
+    reference headings). Values without a pair are nan."""
+    if pair == 'stamp':
+        i, j = match_by_stamp(run[0], ref[0], tolerance)
+    elif pair == 'index':
+        i, j = match_by_index(len(run[0]), len(ref[0]))
+    else:
+        raise ValueError('pairing %r: expected one of %s' % (pair, ', '.join(PAIRINGS)))
+    headings = ref[2] is not None
+    ref_yaw = np.asarray(ref[2], float) if headings else np.zeros(len(ref[0]))
+    run_xy, run_yaw = np.asarray(run[1], float)[i], np.asarray(run[2], float)[i]
+    ref_xy = np.asarray(ref[1], float)[j]
+    trans, rot = relative_pose_errors(np.column_stack([run_xy, run_yaw]), np.column_stack([ref_xy, ref_yaw[j]]),
+                                      travel)
     nan = float('nan')
 
     def mean(v):
@@ -476,9 +599,9 @@ def trajectory_errors(run, ref, travel=1.0, tolerance=1e-3):
 
     def rms(v):
         return float(np.sqrt(np.mean(np.square(v)))) if len(v) else nan
-    headings = ref[2] is not None
-    return {'poses': int(len(i)), 'ate': aligned_rmse(run[1][i], ref[1][j]), 'rpe_pairs': int(len(trans)),
-            'rpe_translation_mean': mean(trans), 'rpe_translation_rms': rms(trans),
+    return {'poses': int(len(i)), 'ate': aligned_rmse(run_xy, ref_xy),
+            'ate_first_pose': first_pose_rmse(run_xy, run_yaw, ref_xy, ref_yaw[j]) if headings else None,
+            'rpe_pairs': int(len(trans)), 'rpe_translation_mean': mean(trans), 'rpe_translation_rms': rms(trans),
             'rpe_rotation_mean_deg': mean(rot) if headings else None,
             'rpe_rotation_rms_deg': rms(rot) if headings else None}
 
@@ -539,7 +662,10 @@ def _path_metrics(run, rt, rxy, ryaw, point_offset, fit, rpe_distance):
     # Diagnostic: the shape alone (a similarity fit also removes a scale error of the run or the reference).
     sc, sr, st = fit_similarity_2d(pts, rxy)
     err_scaled = np.linalg.norm(sc * pts @ sr.T + st - rxy, axis=1)
-    metrics = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'final_error': float(err[-1]),
+    # The run put on the reference at the first compared pose, position and heading (needs the headings).
+    first = first_pose_rmse(pts, yaw, rxy, ryaw) if ryaw is not None else None
+    metrics = {'path_rms': float(np.sqrt(np.mean(err ** 2))), 'path_rms_first_pose': first,
+               'final_error': float(err[-1]),
                'path_rms_similarity': float(np.sqrt(np.mean(err_scaled ** 2))), 'similarity_scale': sc,
                'max_error': float(err.max()), 'rpe_translation': t_rpe, 'rpe_rotation_deg': r_rpe,
                'rpe_pairs': pairs, 'transform': _transform_info(r, t)}

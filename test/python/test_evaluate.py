@@ -153,6 +153,140 @@ def test_trajectory_errors_pair_by_stamp_and_fit_the_frame():
     assert e['rpe_rotation_mean_deg'] is None and e['ate'] == pytest.approx(0.0, abs=1e-9)
 
 
+def _moved(poses, frame):
+    """Poses (n, 3) in another frame: the rigid motion frame = (x, y, yaw) applied to each."""
+    return np.array([_compose(frame, p) for p in poses])
+
+
+# A reference whose converter gave several scans one stamp (three at 2 s, two at 4 s), the poses sharing a
+# stamp 30 degrees apart in heading; and a run with two poses at 2 s, three at 4 s, one at 1.0004 s (0.4 ms
+# off), one at 3.5 s (no reference pose within 1 ms).
+PAIRING_REF_T = np.array([0.0, 1.0, 2.0, 2.0, 2.0, 3.0, 4.0, 4.0, 5.0])
+PAIRING_REF = np.array([(0.0, 0.0, 0.0), (1.0, 0.1, 0.0), (2.0, 0.3, 0.0), (2.02, 0.3, math.radians(30)),
+                        (2.04, 0.3, math.radians(60)), (3.0, 0.6, 0.0), (4.0, 1.0, 0.0),
+                        (4.02, 1.0, math.radians(30)), (5.0, 1.5, 0.0)])
+PAIRING_RUN_T = np.array([0.0, 1.0004, 2.0, 2.0, 3.0, 3.5, 4.0, 4.0, 4.0, 5.0])
+#: The right pairs: run pose -> reference pose (run poses 5 and 8 have none).
+PAIRING_RIGHT = {0: 0, 1: 1, 2: 2, 3: 3, 4: 5, 6: 6, 7: 7, 9: 8}
+
+
+def _pairing_run(frame=(3.0, -1.0, 0.4)):
+    """The run: each paired pose the reference pose of its right partner in another frame, the unpaired
+    ones far off (a wrong pairing would show)."""
+    poses = np.full((len(PAIRING_RUN_T), 3), 50.0)
+    for i, j in PAIRING_RIGHT.items():
+        poses[i] = _compose(frame, PAIRING_REF[j])
+    return poses
+
+
+def test_stamp_pairing_keeps_file_order_for_equal_stamps_and_never_goes_back():
+    i, j = ev.match_by_stamp(PAIRING_RUN_T, PAIRING_REF_T, 1e-3)
+    assert list(zip(i.tolist(), j.tolist())) == sorted(PAIRING_RIGHT.items())
+    # Monotone, also where the run's stamps go backwards: the pose stamped 1 s after one stamped 2 s gets no
+    # earlier partner; it takes the previous pose's partner when that is within the tolerance, else none.
+    ref_t = np.array([0.0, 1.0, 2.0, 3.0])
+    i, j = ev.match_by_stamp([0.0, 2.0, 1.0, 3.0], ref_t, 1e-3)
+    assert list(i) == [0, 1, 3] and list(j) == [0, 2, 3]
+    i, j = ev.match_by_stamp([0.0, 2.0, 1.0, 3.0], ref_t, 1.5)
+    assert list(i) == [0, 1, 2, 3] and list(j) == [0, 2, 2, 3]
+    # A pose just after a run of equal stamps that all found partners keeps to the last of them.
+    i, j = ev.match_by_stamp([2.0, 2.0, 2.0004], [2.0, 2.0, 3.0], 1e-3)
+    assert list(i) == [0, 1, 2] and list(j) == [0, 1, 1]
+    with pytest.raises(ValueError, match="reference's stamps go backwards at pose 3"):
+        ev.match_by_stamp([0.0], [0.0, 2.0, 1.0], 1e-3)
+
+
+def test_trajectory_errors_of_a_run_with_equal_stamps_are_those_of_the_right_pairs():
+    ref = (PAIRING_REF_T, PAIRING_REF[:, :2], PAIRING_REF[:, 2])
+    poses = _pairing_run()
+    e = ev.trajectory_errors((PAIRING_RUN_T, poses[:, :2], poses[:, 2]), ref, travel=1.0, tolerance=1e-3)
+    # A perfect run in another frame: every figure is zero.
+    assert e['poses'] == 8 and e['rpe_pairs'] == 7
+    for key in ('ate', 'ate_first_pose', 'rpe_translation_rms', 'rpe_rotation_rms_deg'):
+        assert e[key] == pytest.approx(0.0, abs=1e-9), key
+    # The last pose 0.3 m off: it is in 2 of the 7 RPE pairs (the paired reference poses 1 m of travel
+    # apart: 0-1, 1-2, 2-5, 3-5, 5-6, 6-8, 7-8), whose translation error is then 0.3 m; aligned at the first
+    # pose, its error is 0.3 m and the others' none.
+    poses[9, :2] += [0.0, 0.3]
+    e = ev.trajectory_errors((PAIRING_RUN_T, poses[:, :2], poses[:, 2]), ref, travel=1.0, tolerance=1e-3)
+    assert e['rpe_translation_mean'] == pytest.approx(0.6 / 7)
+    assert e['rpe_translation_rms'] == pytest.approx(math.sqrt(2 * 0.09 / 7))
+    assert e['rpe_rotation_rms_deg'] == pytest.approx(0.0, abs=1e-9)
+    assert e['ate_first_pose'] == pytest.approx(0.3 / math.sqrt(8))
+    assert 0.0 < e['ate'] < 0.3
+
+
+def test_ate_after_the_fit_and_aligned_at_the_first_pose_have_known_values():
+    # Four poses on the unit circle, the run 10 % larger and in another frame. The fit takes out the frame
+    # and nothing else (by symmetry): 0.1 m. Aligned at the first pose (1.1, 0) -> (1, 0) the run is only
+    # shifted by -0.1 m in x: errors 0, 0.1 sqrt 2, 0.2, 0.1 sqrt 2, RMS sqrt(0.02).
+    angles = np.radians([0.0, 90.0, 180.0, 270.0])
+    ref = np.column_stack([np.cos(angles), np.sin(angles), angles + math.pi / 2])
+    run = _moved(np.column_stack([1.1 * ref[:, :2], ref[:, 2]]), (2.0, -3.0, 0.7))
+    t = np.arange(4.0)
+    e = ev.trajectory_errors((t, run[:, :2], run[:, 2]), (t, ref[:, :2], ref[:, 2]), pair='index')
+    assert e['ate'] == pytest.approx(0.1)
+    assert e['ate_first_pose'] == pytest.approx(math.sqrt(0.02))
+    assert ev.first_pose_rmse(run[:, :2], run[:, 2], ref[:, :2], ref[:, 2]) == pytest.approx(math.sqrt(0.02))
+    # The run's positions exact, its first heading 0.1 rad off: the fit sees no error; aligned at the first
+    # pose the path turns by -0.1 rad about its start, pose k (k metres out) 2 sin(0.05) k off.
+    k = np.arange(11.0)
+    ref = np.column_stack([k, np.zeros(11), np.zeros(11)])
+    yaw = np.zeros(11)
+    yaw[0] = 0.1
+    e = ev.trajectory_errors((k, ref[:, :2], yaw), (k, ref[:, :2], ref[:, 2]))
+    assert e['ate'] == pytest.approx(0.0, abs=1e-9)
+    assert e['ate_first_pose'] == pytest.approx(2 * math.sin(0.05) * math.sqrt(np.mean(k ** 2)))
+    # A reference of positions only has no first-pose heading.
+    assert ev.trajectory_errors((k, ref[:, :2], yaw), (k, ref[:, :2], None))['ate_first_pose'] is None
+
+
+def test_index_pairing_takes_the_kth_pose_with_the_kth_and_needs_as_many():
+    t = np.arange(5.0)
+    ref = (t, np.column_stack([t, np.zeros(5)]), np.zeros(5))
+    run = (t + 0.3, ref[1] + [1.0, 2.0], ref[2])  # stamps of another clock, another frame
+    assert ev.trajectory_errors(run, ref)['poses'] == 0
+    e = ev.trajectory_errors(run, ref, pair='index')
+    assert e['poses'] == 5 and e['ate'] == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError, match='4 poses against 5 reference poses'):
+        ev.trajectory_errors(tuple(v[:4] for v in run), ref, pair='index')
+
+
+def test_trajectory_files_in_either_layout_read_the_same(tmp_path):
+    t, yaw = np.array([10.0, 10.5, 10.5]), np.array([3.0, -1.5, 0.2])
+    xy = np.array([[1.0, -2.0], [3.25, 0.5], [3.5, 0.5]])
+    tum = tmp_path / 'estimate.tum'
+    tum.write_text('# t x y z qx qy qz qw\n' + ev.tum_text(t, xy, yaw))
+    peer = tmp_path / 'peer.txt'
+    peer.write_text(''.join('%.6f %.6f %.6f %.6f\n' % (ti, p[0], p[1], a) for ti, p, a in zip(t, xy, yaw)) + '\n')
+    for path in (tum, peer):
+        rt, rxy, ryaw = ev.read_trajectory(str(path))
+        assert np.allclose(rt, t) and np.allclose(rxy, xy) and np.allclose(ryaw, yaw), path
+
+
+@pytest.mark.parametrize('text, message', [
+    ('0 1 2\n', ':1: expected 8 (TUM: t x y z qx qy qz qw) or 4 (t x y theta) columns, got 3'),
+    ('image: map.pgm\n', ':1: expected 8 (TUM: t x y z qx qy qz qw) or 4 (t x y theta) columns, got 2'),
+    ('# header\n0 1 2 3\n1 1 2 3 0 0 0 1\n', ':3: expected 4 columns (t x y theta) as on the first pose line, got 8'),
+    ('0 1 2 3\n1 1 y 3\n', ":2: expected 4 finite numbers (t x y theta), got '1 1 y 3'"),
+    ('0 1 2 nan\n', ":1: expected 4 finite numbers (t x y theta), got '0 1 2 nan'"),
+    ('# nothing\n\n', ': empty trajectory, expected lines of 8 (TUM: t x y z qx qy qz qw) or 4 (t x y theta) columns'),
+])
+def test_a_trajectory_file_in_neither_layout_is_an_error_naming_file_and_line(tmp_path, text, message):
+    path = tmp_path / 'x.txt'
+    path.write_text(text)
+    with pytest.raises(ValueError) as e:
+        ev.read_trajectory(str(path))
+    assert str(e.value) == str(path) + message
+
+
+def test_a_binary_file_is_no_trajectory(tmp_path):
+    path = tmp_path / 'map.pgm'
+    path.write_bytes(b'P5\n2 2\n255\n\xff\xfe\x80\x00')
+    with pytest.raises(ValueError, match='map.pgm: not a text file'):
+        ev.read_trajectory(str(path))
+
+
 def test_tum_text_reads_back():
     t, xy, yaw = np.array([10.0, 10.5]), np.array([[1.0, -2.0], [3.25, 0.5]]), np.array([3.0, -1.5])
     text = ev.tum_text(t, xy, yaw)

@@ -213,6 +213,31 @@ def test_the_figure_without_a_fit_is_printed_beside_the_fitted_one(tmp_path):
     assert s3['estimate']['path_rms'] < 1e-6 and s3['no_fit']['estimate']['path_rms'] > 0.5
 
 
+def test_the_ate_aligned_at_the_first_pose_is_printed_below_the_fitted_one(tmp_path):
+    est = _path()
+    # The run's path turned by 0.1 rad about its start, its headings the reference's: the fit takes the turn
+    # out, the alignment at the first pose (same heading there) does not: pose k is 2 sin(0.05) |p_k - p_0| off.
+    p0 = est[1][0]
+    turned = (est[0], (est[1] - p0) @ _rot(0.1).T + p0, est[2])
+    expected = 2.0 * math.sin(0.05) * math.sqrt(np.mean(np.sum((est[1] - p0) ** 2, axis=1)))
+    bag = _bag(tmp_path / 'odom.bag', odom=est)
+    run_dir = _run_dir(tmp_path, turned, odo=est)
+    out, s = _evaluate(bag, run_dir)
+    assert s['estimate']['path_rms'] == pytest.approx(0.0, abs=1e-6)
+    assert s['estimate']['path_rms_first_pose'] == pytest.approx(expected, rel=1e-6)
+    assert s['odometry']['path_rms_first_pose'] == pytest.approx(0.0, abs=1e-9)
+    line = [l for l in out.splitlines() if l.startswith('  at the first pose')]
+    assert len(line) == 1 and line[0].split()[4:] == ['%.1f' % (1000 * expected), '0.0'], out
+    assert out.splitlines().index(line[0]) == [l.startswith('ATE / path RMS') for l in out.splitlines()].index(True) + 1
+    # The same with --no-fit; none where the reference has no headings (a GPS).
+    os.remove(os.path.join(str(run_dir), 'evaluation.json'))
+    _, s2 = _evaluate(bag, run_dir, '--no-fit')
+    assert s2['estimate']['path_rms_first_pose'] == pytest.approx(expected, rel=1e-6)
+    os.remove(os.path.join(str(run_dir), 'evaluation.json'))
+    out, s3 = _evaluate(_bag(tmp_path / 'gps.bag', points=(est[0], est[1])), run_dir)
+    assert s3['estimate']['path_rms_first_pose'] is None and 'at the first pose' not in out
+
+
 def test_bad_references_are_one_line_and_write_nothing(tmp_path):
     est = _path()
     run_dir = _run_dir(tmp_path, est)

@@ -12,6 +12,7 @@ import importlib.machinery
 import importlib.util
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -27,6 +28,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 
 _tool = built_tool
+#: The evaluator as in this source tree (a built workspace's copy may be another tree's).
+TRAJECTORY_EVAL = [sys.executable, os.path.join(ROOT, 'scripts', 'trajectory_eval')]
 
 
 def _plot_module():
@@ -125,18 +128,19 @@ def test_trajectory_eval_scores_a_run_against_the_bags_reference(tmp_path):
                    check=True)
     reference = str(tmp_path / 'reference.tum')
     files = [os.path.join(out, 'estimate.tum'), os.path.join(out, 'odometry.tum')]
-    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, '--tolerance', '0.011', '--write-reference', reference]
+    r = subprocess.run(TRAJECTORY_EVAL + ['--bag', bag, '--tolerance', '0.011', '--write-reference', reference]
                        + files, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert lines[0].split() == ['trajectory', 'poses', 'RPE', 'm', 'RPE', 'deg', 'RPErms', 'm', 'RPErms', 'deg',
-                                'ATE', 'm']
+                                'ATEfit', 'm', 'ATEfirst', 'm']
     rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in lines[1:]}
     assert sorted(rows) == sorted(files)
     scans = len(np.loadtxt(files[0], ndmin=2))
     est, odo = rows[files[0]], rows[files[1]]
     assert scans - 2 <= est[0] <= scans, 'scan poses matched to a reference pose within 11 ms'
     assert 0.0 < est[5] < 0.1, 'ATE after the fit [m]'
+    assert est[5] <= est[6] < 0.2, 'ATE aligned at the first pose [m]'
     assert 0.0 < est[1] <= est[3] < 0.1, 'RPE mean <= RMS [m]'
     assert odo[0] == est[0] and odo[5] > 0.0
     # The reference written is the bag's /ground_truth/odom, pose for pose.
@@ -147,10 +151,10 @@ def test_trajectory_eval_scores_a_run_against_the_bags_reference(tmp_path):
     assert written.shape == (len(truth), 8)
     assert np.allclose(written[:, :3], truth, atol=1e-9)
     # A bag without that topic, or a file that is no trajectory: one line, exit 1.
-    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, '--truth', '/nope'] + files,
+    r = subprocess.run(TRAJECTORY_EVAL + ['--bag', bag, '--truth', '/nope'] + files,
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     assert r.returncode == 1 and r.stderr.strip().splitlines() == [
         'trajectory_eval: %s: no nav_msgs/Odometry on /nope (the reference)' % bag], r.stderr
-    r = subprocess.run([_tool('trajectory_eval'), '--bag', bag, os.path.join(out, 'map.yaml')],
+    r = subprocess.run(TRAJECTORY_EVAL + ['--bag', bag, os.path.join(out, 'map.yaml')],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and 'map.yaml' in r.stderr, r.stderr
