@@ -584,14 +584,24 @@ def test_csail_robotlaser_log(tmp_path, capsys):
     assert code == 1 and not os.path.exists(out)
     assert 'expected raw odometry' in err and '--laser-poses odometry' in err and '--no-odometry' in err
     assert 'got no ODOM line (686 ROBOTLASER1)' in err
-    # Its laser poses are corrected ones (an offline SLAM result): scans 660 lines apart, taken where the robot
-    # came back after a 380 m loop, overlap within a few cm as written. So they are the reference, and the bag
-    # has no odometry.
+    # Its laser poses are corrected ones (an offline SLAM result): scans 4 and 665, taken where the robot came
+    # back after a 380 m loop, overlap within a few cm as placed by them (below). So they are the reference,
+    # and the bag has no odometry.
     summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out, '--no-odometry']))
     assert summary.counts['/scan'] == 686 and summary.counts['/ground_truth/odom'] == 686
     assert '/odom' not in summary.counts and '/tf' not in summary.counts
     assert 'no odometry written (--no-odometry)' in summary.text()
     bag = read_bag(out)
+
+    def points(k):  # scan k in the map frame, placed at its reference pose (laser pose = robot pose here)
+        scan, (x, y, th) = bag['/scan'][k][1], pose2(bag['/ground_truth/odom'][k][1])
+        r = np.array(scan.ranges)
+        a = th + scan.angle_min + scan.angle_increment * np.arange(len(r))
+        ok = np.isfinite(r) & (r < 20.0)
+        return np.column_stack([x + r[ok] * np.cos(a[ok]), y + r[ok] * np.sin(a[ok])])
+    p, q = points(4), points(665)
+    nearest = np.sqrt(np.min(np.sum((q[:, None, :] - p[None, :, :]) ** 2, axis=2), axis=1))
+    assert np.median(nearest) < 0.05  # raw odometry after 380 m would be off by metres
     s = bag['/scan'][0][1]
     assert len(s.ranges) == 361 and s.angle_min == pytest.approx(-math.pi / 2, abs=1e-6)
     assert s.angle_increment == pytest.approx(0.008727, abs=1e-6) and s.range_max == pytest.approx(80.0)
