@@ -1,10 +1,16 @@
 """CARMEN logs (plain or .gz) to a rosbag: odometry, laser scans and, where the log has one, a reference path.
 
 Lines read: ``ODOM``, ``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``TRUEPOS``, ``PARAM``; other types
-(``NEFF``, ``SYNC``, ...) are counted and skipped.
+(``NEFF``, ``SYNC``, ...) are counted and skipped. The timed lines are the ``ODOM``, laser and ``TRUEPOS``
+lines (not the resets below).
 
-The "corrected" logs (e.g. Intel and ACES from Radish, as shipped in ``../shared/data/carmen``) need
-care, and this converter handles them:
+Odometry is the raw odometry of the ``ODOM`` lines, and a scan gets the pose of the ``ODOM`` line before
+it in the file, as the log itself pairs them: the bag holds an odometry sample at each scan's stamp with
+that pose, so odometry read at a scan's stamp (``/odom`` or TF, interpolated there) is exactly it. A log
+without ``ODOM`` lines is refused (exit 1, no bag) unless told what to do: ``--laser-poses odometry`` when
+the poses of its laser lines are raw odometry, ``--no-odometry`` to write the scans and the reference only.
+
+The "corrected" logs (e.g. Intel and ACES from Radish) need care, and this converter handles them:
 
 * Both pose fields of a laser line hold the pose corrected by an offline SLAM run, and the ``ODOM``
   line right after each laser line repeats that corrected pose: it *resets* odometry to it, and the
@@ -19,15 +25,37 @@ care, and this converter handles them:
 * The corrected laser poses become the reference path (``ground_truth/odom``, ``ground_truth/path``
   in the frame ``map``), never the odometry. They are an offline SLAM result, not true ground truth.
   ``TRUEPOS`` lines (simulator logs) are true ground truth and take precedence.
-* Some time stamps go backwards (Intel: hundreds of ``ODOM`` lines, by up to ~1 s). File order is the
-  order of the motion, so the stamps of the timed lines (``ODOM``, lasers, ``TRUEPOS``) are made
-  non-decreasing by the least-squares fit (isotonic regression, which moves only the stamps out of
-  order); how many went backwards is reported. Odometry messages that then share a stamp keep only
-  the last one (poses are cumulative, so no motion is lost; TF rejects repeated stamps anyway).
-* Readings at the sensor's maximum are no returns, not walls (about 81.83-81.91 m for the SICK
-  scanners, 50.0 m in ACES): they become +Inf (REP-117). By default (``--no-return auto``) the no-return
-  value is the log's largest reading when at least 10 readings have it; readings above the laser's
-  stated maximum range (``ROBOTLASER1``, or a ``PARAM``) are +Inf too; readings <= 0 are NaN.
+
+Time stamps are the log's own (``timestamp`` field, seconds; relative in Radish logs, Unix in others),
+except garbage ones, which are rebuilt from the line order. A stamp is garbage when it is not a positive
+number below 2^32 s (ROS time holds the seconds as uint32; e.g. the text 4.29497e+09 some logs carry), when
+it repeats one value over a run of lines that would last more than 10 s at the log's seconds per line (a
+stuck clock; all but the first of the run), when it is more than 5 s (and more than 10 lines' time) away
+from the median of the 21 lines around it, when it lies on a stretch of lines that jumps away from the
+rest of the log (more than 5 s back, or more than an hour and 1000 lines' time forward, the stretches
+telling one story over the most lines being kept), or when it is more than 5 s earlier than an earlier line's.
+Garbage stamps are interpolated by line number between the trustworthy stamps around them; before the first
+and after the last trustworthy stamp they go on at the seconds per line measured on the trustworthy stamps,
+or given by ``--line-period S``. ``--stamps lines`` rebuilds every stamp, evenly spaced from the first
+trustworthy one. The summary says how many stamps were rebuilt, why, from which line on, and at what
+seconds per line. A log whose stamps do not advance (all equal, all 0) is refused unless ``--line-period``
+is given.
+
+Stamps going back by less than that (Intel: hundreds of ``ODOM`` lines, by up to ~1 s) are made
+non-decreasing by the least-squares fit (isotonic regression, which moves only the stamps out of order);
+how many went backwards is reported. Then lines that share a stamp (logged at once, or pooled by the fit)
+are moved 1 microsecond apart, so the stamps follow the file order strictly and no odometry sample is
+dropped.
+
+Odometry gaps: consecutive ``ODOM`` lines more than ``--odom-gap`` seconds apart (default 1) while the robot
+moves (the reference moves more than 0.1 m or turns more than 10 degrees, the odometry jumps as much, or the
+scans in between change) are reported with their lines, duration and motion: odometry interpolated inside
+such a gap does not follow the robot.
+
+Readings at the sensor's maximum are no returns, not walls (about 81.83-81.91 m for the SICK scanners, 50.0 m
+in ACES): they become +Inf (REP-117). By default (``--no-return auto``) the no-return value is the log's
+largest reading when at least 10 readings have it; readings above the laser's stated maximum range
+(``ROBOTLASER1``, or a ``PARAM``) are +Inf too; readings <= 0 are NaN.
 
 Beam angles: ``ROBOTLASER1`` lines state them. ``FLASER``/``RLASER`` lines do not: the field of view
 is 180 degrees from -90 degrees (``--laser-fov``) and the increment fov / n for even n, fov / (n - 1) for
@@ -36,8 +64,6 @@ odd n (1 degree for 180 or 181 beams, as GMapping's CARMEN reader has it). Laser
 ``robot_frontlaser_angular_offset`` (and ``rearlaser``; the rear laser faces backwards by default),
 or for ``ROBOTLASER1`` the laser pose relative to the robot pose of the first line; published on
 ``/tf_static``.
-
-Stamps are the log's own (``timestamp`` field, seconds; relative in Radish logs, Unix in others).
 """
 import collections
 import math
@@ -57,8 +83,10 @@ MAX_RANGE_PARAMS = {
 
 EXAMPLE = """
 Example:
-  carmen_to_bag ../shared/data/carmen/intel-corrected.log.gz -o intel.bag
+  carmen_to_bag intel-corrected.log.gz -o intel.bag
   rosbag play --clock intel.bag      # /odom, /tf, /tf_static, /scan, /ground_truth/odom, /ground_truth/path
+  carmen_to_bag csail.log -o csail.bag --no-odometry     # laser lines with corrected poses, no ODOM lines
+  carmen_to_bag orebro.log -o orebro.bag --laser-poses odometry --line-period 0.1   # raw poses, stamps all 0
 """
 
 
@@ -266,10 +294,24 @@ def laser_mounts(log):
     return mounts
 
 
-class Conversion:
-    """Everything the bag will hold, computed from a Log (pure numpy: the tests check it directly)."""
+GAP_MOVE = 0.1              # [m] motion during an odometry gap worth reporting ...
+GAP_TURN = math.radians(10)  # [rad] ... or turn
+GAP_SCAN_CHANGE = 0.1       # [m] median change of the ranges of the scans in a gap worth reporting
+GAPS_LISTED = 10            # gaps listed one by one in the summary (the longest)
 
-    def __init__(self, log, corrected='auto', laser_poses='auto', no_return='auto'):
+NEEDS_ODOMETRY = ('raw odometry: ODOM lines (--laser-poses odometry if the laser lines\' poses are raw '
+                  'odometry; --no-odometry to write none)')
+NEEDS_STAMPS = 'time stamps that advance (--line-period S: the seconds from one line to the next)'
+
+
+class Conversion:
+    """Everything the bag will hold, computed from a Log (pure numpy: the tests check it directly).
+
+    Raises ConversionError for a log without raw odometry (unless ``laser_poses`` is 'odometry' or
+    ``no_odometry``) or whose stamps do not advance (unless ``line_period``)."""
+
+    def __init__(self, log, corrected='auto', laser_poses='auto', no_return='auto', line_period=None, stamps='log',
+                 no_odometry=False, odom_gap=1.0, time_offset=0.0):
         self.log = log
         self.notes = []
         self.skipped = collections.Counter()
@@ -287,15 +329,38 @@ class Conversion:
             self.skipped['ODOM lines that reset odometry to the corrected pose (not odometry)'] = len(reset_set)
         self.n_resets = len(reset_set)
         self.n_garbage_reset_stamps = len(reset_set) - zero_resets if self.corrected else 0
+        odom_idx = [i for i, r in enumerate(records) if isinstance(r, Odom)]
+        kept = [i for i in odom_idx if i not in reset_set]
+        self.lasers = [r for r in records if isinstance(r, Laser)]
+        if laser_poses == 'auto':
+            laser_poses = 'reference' if (self.corrected or not kept) else 'ignore'
+        self.odometry_source = ('laser' if laser_poses == 'odometry' and self.lasers else
+                                'none' if no_odometry or not kept else 'odom')
 
+        # What the log lacks: raw odometry, stamps that advance. Both are said at once.
+        problems = []
+        if not kept and laser_poses != 'odometry' and not no_odometry:
+            lines = collections.Counter(type(r).__name__ if not isinstance(r, Laser) else r.tag for r in records)
+            problems.append((NEEDS_ODOMETRY, 'no ODOM line (%s)' % ', '.join(
+                '%d %s' % (n, 'TRUEPOS' if tag == 'TruePos' else 'ODOM resets' if tag == 'Odom' else tag)
+                for tag, n in sorted(lines.items()))))
         # Timed records in file order (resets carry no usable stamp).
         timed = [i for i, r in enumerate(records) if i not in reset_set]
-        if timed:
-            stamps, backward, self.n_invalid_stamps = cc.fix_stamps([records[i].ts for i in timed])
-        else:
-            stamps, backward, self.n_invalid_stamps = np.zeros(0), (0, 0, 0.0), 0
-        self.n_backward, self.n_out_of_order, self.max_backward = backward
-        fixed = dict(zip(timed, stamps))
+        try:
+            self.stamp_repair = cc.repair_stamps([records[i].ts for i in timed], line_period=line_period,
+                                                 rebuild_all=stamps == 'lines')
+        except cc.TooFewStamps as e:
+            problems.append((NEEDS_STAMPS, e.got))
+        if problems:
+            raise cc.ConversionError(log.path, None, ' and '.join(p[0] for p in problems),
+                                     got='; '.join(p[1] for p in problems))
+        repair = self.stamp_repair
+        self.n_backward, self.n_out_of_order, self.max_backward = repair.backward
+        self.n_invalid_stamps = len(repair.rebuilt)
+        fixed_stamps, self.n_nudged, self.max_nudge = cc.strictly_increasing(repair.stamps)
+        self._check_range(fixed_stamps, [records[i] for i in timed], time_offset)
+        fixed = dict(zip(timed, fixed_stamps))
+        self._stamp_notes(repair, [records[i] for i in timed], stamps == 'lines')
         kinds = [type(records[i]) for i in timed]
         self.n_backward_odom = cc.count_backward([records[i].ts for i, k in zip(timed, kinds) if k is Odom])[0]
         self.n_backward_laser = cc.count_backward([records[i].ts for i, k in zip(timed, kinds) if k is Laser])[0]
@@ -306,36 +371,63 @@ class Conversion:
                               'fit'
                               % (self.n_backward, self.n_backward_odom, self.n_backward_laser, self.n_out_of_order,
                                  self.max_backward))
-        if self.n_invalid_stamps:
-            self.notes.append('%d time stamps more than %.0f s before the previous ones (or <= 0) took the previous '
-                              'stamp' % (self.n_invalid_stamps, cc.MAX_BACKWARD_STEP))
+        if self.n_nudged:
+            self.notes.append('%d timed lines had the stamp of the line before them (logged at once, or pooled by the '
+                              'fit): each moved %.0f us after the line before it (at most %.0f us), so that the stamps '
+                              'follow the file order' % (self.n_nudged, cc.STAMP_NUDGE * 1e6, self.max_nudge * 1e6))
 
-        # Raw odometry.
-        odom_idx = [i for i, r in enumerate(records) if isinstance(r, Odom)]
+        # Raw odometry of the ODOM lines, and the pose of the ODOM line before each scan.
         poses = [(records[i].x, records[i].y, records[i].theta) for i in odom_idx]
         raw = rebuild_raw_odometry(poses, [i in reset_set for i in odom_idx])
-        kept = [i for i in odom_idx if i not in reset_set]
         self.raw_odom_all = np.array(raw).reshape(-1, 3)
         self.odom_stamps_all = np.array([fixed[i] for i in kept])
+        self.odom_lines_all = np.array([records[i].line for i in kept], dtype=int)
         twist = np.array([(records[i].tv, records[i].rv) for i in kept]).reshape(-1, 2)
+        position = {i: k for k, i in enumerate(kept)}
+        held, last, n_before_odom = [], None, 0   # (scan stamp, index of the ODOM line before it)
+        for i, r in enumerate(records):
+            if i in position:
+                last = position[i]
+            elif isinstance(r, Laser):
+                if last is None:
+                    n_before_odom += 1
+                else:
+                    held.append((fixed[i], last))
 
-        self.lasers = [records[i] for i in timed if isinstance(records[i], Laser)]
         self.laser_stamps = np.array([fixed[i] for i in timed if isinstance(records[i], Laser)])
         truepos = [records[i] for i in timed if isinstance(records[i], TruePos)]
         truepos_stamps = np.array([fixed[i] for i in timed if isinstance(records[i], TruePos)])
 
         # Which poses are odometry and which are the reference.
         self.reference_source = None
-        if laser_poses == 'auto':
-            laser_poses = 'reference' if (self.corrected or not odom_idx) else 'ignore'
-        if laser_poses == 'odometry' and self.lasers:
-            self.raw_odom_all = np.array([l.robot_pose for l in self.lasers]).reshape(-1, 3)
-            self.odom_stamps_all = self.laser_stamps.copy()
-            twist = np.zeros((len(self.lasers), 2))
+        self.n_held = 0
+        if self.odometry_source == 'laser':
+            self.odom = np.array([l.robot_pose for l in self.lasers]).reshape(-1, 3)
+            self.odom_stamps = self.laser_stamps.copy()
+            self.odom_twist = np.zeros((len(self.lasers), 2))
             self.notes.append('odometry from the robot poses of the laser lines (--laser-poses odometry): in a '
                               'corrected log that is the reference, not odometry')
-            if odom_idx:
+            if kept:
                 self.skipped['ODOM lines (odometry taken from the laser lines instead)'] += len(kept)
+        elif self.odometry_source == 'odom':
+            k = np.array([h[1] for h in held], dtype=int)
+            stamps_all = np.concatenate([self.odom_stamps_all, [h[0] for h in held]])
+            order = np.argsort(stamps_all, kind='stable')
+            self.odom = np.concatenate([self.raw_odom_all, self.raw_odom_all[k]])[order]
+            self.odom_stamps = stamps_all[order]
+            self.odom_twist = np.concatenate([twist, twist[k]])[order]
+            self.n_held = len(held)
+            if held:
+                self.notes.append('%d odometry samples added at the stamps of the scans, each holding the raw pose of '
+                                  'the ODOM line before the scan (the log pairs them so): odometry read at a scan\'s '
+                                  'stamp is that pose' % len(held))
+            if n_before_odom:
+                self.notes.append('%d scans come before the first ODOM line: no odometry before them' % n_before_odom)
+        else:
+            self.odom, self.odom_stamps, self.odom_twist = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 2))
+            if kept:
+                self.skipped['ODOM lines (--no-odometry)'] += len(kept)
+            self.notes.append('no odometry written (%s)' % ('--no-odometry' if no_odometry else 'the log has none'))
         if truepos:
             self.reference_source = 'TRUEPOS lines (true poses)'
             self.reference = np.array([t.pose for t in truepos]).reshape(-1, 3)
@@ -348,16 +440,6 @@ class Conversion:
         else:
             self.reference = np.zeros((0, 3))
             self.reference_stamps = np.zeros(0)
-        if not odom_idx and laser_poses != 'odometry':
-            self.notes.append('the log has no ODOM lines: no odometry written (if its laser poses are raw odometry, '
-                              'use --laser-poses odometry)')
-
-        keep = cc.last_of_equal_runs(self.odom_stamps_all)
-        self.skipped['odometry poses sharing a stamp with the next one (merged: the later, cumulative pose is '
-                     'kept)'] = len(self.odom_stamps_all) - len(keep)
-        self.odom = self.raw_odom_all[keep]
-        self.odom_stamps = self.odom_stamps_all[keep]
-        self.odom_twist = twist[keep]
 
         # Ranges.
         if no_return == 'auto':
@@ -384,9 +466,127 @@ class Conversion:
                     if self.no_return is not None else 'no no-return value found')
             self.notes.append('%s; %d readings written as +Inf (REP-117); range_max %s' % (
                 what, n_inf, ', '.join('%s %.2f m' % kv for kv in sorted(self.range_max.items()))))
+
+        self.odom_gaps, self.n_quiet_gaps = [], 0
+        if self.odometry_source == 'odom':
+            self.odom_gaps, self.n_quiet_gaps = self._find_gaps(odom_gap)
+            self._gap_notes(odom_gap)
         self.mounts = laser_mounts(log)
         for tag, n in sorted(log.other.items()):
             self.skipped['%s lines (not converted)' % tag] = n
+
+    def _check_range(self, stamps, timed_records, time_offset):
+        """The stamps, rebuilt ones and --time-offset included, must lie within ROS time."""
+        if not len(stamps):
+            return
+        lo, hi = int(np.argmin(stamps)), int(np.argmax(stamps))
+        if stamps[lo] + time_offset <= 0.0:
+            raise cc.ConversionError(
+                self.log.path, timed_records[lo].line, 'time stamps after 0 s (ROS time; where stamps rebuilt before '
+                'the first trustworthy one fall before 0, add --time-offset S or give --line-period S)',
+                got='%.6g s' % (stamps[lo] + time_offset))
+        if stamps[hi] + time_offset >= cc.ROS_TIME_LIMIT:
+            raise cc.ConversionError(
+                self.log.path, timed_records[hi].line, 'time stamps before 2^32 s (ROS time holds the seconds as '
+                'uint32; --time-offset included)', got='%.6g s' % (stamps[hi] + time_offset))
+
+    def _stamp_notes(self, repair, timed_records, all_lines):
+        rebuilt = repair.rebuilt
+        if not len(rebuilt):
+            return
+        trusted = repair.trusted
+        lines = [timed_records[i].line for i in rebuilt]
+        if len(trusted):
+            anchor = 'the first trustworthy stamp (line %d, %.15g s)' % (timed_records[trusted[0]].line,
+                                                                        repair.raw[trusted[0]])
+        else:
+            anchor = '%g s (the log has no trustworthy stamp)' % cc.REBUILT_START
+        period = ''
+        if repair.line_period is not None:
+            period = ('%.6g s per line (%s)' % (repair.line_period, 'given by --line-period' if repair.period_given
+                                                else 'measured on the %d trustworthy stamps' % repair.n_trusted))
+        if all_lines:
+            self.notes.append('time stamps rebuilt from the line order on request (--stamps lines): %d of %d timed '
+                              'lines (ODOM, laser and TRUEPOS lines; resets do not count) evenly spaced from %s at %s'
+                              % (len(rebuilt), len(timed_records), anchor, period))
+            return
+        why = '; '.join('%d %s' % (n, reason) for reason, n in repair.reasons().items())
+        text = ('time stamps rebuilt from the line order: %d of %d timed lines (ODOM, laser and TRUEPOS lines; resets '
+                'do not count) had garbage stamps, from line %d (stamp %.15g) on, the last at line %d: %s'
+                % (len(rebuilt), len(timed_records), lines[0], repair.raw[rebuilt[0]], lines[-1], why))
+        if len(trusted):
+            text += '; interpolated by line number between the trustworthy stamps around them'
+        if repair.line_period is not None:
+            text += ('; %s at %s' % ('before the first / after the last trustworthy stamp extrapolated' if len(trusted)
+                                     else 'spaced from %s' % anchor, period))
+        self.notes.append(text)
+
+    def _find_gaps(self, threshold):
+        """Consecutive raw ODOM lines more than ``threshold`` seconds apart while the robot moves: the reference
+        (interpolated at both ends) moves or turns, the odometry jumps, or the scans in between change. Returns
+        (list of dicts, number of such gaps without motion)."""
+        t, lines, raw = self.odom_stamps_all, self.odom_lines_all, self.raw_odom_all
+        gaps, quiet = [], 0
+        if len(t) < 2:
+            return gaps, quiet
+        rt, ref = self.reference_stamps, self.reference
+        ref_yaw = np.unwrap(ref[:, 2]) if len(ref) else None
+        scan_lines = np.array([l.line for l in self.lasers], dtype=int)
+        for k in np.flatnonzero(np.diff(t) > threshold):
+            ta, tb = t[k], t[k + 1]
+            gap = {'first_line': int(lines[k]), 'last_line': int(lines[k + 1]), 'duration': float(tb - ta),
+                   'reference': None, 'scans': None}
+            moved = False
+            if len(rt) >= 2 and rt[0] <= ta and tb <= rt[-1]:
+                inside = np.flatnonzero((rt > ta) & (rt < tb))
+                ts = np.r_[ta, rt[inside], tb]
+                x, y, th = (np.interp(ts, rt, ref[:, 0]), np.interp(ts, rt, ref[:, 1]), np.interp(ts, rt, ref_yaw))
+                move = float(np.sum(np.hypot(np.diff(x), np.diff(y))))
+                turn = float(np.sum(np.abs(np.diff(th))))
+                gap['reference'] = (move, turn)
+                moved |= move > GAP_MOVE or turn > GAP_TURN
+            d = cc.se2_between(raw[k], raw[k + 1])
+            gap['odometry'] = (math.hypot(d[0], d[1]), abs(float(d[2])))
+            moved |= gap['odometry'][0] > GAP_MOVE or gap['odometry'][1] > GAP_TURN
+            between = np.flatnonzero((scan_lines > lines[k]) & (scan_lines < lines[k + 1]))
+            if len(between) >= 2:
+                a, b = self.lasers[between[0]], self.lasers[between[-1]]
+                if a.tag == b.tag and len(a.ranges) == len(b.ranges):
+                    ra = rep117_ranges(a.ranges, self.no_return, self.range_max[a.tag])
+                    rb = rep117_ranges(b.ranges, self.no_return, self.range_max[b.tag])
+                    both = np.isfinite(ra) & np.isfinite(rb)
+                    change = float(np.median(np.abs(ra[both] - rb[both]))) if both.any() else 0.0
+                    gap['scans'] = (len(between), change)
+                    moved |= change > GAP_SCAN_CHANGE
+            if moved:
+                gaps.append(gap)
+            else:
+                quiet += 1
+        return gaps, quiet
+
+    def _gap_notes(self, threshold):
+        if not self.odom_gaps:
+            return
+        longest = sorted(self.odom_gaps, key=lambda g: -g['duration'])
+        self.notes.append('odometry gaps: %d places where two consecutive ODOM lines (resets aside) are more than %g s '
+                          'apart (--odom-gap) while the robot moves (the reference moves more than %g m or turns more '
+                          'than %g deg, the odometry jumps as much, or the scans in between change), the longest '
+                          '%.2f s; %d more such gaps show no motion%s'
+                          % (len(self.odom_gaps), threshold, GAP_MOVE, math.degrees(GAP_TURN), longest[0]['duration'],
+                             self.n_quiet_gaps, '; the %d longest:' % GAPS_LISTED
+                             if len(self.odom_gaps) > GAPS_LISTED else ':'))
+        for g in sorted(longest[:GAPS_LISTED], key=lambda g: g['first_line']):
+            parts = []
+            if g['reference'] is not None:
+                parts.append('reference moves %.2f m and turns %.0f deg' % (g['reference'][0],
+                                                                           math.degrees(g['reference'][1])))
+            parts.append('odometry %s %.2f m and %.0f deg' % (
+                'jumps' if g['odometry'][0] > GAP_MOVE or g['odometry'][1] > GAP_TURN else 'moves',
+                g['odometry'][0], math.degrees(g['odometry'][1])))
+            if g['scans'] is not None:
+                parts.append('%d scans in between, ranges change by %.2f m (median)' % g['scans'])
+            self.notes.append('odometry gap, lines %d-%d: %.2f s without ODOM; %s'
+                              % (g['first_line'], g['last_line'], g['duration'], '; '.join(parts)))
 
 
 def build_parser():
@@ -397,6 +597,16 @@ def build_parser():
     p.add_argument('--laser-poses', choices=('auto', 'reference', 'odometry', 'ignore'), default='auto',
                    help='what the robot poses of the laser lines are: auto = the reference path in a corrected log '
                         'or a log without ODOM lines, else ignored')
+    p.add_argument('--no-odometry', action='store_true',
+                   help='write no odometry (the scans and the reference only): for a log without raw odometry')
+    p.add_argument('--line-period', type=cc.positive_float, default=None, metavar='S',
+                   help='seconds from one timed line (ODOM, laser, TRUEPOS) to the next, to rebuild garbage stamps '
+                        '(default: measured on the log\'s trustworthy stamps; needed when they do not advance)')
+    p.add_argument('--stamps', choices=('log', 'lines'), default='log',
+                   help='log: the log\'s stamps, garbage ones rebuilt from the line order (default); lines: every '
+                        'stamp rebuilt from the line order, evenly spaced')
+    p.add_argument('--odom-gap', type=cc.positive_float, default=1.0, metavar='S',
+                   help='report consecutive ODOM lines more than S seconds apart while the robot moves (default 1)')
     p.add_argument('--no-return', default='auto', metavar='M',
                    help='reading [m] that means no return (-> +Inf); auto = the log\'s largest reading if at least '
                         '%d readings have it; none = no such value' % NO_RETURN_MIN_COUNT)
@@ -423,7 +633,9 @@ def build_parser():
 def convert(args, out, bad, summary):
     from rbpf_slam import convert_msgs as m
     log = parse_log(args.log, bad, limit=args.limit, laser_fov=math.radians(args.laser_fov))
-    conv = Conversion(log, corrected=args.corrected, laser_poses=args.laser_poses, no_return=args.no_return)
+    conv = Conversion(log, corrected=args.corrected, laser_poses=args.laser_poses, no_return=args.no_return,
+                      line_period=args.line_period, stamps=args.stamps, no_odometry=args.no_odometry,
+                      odom_gap=args.odom_gap, time_offset=args.time_offset)
     for reason, n in conv.skipped.items():
         summary.skip(reason, n)
     for note in conv.notes:

@@ -20,8 +20,23 @@ from rbpf_slam.atomic import UserError, atomic_output, check_output, run_tool
 from rbpf_slam.geometry import se2_between, se2_compose, wrap_angle  # noqa: F401  (cc.se2_*: the converters)
 
 #: A stamp this much earlier than the latest one before it is not a late clock but garbage (e.g. the
-#: uninitialised time stamps of some CARMEN lines): it is replaced, not pooled (see fix_stamps).
+#: uninitialised time stamps of some CARMEN lines): it is rebuilt from the line order, not pooled (see
+#: repair_stamps).
 MAX_BACKWARD_STEP = 5.0  # [s]
+#: ROS time holds the seconds as uint32: a stamp at or past this cannot be written (and is garbage in a log).
+ROS_TIME_LIMIT = 2.0 ** 32  # [s]
+#: A step forward by more than this (and by more than JUMP_LINES line periods per line) is a jump of a broken
+#: clock, not a pause of the logger (see repair_stamps).
+MAX_FORWARD_STEP = 3600.0  # [s]
+JUMP_LINES = 1000
+#: A run of equal stamps that would last longer than this at the log's line period is a stuck clock.
+STUCK_SECONDS = 10.0  # [s]
+#: A stamp is compared with the median of this many lines on each side of it.
+NEIGHBOURS = 10
+#: Stamps made strictly increasing move each equal one this much after the one before it.
+STAMP_NUDGE = 1e-6  # [s]
+#: Where rebuilt stamps start when a log has no trustworthy stamp at all.
+REBUILT_START = 1.0  # [s]
 
 
 class ConversionError(UserError):
@@ -231,30 +246,283 @@ def count_backward(stamps):
     return steps, late, float(lag.max()) if late else 0.0
 
 
+class TooFewStamps(ValueError):
+    """The stamps cannot be rebuilt: no line period was given and the log's own stamps do not show one.
+    ``got`` says what the stamps are (for a ConversionError)."""
+
+    def __init__(self, got):
+        super().__init__(got)
+        self.got = got
+
+
+#: Why a stamp is garbage, by the code repair_stamps gives it (0: trustworthy).
+GARBAGE_REASONS = {
+    1: 'not a finite number',
+    2: '0 or negative',
+    3: 'at or past 2^32 s (out of the range of ROS time)',
+    4: 'stuck at one value while the log goes on',
+    5: 'far from the median of the lines around them',
+    6: 'on a stretch that jumps away from the rest of the log',
+    7: 'more than %g s before the latest stamp before them' % MAX_BACKWARD_STEP,
+    8: 'all equal: the stamps do not advance',
+    9: 'rebuilt on request (every line)',
+}
+
+
+class StampRepair:
+    """What repair_stamps found and did. ``stamps``: the stamps to use (non-decreasing); ``code``: 0 for a
+    trustworthy stamp, else the key of GARBAGE_REASONS; ``line_period``: the seconds per line used to
+    extrapolate (None when nothing was extrapolated), ``period_given``: whether it was given;
+    ``backward``: count_backward of the trustworthy stamps as logged; ``n_trusted``: how many stamps were
+    trustworthy (before ``rebuild_all``)."""
+
+    def __init__(self, raw, code, stamps, line_period, period_given, backward, n_trusted=0):
+        self.n_trusted = n_trusted
+        self.raw = raw
+        self.code = code
+        self.stamps = stamps
+        self.line_period = line_period
+        self.period_given = period_given
+        self.backward = backward
+
+    @property
+    def rebuilt(self):
+        """Indices of the stamps rebuilt from the line order."""
+        return np.flatnonzero(self.code != 0)
+
+    @property
+    def trusted(self):
+        return np.flatnonzero(self.code == 0)
+
+    def reasons(self):
+        """{reason: number of stamps}, in the order of GARBAGE_REASONS."""
+        counts = collections.Counter(int(c) for c in self.code if c)
+        return collections.OrderedDict((GARBAGE_REASONS[c], counts[c]) for c in sorted(counts))
+
+
+def typical_line_period(stamps, ok=None, window=50):
+    """The seconds per line of a log, robustly: the median of the positive rates (seconds over lines)
+    across consecutive windows of ``window`` stamps (only those where ``ok``). None when no window
+    advances."""
+    stamps = np.asarray(stamps, dtype=float)
+    idx = np.flatnonzero(np.ones(len(stamps), dtype=bool) if ok is None else ok)
+    if len(idx) < 2:
+        return None
+    t = stamps[idx]
+    w = min(window, len(idx) - 1)
+    starts = np.arange(0, len(idx) - w, w)
+    rates = (t[starts + w] - t[starts]) / (idx[starts + w] - idx[starts])
+    rates = rates[rates > 0]
+    return float(np.median(rates)) if len(rates) else None
+
+
+def repair_stamps(stamps, line_period=None, rebuild_all=False, max_backward=MAX_BACKWARD_STEP):
+    """Find the garbage stamps of a log (in file order, one per line) and rebuild them from the line order.
+
+    A stamp is garbage when it is (in this order of tests):
+
+    1. not a finite number, 0 or negative, or at or past 2^32 s (ROS time holds the seconds as uint32);
+    2. in a run of equal stamps that would last more than STUCK_SECONDS at the log's line period (a stuck
+       clock): every stamp of the run but its first;
+    3. further than max(``max_backward``, NEIGHBOURS line periods) from the median of the 2 * NEIGHBOURS + 1
+       lines around it, the advance at the line period taken out (a short burst of garbage, up or down);
+    4. on a stretch of lines that the rest of the log does not continue: the stamps are cut into stretches
+       where they step back more than ``max_backward`` or forward more than MAX_FORWARD_STEP (and more
+       than JUMP_LINES line periods per line); the stretches kept are the chain with the most lines in
+       which each starts at most ``max_backward`` before the end of the one before and at most such a
+       jump after it;
+    5. more than ``max_backward`` before the latest trustworthy stamp before it;
+    6. with ``line_period`` given, when the trustworthy stamps are all equal: all but the first.
+
+    The line period is the given ``line_period``, else the typical_line_period of the valid stamps (tests
+    2 to 4) and the span of the trustworthy stamps over their lines (extrapolation). The trustworthy
+    stamps are made non-decreasing by isotonic_increasing; garbage stamps are interpolated by line
+    number between the trustworthy ones around them, and before the first / after the last trustworthy
+    stamp extrapolated at the line period. ``rebuild_all``: every stamp is put on the line through the
+    first trustworthy stamp at the line period (evenly spaced in file order). Without any trustworthy
+    stamp the lines are spaced at ``line_period`` from REBUILT_START.
+
+    Raises TooFewStamps when the stamps cannot be rebuilt without a line period: no trustworthy stamp,
+    only one (of several lines), or all equal. Returns a StampRepair.
+    """
+    raw = np.array(stamps, dtype=float)
+    n = len(raw)
+    code = np.zeros(n, dtype=int)
+    if n == 0:
+        return StampRepair(raw, code, raw.copy(), None, False, (0, 0, 0.0))
+    finite = np.isfinite(raw)
+    code[~finite] = 1
+    code[finite & (raw <= 0.0)] = 2
+    code[finite & (raw >= ROS_TIME_LIMIT)] = 3
+    period = line_period if line_period else typical_line_period(raw, code == 0)
+
+    if period:
+        _mark_stuck(raw, code, period)
+    _mark_far_from_neighbours(raw, code, max(max_backward, NEIGHBOURS * period if period else 0.0), period)
+    _mark_cut_off(raw, code, period, max_backward)
+    latest = -np.inf
+    for i in np.flatnonzero(code == 0):
+        if raw[i] < latest - max_backward:
+            code[i] = 7
+        else:
+            latest = max(latest, raw[i])
+
+    trusted = np.flatnonzero(code == 0)
+    if len(trusted) > 1 and raw[trusted].min() == raw[trusted].max():
+        if not line_period:
+            raise TooFewStamps('every stamp %.15g' % raw[trusted[0]] if len(trusted) == n else
+                               '%d stamps all %.15g, %d garbage' % (len(trusted), raw[trusted[0]], n - len(trusted)))
+        code[trusted[1:]] = 8
+        trusted = trusted[:1]
+    if not line_period and (len(trusted) == 0 or (len(trusted) == 1 and n > 1)):
+        what = ', '.join('%d %s' % (c, r) for r, c in StampRepair(raw, code, None, None, False, None)
+                         .reasons().items())
+        raise TooFewStamps(('one trustworthy stamp of %d (%s)' % (n, what)) if len(trusted) else
+                           ('every stamp 0' if n and np.all(raw == 0.0) else 'no trustworthy stamp (%s)' % what))
+    backward = count_backward(raw[trusted])
+    lines = np.arange(n, dtype=float)
+    out = np.empty(n)
+    used_period = None
+    if len(trusted) == 0:
+        out = REBUILT_START + lines * line_period
+        used_period = line_period
+    else:
+        iso = isotonic_increasing(raw[trusted])
+        measured = (iso[-1] - iso[0]) / (trusted[-1] - trusted[0]) if len(trusted) > 1 else None
+        step = line_period or measured
+        if rebuild_all and step is None:  # a single line
+            out = iso.copy()
+        elif rebuild_all:
+            out = iso[0] + (lines - trusted[0]) * step
+            code[code == 0] = 9
+            code[trusted[0]] = 0
+            used_period = step
+        else:
+            out[trusted] = iso
+            garbage = code != 0
+            inside = garbage & (lines > trusted[0]) & (lines < trusted[-1])
+            out[inside] = np.interp(lines[inside], trusted, iso)
+            before, after = garbage & (lines < trusted[0]), garbage & (lines > trusted[-1])
+            out[before] = iso[0] - (trusted[0] - lines[before]) * step if before.any() else 0.0
+            out[after] = iso[-1] + (lines[after] - trusted[-1]) * step if after.any() else 0.0
+            if before.any() or after.any():
+                used_period = step
+    return StampRepair(raw, code, out, used_period, bool(line_period) and used_period is not None, backward,
+                       len(trusted))
+
+
+def _mark_stuck(raw, code, period):
+    """Code 4 for all but the first stamp of each run of equal valid stamps lasting more than
+    STUCK_SECONDS at ``period`` seconds per line."""
+    idx = np.flatnonzero(code == 0)
+    if len(idx) < 2:
+        return
+    t = raw[idx]
+    starts = np.flatnonzero(np.r_[True, t[1:] != t[:-1]])
+    ends = np.r_[starts[1:], len(idx)] - 1
+    for s, e in zip(starts, ends):
+        if e > s and (idx[e] - idx[s]) * period > STUCK_SECONDS:
+            code[idx[s + 1:e + 1]] = 4
+
+
+def _mark_far_from_neighbours(raw, code, tolerance, period):
+    """Code 5 for valid stamps further than ``tolerance`` from the median of the 2 * NEIGHBOURS + 1 valid
+    stamps around them (a window kept whole at the ends of the log), the log's advance at ``period``
+    seconds per line taken out first (so a line at the end of its window is not far from its centre)."""
+    idx = np.flatnonzero(code == 0)
+    m = len(idx)
+    if m < 3:
+        return
+    k = min(NEIGHBOURS, (m - 1) // 2)
+    width = 2 * k + 1
+    t = np.ascontiguousarray(raw[idx] - (period or 0.0) * idx)
+    windows = np.lib.stride_tricks.as_strided(t, shape=(m - width + 1, width), strides=(t.strides[0],) * 2,
+                                              writeable=False)
+    medians = np.median(windows, axis=1)
+    centre = np.clip(np.arange(m) - k, 0, m - width)
+    code[idx[np.abs(t - medians[centre]) > tolerance]] = 5
+
+
+def _forward_limit(period, lines):
+    return np.maximum(MAX_FORWARD_STEP, JUMP_LINES * period * lines) if period else MAX_FORWARD_STEP
+
+
+def _mark_cut_off(raw, code, period, max_backward):
+    """Code 6 for the valid stamps outside the chain of stretches that tells one story (repair_stamps, 4)."""
+    idx = np.flatnonzero(code == 0)
+    m = len(idx)
+    if m < 2:
+        return
+    t = raw[idx]
+    step = np.diff(t)
+    back = step < -max_backward
+    splits = np.flatnonzero(back | (step > _forward_limit(period, np.diff(idx)))) + 1
+    bounds = np.r_[0, splits, m]
+    cuts = set(splits.tolist())
+    for j in (np.flatnonzero(back) + 1).tolist():
+        # Around a step back, the lines before it that are later than the line after it, and the lines after
+        # it that are earlier than the line before it, are stretches of their own (a detour and its return).
+        k = int(np.searchsorted(bounds, j))  # bounds[k] == j
+        p = j - 1
+        while p >= bounds[k - 1] and t[p] > t[j] + max_backward:
+            p -= 1
+        if p >= bounds[k - 1]:
+            cuts.add(p + 1)
+        q = j
+        while q < bounds[k + 1] and t[q] < t[j - 1] - max_backward:
+            q += 1
+        if q < bounds[k + 1]:
+            cuts.add(q)
+    if not cuts:
+        return
+    starts = np.array([0] + sorted(cuts))
+    ends = np.r_[starts[1:], m] - 1
+    weight = (ends - starts + 1).astype(float)
+    first_t, last_t = t[starts], t[ends]
+    first_line, last_line = idx[starts], idx[ends]
+    best = np.zeros(len(starts))
+    before = np.full(len(starts), -1)
+    for j in range(len(starts)):
+        i = np.arange(max(0, j - 2000), j)
+        gap = first_t[j] - last_t[i]
+        ok = (gap >= -max_backward) & (gap <= _forward_limit(period, first_line[j] - last_line[i]))
+        best[j] = weight[j]
+        if ok.any():
+            k = i[ok][int(np.argmax(best[i[ok]]))]
+            best[j] += best[k]
+            before[j] = k
+    keep = np.zeros(len(starts), dtype=bool)
+    j = int(np.argmax(best))
+    while j >= 0:
+        keep[j] = True
+        j = before[j]
+    for s, e in zip(starts[~keep], ends[~keep]):
+        code[idx[s:e + 1]] = 6
+
+
+def strictly_increasing(stamps, step=STAMP_NUDGE):
+    """Stamps (non-decreasing) made strictly increasing: each at least ``step`` after the one before.
+    Returns (stamps, how many moved, the largest move [s])."""
+    stamps = np.asarray(stamps, dtype=float)
+    if len(stamps) == 0:
+        return stamps.copy(), 0, 0.0
+    k = np.arange(len(stamps)) * step
+    out = np.maximum.accumulate(stamps - k) + k
+    moved = out - stamps
+    return out, int(np.sum(moved > 0)), float(moved.max())
+
+
 def fix_stamps(stamps, max_backward=MAX_BACKWARD_STEP):
     """Make stamps (in file order) non-decreasing, changing as little as possible.
 
-    A stamp more than ``max_backward`` seconds earlier than the latest one before it, or not finite,
-    or not positive, is invalid: it takes the previous stamp. The rest are made non-decreasing by
-    :func:`isotonic_increasing`. Returns (fixed stamps, number of backward stamps, largest backward
-    step [s], number of invalid stamps).
+    Garbage stamps (see repair_stamps: not finite, not positive, past ROS time, stuck, far from their
+    neighbours, more than ``max_backward`` seconds before the latest one before them, ...) are rebuilt from
+    the line order; the rest are made non-decreasing by :func:`isotonic_increasing`. Returns (fixed stamps,
+    count_backward of the trustworthy stamps, number of garbage stamps). Raises TooFewStamps (a ValueError)
+    when there is no trustworthy stamp.
     """
-    stamps = np.array(stamps, dtype=float)
-    invalid = 0
-    latest = -np.inf
-    for i in range(len(stamps)):
-        t = stamps[i]
-        if not np.isfinite(t) or t <= 0.0 or t < latest - max_backward:
-            stamps[i] = latest if np.isfinite(latest) else np.nan
-            invalid += 1
-        else:
-            latest = max(latest, t)
-    if np.isnan(stamps).any():  # invalid stamps before the first valid one take the first valid one
-        valid = stamps[~np.isnan(stamps)]
-        if len(valid) == 0:
-            raise ValueError('no valid time stamp')
-        stamps[np.isnan(stamps)] = valid[0]
-    return isotonic_increasing(stamps), count_backward(stamps), invalid
+    r = repair_stamps(stamps, max_backward=max_backward)
+    return r.stamps, r.backward, len(r.rebuilt)
 
 
 def last_of_equal_runs(stamps, tolerance=1e-6):
@@ -337,7 +605,8 @@ def ros_topic(name):
 
 class BagOutput:
     """Writes messages to an open rosbag.Bag with the bag time equal to the header stamp, counts them in
-    the summary and refuses a stamp going backwards on a topic (that would be a converter bug)."""
+    the summary and refuses a stamp going backwards on a topic (that would be a converter bug), or one
+    outside ROS time (0 to 2^32 s, the offset included: ConversionError, not a crash in serialisation)."""
 
     def __init__(self, bag, summary, time_offset=0.0, progress=None):
         self.bag = bag
@@ -355,6 +624,11 @@ class BagOutput:
     def write(self, topic, msg, stamp, latch=False):
         from rbpf_slam.convert_msgs import ros_time
         topic = ros_topic(topic)
+        if not 0.0 <= stamp + self.time_offset < ROS_TIME_LIMIT:
+            raise ConversionError(self.summary.output, None, 'time stamps from 0 to 2^32 s (ROS time holds the '
+                                  'seconds as uint32)', got='%.6g s on %s%s' % (
+                                      stamp + self.time_offset, topic,
+                                      ' (with --time-offset %g)' % self.time_offset if self.time_offset else ''))
         last = self._last.get(topic)
         if last is not None and stamp < last:
             raise RuntimeError('internal error: %s stamp %.6f after %.6f' % (topic, stamp, last))

@@ -74,8 +74,11 @@ def test_raw_odometry_is_rebuilt_across_resets_and_never_sees_the_correction(tmp
     assert code == 0
     bag = read_bag(out)
     odom = [pose2(m) for _, m in bag['/odom']]
-    assert len(odom) == len(expected)
-    np.testing.assert_allclose(np.array(odom), np.array(expected), atol=2e-6)
+    # One sample per raw ODOM line, and at each scan (after raw poses 4, 8 and 12) one more holding the pose
+    # of the ODOM line before it.
+    with_scans = [p for k, p in enumerate(expected) for _ in range(2 if k and k % 4 == 0 else 1)]
+    assert len(odom) == len(with_scans) == len(expected) + 3
+    np.testing.assert_allclose(np.array(odom), np.array(with_scans), atol=2e-6)
     # The reference path is the corrected pose of each scan, in map.
     ref = [pose2(m) for _, m in bag['/ground_truth/odom']]
     assert len(ref) == 3 and frames_of(bag, '/ground_truth/odom') == {'map'}
@@ -139,9 +142,14 @@ def test_backward_stamps_are_counted_and_made_monotonic(tmp_path, capsys):
     assert '1 lines have a stamp earlier than the line before' in stdout
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
-    # the late stamp was pooled with the next one (same stamp): the later, cumulative pose is kept
+    # The late stamp is pooled with the next one (1.5, 1.3 -> 1.4 s), and the second of the pooled lines is moved
+    # 1 us after the first, in file order: every pose is kept, in the log's order.
     xs = [pose2(m)[0] for _, m in bag['/odom']]
-    assert xs == pytest.approx([0.0, 0.1, 0.3, 0.4, 0.5, 0.6])
+    assert xs == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    t = np.array([m.header.stamp.to_sec() for _, m in bag['/odom']])
+    assert np.all(np.diff(t) > 0)
+    np.testing.assert_allclose(t, [1.0, 1.1, 1.4, 1.4 + 1e-6, 1.45, 1.6, 1.7], atol=1e-9)
+    assert '1 timed lines had the stamp of the line before them' in stdout
 
 
 def test_isotonic_fix_is_minimal():
@@ -160,6 +168,274 @@ def test_plain_and_gzip_give_the_same_bag(tmp_path):
     ba, bb = read_bag(a), read_bag(b)
     assert {k: len(v) for k, v in ba.items()} == {k: len(v) for k, v in bb.items()}
     assert [pose2(m) for _, m in ba['/odom']] == [pose2(m) for _, m in bb['/odom']]
+
+
+# --- time stamps: garbage rebuilt from the line order, and the file's order kept -------------------
+
+
+def timed_text(stamps, scan_every=2, turn=0.0):
+    """ODOM lines (x = 0.01 per line, heading ``turn`` per line) with a FLASER line after every
+    ``scan_every``-th; ``stamps``: the stamp text of each timed line in file order."""
+    text, k, pose = HEAD, 0, (0.0, 0.0, 0.0)
+    for n, ts in enumerate(stamps):
+        if scan_every and n % (scan_every + 1) == scan_every:
+            r = ' '.join(['2.00'] * 180)
+            p = '%.6f %.6f %.6f' % pose
+            text += 'FLASER 180 %s %s %s %s pippo %s\n' % (r, p, p, ts, ts)
+        else:
+            pose = (0.01 * k, 0.0, turn * k)
+            text += 'ODOM %.6f 0 %.6f 0 0 0 %s pippo %s\n' % (pose[0], pose[2], ts, ts)
+            k += 1
+    return text
+
+
+def header_stamps(bag, topic):
+    return np.array([(m.header.stamp if hasattr(m, 'header') else m.transforms[0].header.stamp).to_sec()
+                     for _, m in bag[topic]])
+
+
+def odom_at(bag, stamps):
+    """The odometry a consumer reads at each stamp: linear between the two /odom samples around it (heading the
+    short way), the sample itself at its own stamp."""
+    t = header_stamps(bag, '/odom')
+    p = np.array([pose2(m) for _, m in bag['/odom']])
+    out = []
+    for s in stamps:
+        j = int(np.searchsorted(t, s, side='right'))
+        if t[j - 1] == s or j == len(t):
+            out.append(p[j - 1])
+            continue
+        a = (s - t[j - 1]) / (t[j] - t[j - 1])
+        dth = float(cc.wrap_angle(p[j, 2] - p[j - 1, 2]))
+        out.append((p[j - 1, 0] + a * (p[j, 0] - p[j - 1, 0]), p[j - 1, 1] + a * (p[j, 1] - p[j - 1, 1]),
+                    p[j - 1, 2] + a * dth))
+    return np.array(out)
+
+
+def log_pairing(path):
+    """The raw odometry pose of the ODOM line before each laser line, as the log pairs them: the raw chain
+    rebuilt across the resets, a reset line standing for the raw pose before it."""
+    log = carmen.parse_log(path)
+    resets = set(carmen.find_resets(log.records)[0])
+    odom_idx = [i for i, r in enumerate(log.records) if isinstance(r, carmen.Odom)]
+    raw = iter(carmen.rebuild_raw_odometry([(log.records[i].x, log.records[i].y, log.records[i].theta)
+                                            for i in odom_idx], [i in resets for i in odom_idx]))
+    pairs, last = [], None
+    for i, r in enumerate(log.records):
+        if isinstance(r, carmen.Odom) and i not in resets:
+            last = next(raw)
+        elif isinstance(r, carmen.Laser):
+            pairs.append(last)
+    return np.array(pairs)
+
+
+def test_stamps_past_ros_time_are_rebuilt_from_the_line_order(tmp_path, capsys):
+    """The MIT infinite-corridor layout: after the 4th scan every stamp is the text 4.29497e+09 (past 2^32 s,
+    which ROS time cannot hold): the stamps go on at the log's own seconds per line."""
+    n_good, n = 12, 60  # 12 timed lines (8 ODOM, 4 scans) with true stamps, 0.1 s apart
+    stamps = ['%.1f' % (100.0 + 0.1 * k) for k in range(n_good)] + ['4.29497e+09'] * (n - n_good)
+    log = write(tmp_path, 'mit.log', timed_text(stamps))
+    out = str(tmp_path / 'mit.bag')
+    code, stdout, err = run_main(carmen.main, [log, '-o', out, '-q'], capsys)
+    assert code == 0, err
+    bag = read_bag(out)
+    assert_stamps_monotonic(bag)
+    scans = header_stamps(bag, '/scan')
+    assert len(scans) == n // 3 and scans.max() < 2 ** 32
+    np.testing.assert_allclose(scans, 100.0 + 0.1 * np.arange(2, n, 3), atol=1e-5)
+    first_rebuilt = 2 + n_good + 1  # two header lines, then the 13th timed line
+    assert ('time stamps rebuilt from the line order: 48 of 60 timed lines (ODOM, laser and TRUEPOS lines; resets '
+            'do not count) had garbage stamps, from line %d (stamp 4294970000) on, the last at line %d: 48 at or '
+            'past 2^32 s' % (first_rebuilt, n + 2)) in stdout
+    assert 'after the last trustworthy stamp extrapolated at 0.1 s per line (measured on the 12 trustworthy stamps)' \
+        in stdout
+
+
+def test_garbage_stamps_are_interpolated_between_trustworthy_ones(tmp_path):
+    """Stamps 0, a denormal, a stamp 2 h ahead, a run stuck at one value while the log goes on, a stretch an
+    hour behind: each rebuilt by line number between the trustworthy stamps around it."""
+    true = 5000.0 + 0.1 * np.arange(400)
+    logged = true.copy()
+    logged[5:8] = 0.0                 # not positive
+    logged[12] = 1e-42                # far below its neighbours
+    logged[20] = true[20] + 7200.0    # far above them
+    logged[100:250] = true[99]        # stuck: the clock stops, the lines go on
+    logged[300:330] = true[300:330] - 3600.0  # a stretch an hour behind (longer than the neighbourhood)
+    log = carmen.parse_log(write(tmp_path, 'g.log', timed_text(['%.10g' % t for t in logged], scan_every=0)))
+    conv = carmen.Conversion(log)
+    np.testing.assert_allclose(conv.odom_stamps_all, true, atol=1e-4)
+    note = next(n for n in conv.notes if n.startswith('time stamps rebuilt'))
+    assert '185 of 400 timed lines' in note and 'from line 8 (stamp 0) on, the last at line 332' in note
+    assert ('3 0 or negative; 150 stuck at one value while the log goes on; 2 far from the median of the lines '
+            'around them; 30 on a stretch that jumps away from the rest of the log') in note
+    assert 'extrapolated' not in note  # first and last stamps trustworthy: nothing to extrapolate
+
+
+def test_repair_stamps_picks_the_story_most_lines_tell():
+    """Stretches of garbage longer than the neighbourhood, at the start or in the middle, up or down."""
+    real = 100.0 + np.arange(200.0)
+    up, down = np.full(30, 1e6) + np.arange(30.0), 0.001 * np.arange(30.0) + 0.5
+    # (Stamps far below the rest at the very start are a log starting early and then pausing, as far as the
+    # stamps tell: a pause shorter than JUMP_LINES line periods is no jump.)
+    for garbage, at in ((up, 0), (up, 80), (down, 80)):
+        stamps = np.concatenate([real[:at], garbage, real[at:]])
+        r = cc.repair_stamps(stamps)
+        assert r.rebuilt.tolist() == list(range(at, at + 30))
+        assert np.all(np.diff(r.stamps) > 0)
+        lines_real = np.r_[np.arange(at), np.arange(at + 30, 230)]
+        np.testing.assert_allclose(r.stamps[lines_real], real)
+        if at:
+            np.testing.assert_allclose(r.stamps[at:at + 30], np.linspace(real[at - 1], real[at], 32)[1:-1])
+        else:  # before the first trustworthy stamp: extrapolated at its seconds per line
+            assert r.line_period == pytest.approx(1.0)
+            np.testing.assert_allclose(r.stamps[:30], 100.0 - np.arange(30, 0, -1))
+    with pytest.raises(cc.TooFewStamps, match='every stamp 0'):
+        cc.repair_stamps([0.0] * 5)
+    with pytest.raises(cc.TooFewStamps, match='every stamp 7'):
+        cc.repair_stamps([7.0] * 5)
+    r = cc.repair_stamps([7.0] * 5, line_period=0.5)
+    assert r.stamps.tolist() == [7.0, 7.5, 8.0, 8.5, 9.0] and r.period_given
+    r = cc.repair_stamps([0.0] * 3, line_period=0.5)
+    assert r.stamps.tolist() == [cc.REBUILT_START, cc.REBUILT_START + 0.5, cc.REBUILT_START + 1.0]
+
+
+def test_line_period_and_stamps_from_the_lines(tmp_path, capsys):
+    jitter = [1.0, 1.13, 1.18, 1.31, 1.42, 1.48, 1.61, 1.69, 1.83, 1.9]
+    log = write(tmp_path, 'j.log', timed_text(['%g' % t for t in jitter], scan_every=0))
+    out = str(tmp_path / 'j.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--stamps', 'lines'], capsys)
+    assert code == 0
+    np.testing.assert_allclose(header_stamps(read_bag(out), '/odom'), 1.0 + 0.1 * np.arange(10), atol=1e-9)
+    assert ('time stamps rebuilt from the line order on request (--stamps lines): 9 of 10 timed lines (ODOM, laser '
+            'and TRUEPOS lines; resets do not count) evenly spaced from the first trustworthy stamp (line 3, 1 s) at '
+            '0.1 s per line (measured on the 10 trustworthy stamps)') in stdout
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--stamps', 'lines', '--line-period', '0.25'],
+                               capsys)
+    assert code == 0 and 'at 0.25 s per line (given by --line-period)' in stdout
+    np.testing.assert_allclose(header_stamps(read_bag(out), '/odom'), 1.0 + 0.25 * np.arange(10), atol=1e-9)
+
+
+def flaser_text(poses, stamp_texts, n=361):
+    r = ' '.join('%.2f' % (2.0 + 0.01 * i) for i in range(n))
+    return ''.join('FLASER %d %s %.4f %.4f %.4f %.4f %.4f %.4f %s nohost %s\n' % ((n, r) + tuple(p) + tuple(p) + (t, t))
+                   for p, t in zip(poses, stamp_texts))
+
+
+def test_log_without_odometry_or_stamps_is_refused(tmp_path, capsys):
+    """The orebro layout: FLASER lines only, every stamp 0. Neither odometry nor times can be had from it
+    without being told: one error naming both, and the options that resolve them."""
+    poses = [(0.1 * k, 0.02 * k, 0.01 * k) for k in range(8)]
+    text = '# orebro layout\n' + flaser_text(poses, ['0'] * 8)
+    err = _expect_error(tmp_path, capsys, text, 'bad.log: expected raw odometry: ODOM lines (--laser-poses odometry '
+                        'if the laser lines\' poses are raw odometry; --no-odometry to write none) and time stamps '
+                        'that advance (--line-period S: the seconds from one line to the next), got no ODOM line '
+                        '(8 FLASER); every stamp 0')
+    assert err.count('\n') == 1
+    log = str(tmp_path / 'bad.log')
+    out = str(tmp_path / 'o.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--laser-poses', 'odometry', '--line-period', '0.2'],
+                               capsys)
+    assert code == 0
+    bag = read_bag(out)
+    np.testing.assert_allclose([pose2(m) for _, m in bag['/odom']], poses, atol=1e-6)
+    np.testing.assert_allclose(header_stamps(bag, '/scan'), cc.REBUILT_START + 0.2 * np.arange(8), atol=1e-9)
+    assert '8 0 or negative; spaced from 1 s (the log has no trustworthy stamp) at 0.2 s per line (given by ' \
+        '--line-period)' in stdout
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--no-odometry', '--line-period', '0.2'], capsys)
+    assert code == 0
+    bag = read_bag(out)
+    assert '/odom' not in bag and len(bag['/scan']) == 8 and len(bag['/ground_truth/odom']) == 8
+
+
+def test_log_at_one_stamp_is_refused(tmp_path, capsys):
+    """The belgioioso layout: every line at one stamp. Refused, naming --line-period; with it, the lines are
+    spread at that period from the log's stamp."""
+    stamps = ['1199958306.5'] * 40
+    _expect_error(tmp_path, capsys, timed_text(stamps, scan_every=1), 'bad.log: expected time stamps that advance '
+                  '(--line-period S: the seconds from one line to the next), got every stamp 1199958306.5')
+    out = str(tmp_path / 'o.bag')
+    code, stdout, _ = run_main(carmen.main, [str(tmp_path / 'bad.log'), '-o', out, '-q', '--line-period', '0.1'],
+                               capsys)
+    assert code == 0
+    bag = read_bag(out)
+    assert len(bag['/odom']) == 20 + 20  # the ODOM lines, and a sample at each scan
+    np.testing.assert_allclose(header_stamps(bag, '/scan'), 1199958306.5 + 0.1 * np.arange(1, 40, 2), atol=1e-6)
+    assert '39 all equal: the stamps do not advance' in stdout
+
+
+def test_scan_odometry_is_the_pose_of_the_odom_line_before_it(tmp_path, capsys):
+    """Stamps backwards and equal around the scans: the odometry read at a scan's stamp (interpolated from /odom
+    between the samples around it) is the raw pose of the ODOM line before the scan in the file, as the log
+    pairs them, not a later ODOM line's that the fitted stamps would put at the same time."""
+    # timed lines in file order, the robot turning 0.3 rad per ODOM line; every 3rd line a scan
+    stamps = ['1.0', '1.1', '1.1',      # a scan at the stamp of the ODOM line before it
+              '1.3', '1.2', '1.15',     # ODOM lines going back; the scan earlier than both
+              '1.25', '1.4', '1.4',     # the scan shares the stamp of the ODOM line before it
+              '1.35', '1.36', '1.5',
+              '1.55', '1.6', '1.58']    # the scan earlier than the ODOM line before it
+    log = write(tmp_path, 'p.log', timed_text(stamps, scan_every=2, turn=0.3))
+    out = str(tmp_path / 'p.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q'], capsys)
+    assert code == 0
+    bag = read_bag(out)
+    assert_stamps_monotonic(bag)
+    expected = log_pairing(log)
+    got = odom_at(bag, header_stamps(bag, '/scan'))
+    assert len(got) == 5
+    np.testing.assert_allclose(got[:, :2], expected[:, :2], atol=1e-9)
+    np.testing.assert_allclose(cc.wrap_angle(got[:, 2] - expected[:, 2]), 0.0, atol=1e-9)
+    assert '5 odometry samples added at the stamps of the scans' in stdout
+    # The stamps of the timed lines follow the file order, strictly.
+    o, sc = header_stamps(bag, '/odom'), header_stamps(bag, '/scan')
+    raw_odom = np.setdiff1d(o, sc)
+    order = np.argsort(np.r_[raw_odom, sc], kind='stable')
+    assert list(order) == [0, 1, 10, 2, 3, 11, 4, 5, 12, 6, 7, 13, 8, 9, 14]
+
+
+def test_odometry_gaps_with_motion_are_reported(tmp_path, capsys):
+    """3.1 s without ODOM lines while the true poses (TRUEPOS) turn by 80 degrees: reported with the lines around
+    the gap, its duration and the motion; a gap while the robot stands still is only counted."""
+    text, t, th, line = HEAD, 1.0, 0.0, 2
+    odom_lines = []
+    for phase, n in (('odom', 10), ('turn', 30), ('odom', 10), ('stand', 20), ('odom', 10)):
+        for _ in range(n):
+            if phase == 'odom':
+                text += 'ODOM 0 0 %.6f 0 0 0 %.3f pippo %.3f\n' % (th, t, t)
+                line += 1
+                odom_lines.append(line)
+            if phase == 'turn':
+                th += math.radians(80.0) / n
+            text += 'TRUEPOS 0 0 %.6f 0 0 0 %.3f pippo %.3f\n' % (th, t, t)
+            line += 1
+            t += 0.1
+    log = write(tmp_path, 'gap.log', text)
+    out = str(tmp_path / 'gap.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q'], capsys)
+    assert code == 0
+    assert ('odometry gaps: 1 places where two consecutive ODOM lines (resets aside) are more than 1 s apart '
+            '(--odom-gap) while the robot moves') in stdout
+    assert 'the longest 3.10 s; 1 more such gaps show no motion' in stdout
+    assert ('odometry gap, lines %d-%d: 3.10 s without ODOM; reference moves 0.00 m and turns 80 deg; odometry jumps '
+            '0.00 m and 80 deg' % (odom_lines[9], odom_lines[10])) in stdout
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--odom-gap', '5'], capsys)
+    assert code == 0 and 'odometry gap' not in stdout
+
+
+def test_odometry_gap_seen_in_the_scans(tmp_path, capsys):
+    """No reference and no jump in the odometry, but the scans in the gap change: reported."""
+    text, t = HEAD, 1.0
+    for k in range(30):
+        if k < 10 or k >= 25:
+            text += odom_line((0.0, 0.0, 0.0), t)
+        else:  # 15 scans without ODOM lines between them, the walls moving away by 0.05 m per scan
+            text += flaser_line([2.0 + 0.05 * (k - 10)] * 180, (0.0, 0.0, 0.0), t)
+        t += 0.1
+    out = str(tmp_path / 's.bag')
+    code, stdout, _ = run_main(carmen.main, [write(tmp_path, 's.log', text), '-o', out, '-q', '--no-return', 'none'],
+                               capsys)
+    assert code == 0
+    assert ('odometry gap, lines 12-28: 1.60 s without ODOM; odometry moves 0.00 m and 0 deg; 15 scans in between, '
+            'ranges change by 0.70 m (median)') in stdout
 
 
 # --- malformed inputs: the promised error, and no bag ----------------------------------------------
@@ -214,7 +490,7 @@ def test_skip_bad_counts_and_reports(tmp_path, capsys):
     assert code == 0
     assert 'malformed lines skipped (--skip-bad): 2' in stdout
     assert 's.log:%d: expected ODOM x y theta' % (len(text.splitlines()) - 1) in stdout
-    assert len(read_bag(out)['/odom']) == len(expected)
+    assert len(read_bag(out)['/odom']) == len(expected) + 3  # and one sample at each of the 3 scans
 
 
 def test_interrupt_leaves_no_bag(tmp_path, capsys, monkeypatch):
@@ -245,14 +521,16 @@ def intel(tmp_path_factory):
 def test_intel_counts_stamps_and_quirks(intel):
     log, out, summary = intel
     text = summary.text()
-    # 14541 ODOM lines: 910 resets (69 with garbage stamps) and 13631 raw lines, of which 3754 share a
-    # stamp with the next one (bursts logged with one stamp, and stamps pooled by the fix).
-    assert summary.counts['/odom'] == 9877 and summary.counts['/tf'] == 9877
+    # 14541 ODOM lines: 910 resets (69 with garbage stamps) and 13631 raw lines, each one odometry sample
+    # (lines logged with one stamp, and stamps pooled by the fit, are moved 1 us apart), and one sample at
+    # each of the 910 scans holding the pose of the ODOM line before it.
+    assert summary.counts['/odom'] == 13631 + 910 and summary.counts['/tf'] == 13631 + 910
     assert summary.counts['/scan'] == 910 and summary.counts['/ground_truth/odom'] == 910
     assert summary.counts['/ground_truth/path'] == 1 and summary.counts['/tf_static'] == 1
     assert '910 ODOM lines repeat the corrected pose' in text and '69 of them with a time stamp other than 0' in text
     assert '629 lines have a stamp earlier than the line before' in text
     assert 'no-return value 81.830 m (4172 readings)' in text
+    assert 'rebuilt from the line order' not in text  # no garbage stamps among the timed lines
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
     scans = [m for _, m in bag['/scan']]
@@ -286,7 +564,7 @@ def test_aces_whole_log(tmp_path):
     log = data_path('carmen', 'aces-corrected.log.gz')
     out = str(tmp_path / 'aces.bag')
     summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out]))
-    assert summary.counts['/odom'] == 7374 and summary.counts['/scan'] == 440
+    assert summary.counts['/odom'] == 7374 + 440 and summary.counts['/scan'] == 440  # + a sample at each scan
     assert summary.counts['/ground_truth/odom'] == 440
     assert 'no-return value 50.000 m (620 readings)' in summary.text()
     assert 'going backwards' not in summary.text()
@@ -298,13 +576,32 @@ def test_aces_whole_log(tmp_path):
     assert bag['/odom'][-1][0] == pytest.approx(1365.63, abs=1e-3)
 
 
-def test_csail_robotlaser_log(tmp_path):
+def test_csail_robotlaser_log(tmp_path, capsys):
     log = data_path('freiburg_course', 'csail.log')
     out = str(tmp_path / 'csail.bag')
-    summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out]))
+    # No ODOM lines, so no raw odometry: refused unless an option says what the laser poses are.
+    code, _, err = run_main(carmen.main, [log, '-o', out, '-q'], capsys)
+    assert code == 1 and not os.path.exists(out)
+    assert 'expected raw odometry' in err and '--laser-poses odometry' in err and '--no-odometry' in err
+    assert 'got no ODOM line (686 ROBOTLASER1)' in err
+    # Its laser poses are corrected ones (an offline SLAM result): scans 4 and 665, taken where the robot came
+    # back after a 380 m loop, overlap within a few cm as placed by them (below). So they are the reference,
+    # and the bag has no odometry.
+    summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out, '--no-odometry']))
     assert summary.counts['/scan'] == 686 and summary.counts['/ground_truth/odom'] == 686
-    assert '/odom' not in summary.counts  # no ODOM lines: the laser poses are a reference, not odometry
+    assert '/odom' not in summary.counts and '/tf' not in summary.counts
+    assert 'no odometry written (--no-odometry)' in summary.text()
     bag = read_bag(out)
+
+    def points(k):  # scan k in the map frame, placed at its reference pose (laser pose = robot pose here)
+        scan, (x, y, th) = bag['/scan'][k][1], pose2(bag['/ground_truth/odom'][k][1])
+        r = np.array(scan.ranges)
+        a = th + scan.angle_min + scan.angle_increment * np.arange(len(r))
+        ok = np.isfinite(r) & (r < 20.0)
+        return np.column_stack([x + r[ok] * np.cos(a[ok]), y + r[ok] * np.sin(a[ok])])
+    p, q = points(4), points(665)
+    nearest = np.sqrt(np.min(np.sum((q[:, None, :] - p[None, :, :]) ** 2, axis=2), axis=1))
+    assert np.median(nearest) < 0.05  # raw odometry after 380 m would be off by metres
     s = bag['/scan'][0][1]
     assert len(s.ranges) == 361 and s.angle_min == pytest.approx(-math.pi / 2, abs=1e-6)
     assert s.angle_increment == pytest.approx(0.008727, abs=1e-6) and s.range_max == pytest.approx(80.0)
@@ -318,3 +615,20 @@ def test_limit_reads_the_first_lines(tmp_path):
     out = str(tmp_path / 'part.bag')
     summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out, '--limit', '200']))
     assert summary.counts['/scan'] == 3
+
+
+def test_intel_scan_odometry_follows_the_log_pairing(intel):
+    """On the Intel log, the odometry read at each scan's stamp is the raw pose of the ODOM line before the scan:
+    no scan-to-scan increment differs from the log's by more than 5 degrees (149 of 909 did when the re-timed
+    stamps let a later ODOM line's pose be read at a scan)."""
+    log, out, _ = intel
+    expected = log_pairing(log)
+    bag = read_bag(out)
+    got = odom_at(bag, header_stamps(bag, '/scan'))
+    assert len(got) == len(expected) == 910
+
+    def increments(p):
+        return np.array([cc.se2_between(p[i], p[i + 1]) for i in range(len(p) - 1)])
+    d = increments(got) - increments(expected)
+    assert int(np.sum(np.degrees(np.abs(cc.wrap_angle(d[:, 2]))) > 5.0)) == 0
+    assert np.max(np.abs(d[:, :2])) < 1e-6 and np.max(np.abs(cc.wrap_angle(d[:, 2]))) < 1e-6

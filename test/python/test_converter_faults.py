@@ -228,6 +228,15 @@ def test_output_folder_is_read_only(tmp_path, read_only_dir, name):
     assert 'permission denied' in line or 'operation not permitted' in line or 'read-only' in line, line
 
 
+@pytest.mark.parametrize('name', COMMANDS)
+def test_stamps_past_ros_time_are_refused(tmp_path, out_dir, name):
+    """ROS time holds the seconds as uint32: a stamp past 2^32 s (here from --time-offset) is one line on stderr
+    and no bag, not a crash while writing."""
+    r = run(name, *valid_input(name, tmp_path), '-o', out_dir / 'x.bag', '-q', '--time-offset', '5e9')
+    line = assert_fails_cleanly(r, name, out_dir, 'expected time stamps')
+    assert '2^32 s' in line and 'got 5' in line, line
+
+
 # --- 2. the inputs ---------------------------------------------------------------------------------
 
 
