@@ -170,6 +170,8 @@ OccupancyGrid::Tile& OccupancyGrid::mutableTile(int tx, int ty)
     p = std::make_shared<Tile>();
     p->cells.fill(0);
     p->coarse.fill(0);
+    if (config_.track_hits)
+      p->hit_at.assign(static_cast<std::size_t>(kTileSize * kTileSize), static_cast<std::uint16_t>(kHitCentre));
   }
   else if (p.use_count() > 1)
     p = std::make_shared<Tile>(*p);  // copy-on-write: another grid still reads the old one
@@ -247,9 +249,36 @@ void OccupancyGrid::updateRay(double sx, double sy, double ex, double ey, bool h
       ctx = tx;
       cty = ty;
     }
-    const int d = (hit && k + 1 == line_.size()) ? raw_hit_ : raw_free_;
-    addRaw(t, ix, iy, d);
+    const bool end = hit && k + 1 == line_.size();
+    if (end && !t->hit_at.empty())
+    {
+      // The hit's place in its cell, in 256ths, into the cell's running mean.
+      const double inv = 1.0 / config_.resolution;
+      const int hx = std::min(255, std::max(0, static_cast<int>((ex * inv - ix) * 256.0)));
+      const int hy = std::min(255, std::max(0, static_cast<int>((ey * inv - iy) * 256.0)));
+      std::uint16_t& at = t->hit_at[static_cast<std::size_t>(index(ix, iy))];
+      const int old = (*t)[static_cast<std::size_t>(index(ix, iy))];
+      if (old <= 0)
+        at = static_cast<std::uint16_t>((hx << 8) | hy);
+      else
+      {
+        const int n = std::min(15, old / std::max(1, raw_hit_)) + 1;
+        const auto toward = [n](int from, int to) {
+          const int d = to - from;  // at least one unit towards the hit, so the mean does not stick
+          return from + (d == 0 ? 0 : d > 0 ? std::max(1, d / n) : std::min(-1, d / n));
+        };
+        at = static_cast<std::uint16_t>((toward(at >> 8, hx) << 8) | toward(at & 255, hy));
+      }
+    }
+    addRaw(t, ix, iy, end ? raw_hit_ : raw_free_);
   }
+}
+
+void OccupancyGrid::hitPoint(int ix, int iy, double* x, double* y) const
+{
+  const int at = hitBytes(ix, iy);
+  *x = (ix + hitFraction(at >> 8)) * config_.resolution;
+  *y = (iy + hitFraction(at & 255)) * config_.resolution;
 }
 
 int OccupancyGrid::insertScan(const Pose2& sensor_pose, const ScanData& scan, const ScanLimits& limits)

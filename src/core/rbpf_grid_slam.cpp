@@ -15,7 +15,9 @@ RbpfGridSlam::RbpfGridSlam(const GridSlamConfig& config) : GridSlam(config), mat
 void RbpfGridSlam::resetMaps()
 {
   const std::size_t n = static_cast<std::size_t>(config_.particles);
-  maps_.assign(n, OccupancyGrid(config_.grid));
+  OccupancyGridConfig grid = config_.grid;
+  grid.track_hits = grid.track_hits || config_.matcher.sub_cell;  // the matcher reads the cells' hit points
+  maps_.assign(n, OccupancyGrid(grid));
   histories_.assign(n, nullptr);
   best_index_ = 0;
 }

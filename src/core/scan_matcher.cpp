@@ -8,6 +8,7 @@ namespace rbpf_slam
 {
 namespace core
 {
+
 std::string ScanMatcherConfig::validate() const
 {
   if (kernel < 0 || kernel > kMaxKernel)
@@ -34,6 +35,8 @@ std::string ScanMatcherConfig::validate() const
     return "rbpf/coarse_sigma must be > 0";
   if (coarse_beam_step < 1)
     return "rbpf/coarse_beam_step must be >= 1";
+  if (climb_beam_step < 1)
+    return "rbpf/climb_beam_step must be >= 1";
   if (coarse_refinements < 0)
     return "rbpf/coarse_refinements must be >= 0";
   if (!(std::isfinite(prior_weight) && prior_weight >= 0.0))
@@ -149,7 +152,34 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
       ax[d + k] = ex * ex;
       ay[d + k] = ey * ey;
     }
-    if (tile && !config_.free_check)
+    if (config_.sub_cell)
+    {
+      // Distances to each occupied cell's mean hit point instead of its centre.
+      const double bx = cx - fx, by = cy - fy;
+      for (int dy = -k; dy <= k; ++dy)
+        for (int dx = -k; dx <= k; ++dx)
+        {
+          int v, at;
+          if (tile && !config_.free_check && !tile->hit_at.empty())
+          {
+            const int i = OccupancyGrid::cellIndexInTile(cx + dx, cy + dy);
+            v = (*tile)[static_cast<std::size_t>(i)];
+            at = tile->hit_at[static_cast<std::size_t>(i)];
+          }
+          else
+          {
+            v = map.rawLogOdds(cx + dx, cy + dy);
+            if (v <= occ || (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ))
+              continue;
+            at = map.hitBytes(cx + dx, cy + dy);
+          }
+          const double ex = (bx + dx + OccupancyGrid::hitFraction(at >> 8)) * res;
+          const double ey = (by + dy + OccupancyGrid::hitFraction(at & 255)) * res;
+          const double d2 = ex * ex + ey * ey;
+          best = (v > occ && d2 < best) ? d2 : best;
+        }
+    }
+    else if (tile && !config_.free_check)
     {
       // In one tile the window's cells are rows of the tile's row-major array (branch-free inner loop).
       const OccupancyGrid::Cell* centre = tile->cells.data() + OccupancyGrid::cellIndexInTile(cx, cy);
@@ -332,7 +362,19 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
     fine.linear_step *= last;
     fine.angular_step *= last;
   }
-  ScanMatch best = climb(fine, map, from, sensor, end_points, prior, &evaluations);
+  ScanMatch best;
+  if (config_.climb_beam_step > 1)
+  {
+    // Climb on every climb_beam_step-th end point; score the end pose on all of them (the weight's figures).
+    Level sparse = fine;
+    sparse.beam_step *= config_.climb_beam_step;
+    const Pose2 end = climb(sparse, map, from, sensor, end_points, prior, &evaluations).pose;
+    Rotated cache;
+    best = evaluateAt(fine, map, end, sensor, end_points, &cache);
+    ++evaluations;
+  }
+  else
+    best = climb(fine, map, from, sensor, end_points, prior, &evaluations);
   best.evaluations = evaluations;
   return best;
 }

@@ -16,9 +16,9 @@ using namespace grid_test_world;
 
 namespace
 {
-OccupancyGrid roomMap()
+OccupancyGrid roomMap(const OccupancyGridConfig& config = OccupancyGridConfig())
 {
-  OccupancyGrid map;
+  OccupancyGrid map(config);
   const ScanLimits limits;
   const std::vector<Pose2> path = truePath();
   for (std::size_t i = 0; i < path.size(); i += 5)
@@ -328,4 +328,37 @@ TEST(GridRbpf, ParsesTheMode)
   GridSlamConfig c;
   c.matcher.beam_step = 0;
   EXPECT_NE(c.validate().find("beam_step"), std::string::npos);
+}
+
+TEST(GridRbpf, SubCellHitPointsMatchFinerThanACell)
+{
+  // Scans from poses off the cells' grid: matched against cell centres the pose is off by up to half a cell;
+  // against the cells' mean hit points it is found to a fraction of a cell.
+  OccupancyGridConfig tracking;
+  tracking.track_hits = true;
+  const OccupancyGrid map = roomMap(tracking);
+  ScanMatcherConfig centres;
+  centres.refinements = 6;
+  ScanMatcherConfig hits = centres;
+  hits.sub_cell = true;
+  double err_centres = 0.0, err_hits = 0.0;
+  Random pick(11);
+  const int n = 20;
+  for (int i = 0; i < n; ++i)
+  {
+    const Pose2 truth(pick.uniform(-1.0, 1.0), pick.uniform(-1.0, 1.0), pick.uniform(-0.5, 0.5));
+    std::vector<std::pair<double, double>> ends;
+    GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
+    const Pose2 start(truth.x + 0.02, truth.y - 0.015, truth.theta + 0.01);
+    const Pose2 a = ScanMatcher(centres).match(map, start, Pose2(), ends).pose;
+    const Pose2 b = ScanMatcher(hits).match(map, start, Pose2(), ends).pose;
+    err_centres += std::pow(a.x - truth.x, 2) + std::pow(a.y - truth.y, 2);
+    err_hits += std::pow(b.x - truth.x, 2) + std::pow(b.y - truth.y, 2);
+  }
+  err_centres = std::sqrt(err_centres / n);
+  err_hits = std::sqrt(err_hits / n);
+  std::cout << "match position error RMS: cell centres " << err_centres << " m, mean hit points " << err_hits
+            << " m\n";
+  EXPECT_LT(err_hits, 0.6 * err_centres);
+  EXPECT_LT(err_hits, 0.01);
 }

@@ -29,6 +29,9 @@ struct OccupancyGridConfig
   // Export: occupied above, free below (log-odds 0 = p 0.5 = never observed, or evidence that cancelled).
   float occupied_log_odds = 0.0f;  ///< cells with log-odds > this are occupied in trinary exports
   float free_log_odds = 0.0f;      ///< cells with log-odds < this are free in trinary exports
+  /// Keep each cell's mean hit point (Tile::hit_at; two bytes more per cell). The rbpf matcher's sub_cell
+  /// option turns it on for its maps.
+  bool track_hits = false;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
@@ -107,6 +110,12 @@ public:
   {
     std::array<Cell, kTileSize * kTileSize> cells;
     std::array<std::uint8_t, kCoarsePerTile * kCoarsePerTile> coarse;  // occupied cells per coarse cell
+    /// Where in each cell its hits lie (GMapping keeps the mean hit point per cell): x in the high byte, y in the
+    /// low one, in 256ths of the cell (see hitFraction()). A running mean: the first hit on a cell without hit
+    /// evidence sets it, each later one moves it by 1 / (n + 1) of the way, n the hits the cell's log-odds
+    /// holds (at most 15).
+    /// Empty unless the grid's config tracks hits.
+    std::vector<std::uint16_t> hit_at;
     Cell& operator[](std::size_t i) { return cells[i]; }
     Cell operator[](std::size_t i) const { return cells[i]; }
   };
@@ -145,6 +154,17 @@ public:
   int rawOccupiedThreshold() const { return raw_occupied_; }
   /** @brief The tile (tx, ty) (cells [tx * kTileSize, (tx + 1) * kTileSize) x ...), null if it does not exist. */
   const Tile* tileAt(int tx, int ty) const { return tile(tx, ty); }
+  /** @brief The position within its cell [0, 1) of a hit_at byte. */
+  static double hitFraction(int byte) { return (byte + 0.5) / 256.0; }
+  static constexpr int kHitCentre = 0x8080;  ///< hit_at of a cell without hits: about its centre
+  /** @brief The mean hit point of cell (ix, iy) in map coordinates (about the cell's centre where it has no tile). */
+  void hitPoint(int ix, int iy, double* x, double* y) const;
+  /** @brief The raw hit_at value of cell (ix, iy) (kHitCentre where it has no tile). */
+  int hitBytes(int ix, int iy) const
+  {
+    const Tile* t = tile(ix >> kTileBits, iy >> kTileBits);
+    return t && !t->hit_at.empty() ? t->hit_at[static_cast<std::size_t>(index(ix, iy))] : kHitCentre;
+  }
   /** @brief Index of cell (ix, iy) in its tile. */
   static int cellIndexInTile(int ix, int iy) { return index(ix, iy); }
 

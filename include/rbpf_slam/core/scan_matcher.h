@@ -36,9 +36,15 @@ struct ScanMatcherConfig
   int refinements = 5;             ///< step halvings before hill climbing stops
   int max_iterations = 100;        ///< cap on the moves of one match
   int beam_step = 1;               ///< match and weigh with every n-th hit beam
+  /// The fine climb moves on every n-th of those end points; the pose it ends at is scored on all of them (the
+  /// match's score, likelihood and matched count). 1 = the climb uses them all.
+  int climb_beam_step = 1;
   /// GMapping's test: a window cell counts only if the cell at the same offset from the point sqrt(2) cells back
   /// along the beam is not occupied.
   bool free_check = false;
+  /// Distances to the mean hit point of each occupied cell (OccupancyGrid::hitPoint, as GMapping keeps it)
+  /// instead of its centre: matches finer than a cell.
+  bool sub_cell = false;
   /// Coarse-to-fine: before the fine climb above, a climb on the map's coarse level (cells of 4 x 4 cells,
   /// OccupancyGrid::coarseCount): each end point looks for the nearest occupied coarse cell in a
   /// (2 coarse_kernel + 1)^2 window of coarse cells and scores exp(-d^2 / 2 coarse_sigma^2) with d to its centre;
