@@ -141,7 +141,8 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
     const OccupancyGrid::Tile* tile = one_tile ? map.tileAt(tx, ty) : nullptr;
     if (one_tile && !tile)
     {
-      m.log_likelihood += no_hit;
+      if (!config_.unknown_neutral)  // else a point in never-observed space tells nothing
+        m.log_likelihood += no_hit;
       continue;
     }
     // Squared distances along each axis from the end point to the window's cell centres.
@@ -210,7 +211,9 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
       m.log_likelihood += -best * inv_like;
       ++m.matched;
     }
-    else
+    else if (!config_.unknown_neutral || (tile ? (*tile)[static_cast<std::size_t>(
+                                                     OccupancyGrid::cellIndexInTile(cx, cy))] :
+                                                 map.rawLogOdds(cx, cy)) != 0)
       m.log_likelihood += no_hit;
   }
   return m;
@@ -348,6 +351,39 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
 
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                              const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const
+{
+  if (config_.unknown_neutral)
+  {
+    // The climb moves on the end points that fall in observed space at its start: one beyond the map's edge
+    // (a corridor's unmapped far end) would pull the match back onto the mapped part. The match is then scored
+    // on all of them, never-observed space counting for nothing.
+    std::vector<std::pair<double, double>> known;
+    known.reserve(end_points.size());
+    const Pose2 s = start * sensor;
+    const double c = std::cos(s.theta), sn = std::sin(s.theta), inv = 1.0 / map.resolution();
+    const int k = config_.kernel;
+    for (const auto& e : end_points)
+    {
+      const int cx = static_cast<int>(std::floor((s.x + c * e.first - sn * e.second) * inv));
+      const int cy = static_cast<int>(std::floor((s.y + sn * e.first + c * e.second) * inv));
+      bool observed = false;
+      for (int dy = -k; dy <= k && !observed; ++dy)
+        for (int dx = -k; dx <= k && !observed; ++dx)
+          observed = map.rawLogOdds(cx + dx, cy + dy) != 0;
+      if (observed)
+        known.push_back(e);
+    }
+    ScanMatch climbed = climbLevels(map, start, sensor, known, prior);
+    ScanMatch best = evaluate(map, climbed.pose, sensor, end_points);
+    best.evaluations = climbed.evaluations + 1;
+    return best;
+  }
+  return climbLevels(map, start, sensor, end_points, prior);
+}
+
+ScanMatch ScanMatcher::climbLevels(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                                   const std::vector<std::pair<double, double>>& end_points,
+                                   const MatchPrior* prior) const
 {
   int evaluations = 0;
   Pose2 from = start;

@@ -362,3 +362,53 @@ TEST(GridRbpf, SubCellHitPointsMatchFinerThanACell)
   EXPECT_LT(err_hits, 0.6 * err_centres);
   EXPECT_LT(err_hits, 0.01);
 }
+
+namespace
+{
+// A straight corridor 3 m wide along x, its walls mapped only up to x = 6 m; a 181-beam scan from x = 2 m
+// that sees the walls out to 25 m.
+ScanData corridorScan(double x0, double reach)
+{
+  ScanData scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 180;
+  scan.range_min = 0.02;
+  scan.range_max = 30.0;
+  for (int i = 0; i < 181; ++i)
+  {
+    const double a = scan.angle_min + i * scan.angle_increment;
+    const double s = std::sin(a);
+    double r = std::abs(s) > 1e-9 ? 1.5 / std::abs(s) : std::numeric_limits<double>::infinity();
+    if (x0 + r * std::cos(a) > reach)
+      r = std::numeric_limits<double>::infinity();
+    scan.ranges.push_back(static_cast<float>(r));
+  }
+  return scan;
+}
+}  // namespace
+
+TEST(GridRbpf, NeverObservedSpaceDoesNotPullACorridorMatchBack)
+{
+  OccupancyGrid map;
+  ScanLimits limits;
+  limits.range_max = 30.0;
+  limits.no_return_free_range = 0.0;
+  for (double x = -6.0; x <= 0.0; x += 0.5)  // scans that reach 6 m down the corridor
+    map.insertScan(Pose2(x, 0.0, 0.0), corridorScan(x, 6.0), limits);
+  const Pose2 truth(2.0, 0.0, 0.0);
+  std::vector<std::pair<double, double>> ends;
+  GridSlam::scanEndPoints(corridorScan(truth.x, 25.0), limits, 1, &ends);
+  ScanMatcherConfig config;
+  config.linear_step = 0.1;
+  const ScanMatch pulled = ScanMatcher(config).match(map, truth, Pose2(), ends);
+  config.unknown_neutral = true;
+  const ScanMatch neutral = ScanMatcher(config).match(map, truth, Pose2(), ends);
+  std::cout << "match along the corridor from the true pose: " << pulled.pose.x - truth.x << " m (end points past the "
+            << "map pull), " << neutral.pose.x - truth.x << " m (never-observed space neutral)\n";
+  EXPECT_LT(pulled.pose.x - truth.x, -0.1);  // slid back onto the mapped part
+  EXPECT_NEAR(neutral.pose.x, truth.x, 0.06);  // within about a cell: along the walls nothing holds it
+  EXPECT_LT(std::abs(neutral.pose.x - truth.x), 0.5 * std::abs(pulled.pose.x - truth.x));
+  EXPECT_NEAR(neutral.pose.y, truth.y, 0.03);
+  // The likelihood charges nothing for the end points past the map.
+  EXPECT_GT(neutral.log_likelihood, ScanMatcher(ScanMatcherConfig()).evaluate(map, truth, Pose2(), ends).log_likelihood);
+}
