@@ -158,3 +158,36 @@ def test_trajectory_eval_scores_a_run_against_the_bags_reference(tmp_path):
     r = subprocess.run(TRAJECTORY_EVAL + ['--bag', bag, os.path.join(out, 'map.yaml')],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and 'map.yaml' in r.stderr, r.stderr
+
+
+def test_grid_benchmark_scores_seeds_odometry_and_a_peer(tmp_path):
+    bag = _record_indoor_drive(tmp_path, 'indoor.bag')
+    # A peer that is the reference itself (paired by index, pose for pose): it must score 0.
+    with rosbag.Bag(bag) as b:
+        scans = [m.header.stamp.to_sec() for _, m, _ in b.read_messages(topics=['/scan'])]
+        truth = [(m.header.stamp.to_sec(), m.pose.pose.position.x, m.pose.pose.position.y,
+                  2.0 * np.arctan2(m.pose.pose.orientation.z, m.pose.pose.orientation.w))
+                 for _, m, _ in b.read_messages(topics=['/ground_truth/odom'])]
+    peer = tmp_path / 'peer.txt'
+    peer.write_text(''.join('%.9f %.9f %.9f %.9f\n' % p for p in truth))
+    keep = str(tmp_path / 'runs')
+    r = subprocess.run([sys.executable, os.path.join(ROOT, 'scripts', 'grid_benchmark'), '--bag', bag,
+                        '--seeds', '1,2', '--tolerance', '0.011', '--keep', keep, '--slam-bag', _tool('slam_bag'),
+                        '--peer', 'self=%s' % peer, '--peer-time', 'self=1,2'],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 0, r.stderr
+    rows = {line[:22].strip(): line[22:].split() for line in r.stdout.splitlines()[2:] if line[:22].strip()}
+    assert {'seed 1', 'seed 2', 'median', 'worst', 'odometry', 'self (given)'} <= set(rows), r.stdout
+    for seed in (1, 2):
+        ate_fit, ate_first = float(rows['seed %d' % seed][0]), float(rows['seed %d' % seed][1])
+        assert 0.0 < ate_fit <= ate_first < 0.3
+        assert os.path.isfile(os.path.join(keep, 'seed%d' % seed, 'estimate_best_history.tum'))
+    assert float(rows['worst'][0]) == max(float(rows['seed 1'][0]), float(rows['seed 2'][0]))
+    assert float(rows['odometry'][0]) > float(rows['worst'][0]), 'the filter beats dead reckoning'
+    assert float(rows['self (given)'][0]) < 1e-6 and rows['self (given)'][4] == '1.0'
+    assert len(scans) > 100
+    # The runner refused (a bag that does not exist): one line, exit 1.
+    r = subprocess.run([sys.executable, os.path.join(ROOT, 'scripts', 'grid_benchmark'), '--bag',
+                        str(tmp_path / 'none.bag')], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       universal_newlines=True)
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and 'none.bag' in r.stderr, r.stderr
