@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
 
 namespace rbpf_slam
 {
@@ -104,6 +105,31 @@ void GridSlam::reset()
   last_odometry_ = Pose2();
   last_stamp_ = 0.0;
   mapping_pose_ = Pose2();
+}
+
+GridMapMemory GridSlam::mapMemory() const
+{
+  GridMapMemory m;
+  m.particles = static_cast<int>(particles_.size());
+  std::unordered_set<const OccupancyGrid::Tile*> seen;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+  {
+    const OccupancyGrid& g = particleMap(i);
+    for (int ty = g.tileY0(); ty < g.tileY0() + g.tilesY(); ++ty)
+      for (int tx = g.tileX0(); tx < g.tileX0() + g.tilesX(); ++tx)
+      {
+        const OccupancyGrid::Tile* t = g.tileAt(tx, ty);
+        if (t != nullptr && seen.insert(t).second)
+          m.bytes += OccupancyGrid::tileBytes(*t);
+      }
+  }
+  m.tiles = seen.size();
+  if (!particles_.empty())
+  {
+    m.best_tiles = map().tileCount();
+    m.best_area = static_cast<double>(m.best_tiles) * map().tileArea();
+  }
+  return m;
 }
 
 const GridParticle& GridSlam::best() const

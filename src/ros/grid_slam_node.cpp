@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
@@ -41,6 +42,17 @@ GridSlamRosConfig readRosConfig(const RosParamSource& params)
   requireNonNegative(pnh, "tf_timeout", c.tf_timeout);
   requireNonNegative(pnh, "map_update_interval", c.map_update_interval);
   return c;
+}
+
+/** @brief The maps' memory in one line (GridSlam::mapMemory()). */
+std::string memoryReport(const core::GridSlam& filter)
+{
+  const core::GridMapMemory m = filter.mapMemory();
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "%zu distinct tiles in %.2f MB; best map %zu tiles, %.0f m^2; %.3f MB per particle per 1000 m^2",
+                m.tiles, m.megabytes(), m.best_tiles, m.best_area, m.megabytesPerParticlePer1000SquareMetres());
+  return line;
 }
 
 }  // namespace
@@ -249,6 +261,10 @@ void GridSlamRos::processScan(const sensor_msgs::LaserScan& msg, const core::Pos
     {
       publishMap(t);
       last_map_stamp_ = t;
+      // The report walks every particle's tile table: only when debug output is on (the arguments are evaluated
+      // only then).
+      ROS_DEBUG("%s: map memory after %zu processed scans: %s", name_.c_str(), updates_,
+                memoryReport(pipeline_->filter()).c_str());
     }
   }
 }

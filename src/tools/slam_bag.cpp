@@ -8,14 +8,16 @@
 //       [--method circle|centroid] [--out DIR] [--quiet]
 //   rosrun rbpf_slam slam_bag --filter grid --bag FILE [--scan /scan] [--odom /odom] [--base-frame base_link]
 //       [--particles N] [--seed S] [--config config/grid_slam.yaml] [--resampling low_variance|multinomial]
-//       [--wheels /wheel_ticks [--wheel-radius 0.127] [--track 0.7283] [--imu /imu/data --imu-weight W]]
+//       [--every-scan] [--wheels /wheel_ticks [--wheel-radius 0.127] [--track 0.7283] [--imu /imu/data --imu-weight W]]
 //       [--out DIR] [--quiet]
 //
 // --config is the filter's YAML (config/fastslam.yaml or config/grid_slam.yaml layout; repeated, each file overrides
 // the ones before it, e.g. config/fastslam.yaml then an odometry class of config/odometry/), --extraction-config the
 // trunk extraction's (config/trunk_extraction.yaml layout); one pair per sensor type, e.g. config/lego/;
-// --particles, --seed and --method override them. FastSLAM reads point clouds, or 2D scans when --scan is given, or
-// the detections of any landmark detector (rbpf_slam/TrunkArray in the sensor frame) when --landmarks is given.
+// --particles, --seed, --method and --every-scan override them (--every-scan: grid SLAM processes every scan, its
+// travel thresholds linear_update, angular_update and temporal_update all 0, whatever the files say; for benchmarks).
+// FastSLAM reads point clouds, or 2D scans when --scan is given, or the detections of any landmark detector
+// (rbpf_slam/TrunkArray in the sensor frame) when --landmarks is given.
 //
 // Every output file is written at the end, atomically (to a temporary, then renamed): a run that fails or is
 // interrupted (SIGINT, SIGTERM, SIGHUP) leaves no output behind. Messages whose stamps go back by more than a second
@@ -25,7 +27,8 @@
 // online estimate after each update, as the node publishes it), DIR/estimate_best_history.tum (the final best
 // particle's own trajectory), DIR/odometry.tum (TUM: t x y z qx qy qz qw; evo reads them), DIR/updates.csv (per
 // update: Neff, resampled, landmarks, observations, matched, new, deleted) and DIR/map.csv; grid writes DIR/estimate.tum and DIR/odometry.tum (one pose per scan), DIR/odometry_all.tum
-// (every odometry pose), DIR/map.yaml + DIR/map.pgm (map_server layout) and DIR/timing.txt.
+// (every odometry pose), DIR/map.yaml + DIR/map.pgm (map_server layout) and DIR/timing.txt; its timing files also
+// hold the maps' memory (distinct tiles, MB, the best map's area, MB per particle per 1000 m^2).
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -95,6 +98,7 @@ struct Options
   long seed = -1;  // the configuration's (0 by default)
   bool quiet = false;
   bool odometry_only = false;  // grid: a bag without scans (wheel odometry, with and without the gyro)
+  bool every_scan = false;  // grid: travel thresholds off (every scan processed), over the config files
   double wheel_radius = 0.127, track = 0.7283, imu_weight = 0.0;
 };
 
@@ -108,6 +112,8 @@ void usage(const char* argv0)
                "  fastslam: [--points TOPIC | --scan TOPIC | --landmarks TOPIC (rbpf_slam/TrunkArray, sensor frame)]\n"
                "            [--extraction-config YAML] [--method circle|centroid]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
+               "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
+               "             set to 0 over any --config; the defaults are 1 m, 0.5 rad, off; for benchmarks)]\n"
                "            [--wheels TOPIC [--wheel-radius M] [--track M] [--imu TOPIC] [--imu-weight W]]\n"
                "            [--odometry-only (a bag without scans: the odometry outputs only)]\n"
                "Runs a SLAM filter on a bag offline (fastslam: trunk extraction + FastSLAM on point clouds; grid:\n"
@@ -316,11 +322,14 @@ void replay(rosbag::Bag& bag, const std::vector<std::string>& topics,
   process(NAN, true);
 }
 
-std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, std::uint64_t seed)
+/** @brief timing.json: the counts and times; @p extra, when given, are further `"key": value` pairs. */
+std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, std::uint64_t seed,
+                       const std::string& extra = std::string())
 {
   std::ostringstream timing;
   timing << "{\"sweeps\": " << sweeps << ", \"updates\": " << updates << ", \"seconds_extraction\": " << extraction
-         << ", \"seconds_filter\": " << filter << ", \"particles\": " << particles << ", \"seed\": " << seed << "}\n";
+         << ", \"seconds_filter\": " << filter << ", \"particles\": " << particles << ", \"seed\": " << seed
+         << (extra.empty() ? "" : ", ") << extra << "}\n";
   return timing.str();
 }
 
@@ -511,6 +520,8 @@ int runGrid(const Options& o)
     gc.seed = static_cast<std::uint64_t>(o.seed);
   if (!o.resampling.empty() && !core::parseResamplingMethod(o.resampling, &gc.resampling.method))
     throw std::runtime_error("--resampling must be low_variance or multinomial, not '" + o.resampling + "'");
+  if (o.every_scan)
+    gc.linear_update = gc.angular_update = gc.temporal_update = 0.0;
   core::GridSlamPipeline pipeline(gc);
 
   // The scanner's mount from /tf_static (the first scan names its frame).
@@ -621,6 +632,7 @@ int runGrid(const Options& o)
   const int resets = pipeline.restarts();
   const core::GridSlam& slam = pipeline.filter();
   const double seconds = pipeline.secondsFilter(), worst = pipeline.worstSeconds();
+  const core::GridMapMemory memory = slam.mapMemory();
   if (!o.odometry_only && scans == 0)
     throw std::runtime_error(o.bag_path + ": no scan of " + o.scan_topic + " was used (" +
                              std::to_string(drops.count()) + " messages dropped; is there odometry on " +
@@ -642,21 +654,45 @@ int runGrid(const Options& o)
     out.stream("timing.txt") << "scans " << scans << "\nprocessed " << processed << "\nfilter_seconds " << seconds
                              << "\nms_per_scan " << 1e3 * seconds / std::max(1, scans) << "\nworst_ms " << 1e3 * worst
                              << "\nresamples " << resamples << "\nparticles " << gc.particles << "\nseed " << gc.seed
+                             << "\nlinear_update " << gc.linear_update << "\nangular_update " << gc.angular_update
+                             << "\ntemporal_update " << gc.temporal_update << "\nmap_tiles " << memory.tiles
+                             << "\nmap_mb " << memory.megabytes() << "\nbest_map_area_m2 " << memory.best_area
+                             << "\nmb_per_particle_per_1000m2 " << memory.megabytesPerParticlePer1000SquareMetres()
                              << "\n";
-    out.stream("timing.json") << timingJson(scans, processed, 0.0, seconds, gc.particles, gc.seed);
+    std::ostringstream extra;
+    extra.precision(12);
+    extra << "\"linear_update\": " << gc.linear_update << ", \"angular_update\": " << gc.angular_update
+          << ", \"temporal_update\": " << gc.temporal_update << ", \"map_tiles\": " << memory.tiles
+          << ", \"map_mb\": " << memory.megabytes() << ", \"best_map_area_m2\": " << memory.best_area
+          << ", \"mb_per_particle_per_1000m2\": " << memory.megabytesPerParticlePer1000SquareMetres();
+    out.stream("timing.json") << timingJson(scans, processed, 0.0, seconds, gc.particles, gc.seed, extra.str());
     out.commit();
   }
   if (!o.quiet)
   {
+    char thresholds[160];
+    if (o.every_scan)
+      std::snprintf(thresholds, sizeof(thresholds), "every scan: --every-scan turned the travel thresholds off");
+    else if (gc.temporal_update > 0.0)
+      std::snprintf(thresholds, sizeof(thresholds), "the others below the travel thresholds %g m, %g rad, %g s",
+                    gc.linear_update, gc.angular_update, gc.temporal_update);
+    else
+      std::snprintf(thresholds, sizeof(thresholds), "the others below the travel thresholds %g m, %g rad",
+                    gc.linear_update, gc.angular_update);
     std::printf("slam_bag grid: %s: %d scans, %d scans dropped (unreadable, stamps going backwards or not finite), "
-                "%d messages dropped in all, %d processed (the others below the travel thresholds), %d resamplings, "
-                "%d restarts (time jumped back)\n",
-                o.bag_path.c_str(), scans, drops.count(o.scan_topic), drops.count(), processed, resamples, resets);
+                "%d messages dropped in all, %d processed (%s), %d resamplings, %d restarts (time jumped back)\n",
+                o.bag_path.c_str(), scans, drops.count(o.scan_topic), drops.count(), processed, thresholds, resamples,
+                resets);
     const core::Pose2& p = slam.mappingPose();
     std::printf("  final pose (map frame = first scan's odometry pose): %.3f %.3f %.1f deg; %zu map tiles\n", p.x, p.y,
                 p.theta * 180.0 / M_PI, slam.map().tileCount());
     std::printf("  filter time %.2f s, %.3f ms per scan (worst %.1f ms), %d particles\n", seconds,
                 1e3 * seconds / std::max(1, scans), 1e3 * worst, gc.particles);
+    if (slam.initialised())
+      std::printf("  map memory: %zu distinct tiles (shared tiles once) in %.2f MB; best map %zu tiles, %.0f m^2; "
+                  "%.3f MB per particle per 1000 m^2 of map\n",
+                  memory.tiles, memory.megabytes(), memory.best_tiles, memory.best_area,
+                  memory.megabytesPerParticlePer1000SquareMetres());
     if (gc.mode == core::GridSlamMode::kRbpf && !o.odometry_only)
       std::printf("  scan matcher: %.1f poses scored per particle and processed scan\n",
                   static_cast<double>(evaluations) / std::max(1, processed) / std::max(1, gc.particles));
@@ -713,6 +749,8 @@ int main(int argc, char** argv)
         o.quiet = true;
       else if (a == "--odometry-only")
         o.odometry_only = true;
+      else if (a == "--every-scan")
+        o.every_scan = true;
       else if (a.compare(0, 2, "--") == 0 && !has)
         throw std::invalid_argument(a + " needs a value");
       else if (a == "--filter")
@@ -767,6 +805,8 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--landmarks goes with --filter fastslam, without --scan");
     if (o.filter == "fastslam" && o.odometry_only)
       throw std::invalid_argument("--odometry-only goes with --filter grid");
+    if (o.filter == "fastslam" && o.every_scan)
+      throw std::invalid_argument("--every-scan goes with --filter grid");
   }
   catch (const std::invalid_argument& e)
   {

@@ -148,8 +148,8 @@ TEST(GridSlamFaults, AStandingRobotAddsNothing)
     // The pose still follows the odometry in between.
     const Pose2 moved = slam->poseAt(Pose2(parked.x + 0.05, parked.y, parked.theta));
     EXPECT_NEAR(std::hypot(moved.x - slam->mappingPose().x, moved.y - slam->mappingPose().y), 0.05, 1e-9);
-    // Moving past the threshold, or waiting past temporal_update, processes again.
-    EXPECT_FALSE(slam->update(Pose2(parked.x + 0.2, parked.y, parked.theta), scan, Pose2(), 60.0).skipped);
+    // Moving past the threshold (the default, 1 m), or waiting past temporal_update, processes again.
+    EXPECT_FALSE(slam->update(Pose2(parked.x + 1.05, parked.y, parked.theta), scan, Pose2(), 60.0).skipped);
     c.temporal_update = 5.0;
     const std::unique_ptr<GridSlam> timed = GridSlam::create(c);
     timed->update(parked, scan, Pose2(), 0.0);

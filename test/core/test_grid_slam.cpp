@@ -71,6 +71,10 @@ RunResult runRoom(std::uint64_t seed, ResamplingMethod method)
   c.seed = seed;
   c.particles = 30;
   c.resampling.method = method;
+  // A scan every 0.1 m (every second one of the 0.05 m path): the filter's own accuracy in a small room, which
+  // the default thresholds (1 m, 0.5 rad: twenty path steps) would leave to the odometry between scans.
+  c.linear_update = 0.1;
+  c.angular_update = 0.05;
   const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
   const std::vector<Pose2> path = truePath();
   // Odometry drifts: 2 % too long and 0.02 rad/m of heading.
@@ -158,8 +162,9 @@ TEST(GridSlam, RefusesNonFinitePosesAndKeepsItsState)
     slam->update(path[0], scan, Pose2());
     ASSERT_TRUE(slam->initialised());
     const std::size_t tiles = slam->map().tileCount();
-    // After it: every non-finite pose or angle is refused and changes nothing.
-    const Pose2 moved(path[0].x + 0.5, path[0].y, path[0].theta);
+    // After it: every non-finite pose or angle is refused and changes nothing. (moved: past the default angular
+    // threshold, 0.5 rad, so that the last scan below is processed.)
+    const Pose2 moved(path[0].x + 0.5, path[0].y, path[0].theta + 0.6);
     EXPECT_THROW(slam->update(Pose2(nan, 0.0, 0.0), scan, Pose2()), std::invalid_argument);
     EXPECT_THROW(slam->update(Pose2(0.0, -inf, 0.0), scan, Pose2()), std::invalid_argument);
     EXPECT_THROW(slam->update(Pose2(0.0, 0.0, nan), scan, Pose2()), std::invalid_argument);
@@ -183,6 +188,165 @@ TEST(GridSlam, RefusesNonFinitePosesAndKeepsItsState)
     EXPECT_NO_THROW(slam->update(moved, simulateScan(moved), Pose2()));
     EXPECT_EQ(slam->lastOdometry().x, moved.x);
   }
+}
+
+TEST(GridSlam, DefaultTravelThresholdsAreGMappings)
+{
+  const GridSlamConfig c;
+  EXPECT_EQ(c.linear_update, 1.0);   // GMapping's linearUpdate
+  EXPECT_EQ(c.angular_update, 0.5);  // angularUpdate
+  EXPECT_EQ(c.temporal_update, 0.0);  // temporalUpdate off (GMapping: -1)
+}
+
+namespace
+{
+/** Every particle's pose and weights and the best map, for comparing a filter's state before and after. */
+struct FilterState
+{
+  std::vector<GridParticle> particles;
+  std::vector<std::int8_t> map;
+  std::vector<std::size_t> tiles;  // each particle's map
+  GridMapMemory memory;
+};
+
+FilterState stateOf(const GridSlam& slam)
+{
+  FilterState s;
+  s.particles = slam.particles();
+  int w, h;
+  MapOrigin o;
+  slam.map().exportProbabilities(&s.map, &w, &h, &o);
+  for (std::size_t i = 0; i < slam.particles().size(); ++i)
+    s.tiles.push_back(slam.particleMap(i).tileCount());
+  s.memory = slam.mapMemory();
+  return s;
+}
+
+void expectSameState(const FilterState& a, const FilterState& b)
+{
+  ASSERT_EQ(a.particles.size(), b.particles.size());
+  for (std::size_t i = 0; i < a.particles.size(); ++i)
+  {
+    EXPECT_EQ(a.particles[i].pose.x, b.particles[i].pose.x) << i;
+    EXPECT_EQ(a.particles[i].pose.y, b.particles[i].pose.y) << i;
+    EXPECT_EQ(a.particles[i].pose.theta, b.particles[i].pose.theta) << i;
+    EXPECT_EQ(a.particles[i].weight, b.particles[i].weight) << i;
+    EXPECT_EQ(a.particles[i].log_weight, b.particles[i].log_weight) << i;
+  }
+  EXPECT_EQ(a.map, b.map);
+  EXPECT_EQ(a.tiles, b.tiles);
+  EXPECT_EQ(a.memory.tiles, b.memory.tiles);
+  EXPECT_EQ(a.memory.bytes, b.memory.bytes);
+  EXPECT_EQ(a.memory.best_tiles, b.memory.best_tiles);
+}
+}  // namespace
+
+TEST(GridSlam, AStandingRobotChangesNothingUnderTheDefaultThresholds)
+{
+  for (const GridSlamMode mode : { GridSlamMode::kSingleMap, GridSlamMode::kRbpf })
+  {
+    SCOPED_TRACE(gridSlamModeName(mode));
+    GridSlamConfig c;  // the default travel thresholds
+    c.mode = mode;
+    c.particles = 10;
+    const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
+    const Pose2 start(-1.0, -1.5, 0.0), stand(0.0, -1.5, 0.0);
+    const Pose2 sensor(0.1, 0.0, 0.0);
+    EXPECT_TRUE(slam->update(start, simulateScan(start * sensor), sensor, 0.0).initialised);
+    // A drive of 1 m is one update.
+    const ScanData scan = simulateScan(stand * sensor);
+    const GridSlamStep driven = slam->update(stand, scan, sensor, 1.0);
+    EXPECT_FALSE(driven.skipped);
+    EXPECT_EQ(slam->lastOdometry().x, stand.x);
+    const FilterState before = stateOf(*slam);
+    ASSERT_GT(before.memory.tiles, 0u);
+    // Then the robot stands: the same scan at the same odometry pose, 1000 times, 25 ms apart.
+    for (int i = 1; i <= 1000; ++i)
+      ASSERT_TRUE(slam->update(stand, scan, sensor, 1.0 + 0.025 * i).skipped) << i;
+    expectSameState(before, stateOf(*slam));
+    EXPECT_NEAR(slam->mappingPose().x, slam->poseAt(stand).x, 1e-12);  // the pose stays the mapping pose
+    // Less than the thresholds is no update either (0.9 m, 0.45 rad); 1 m more is.
+    EXPECT_TRUE(slam->update(Pose2(stand.x + 0.9, stand.y, stand.theta + 0.45), scan, sensor, 30.0).skipped);
+    expectSameState(before, stateOf(*slam));
+    const Pose2 on(stand.x + 1.0, stand.y, stand.theta);
+    EXPECT_FALSE(slam->update(on, simulateScan(on * sensor), sensor, 31.0).skipped);
+    EXPECT_EQ(slam->lastOdometry().x, on.x);
+    // So does a turn of 0.5 rad on the spot.
+    const Pose2 turned(on.x, on.y, on.theta + 0.5);
+    EXPECT_FALSE(slam->update(turned, simulateScan(turned * sensor), sensor, 32.0).skipped);
+  }
+}
+
+namespace
+{
+/** One beam along the sensor's x axis, @p range long (a hit). */
+ScanData oneBeam(float range)
+{
+  ScanData s;
+  s.ranges = { range };
+  s.angle_min = 0.0;
+  s.angle_increment = 0.01;
+  s.range_max = 30.0;
+  return s;
+}
+}  // namespace
+
+TEST(GridSlam, MapMemoryCountsSharedTilesOnce)
+{
+  for (const bool hits : { false, true })
+  {
+    SCOPED_TRACE(hits ? "with hit points" : "without hit points");
+    GridSlamConfig c;
+    c.mode = GridSlamMode::kRbpf;
+    c.particles = 3;
+    c.grid.track_hits = hits;
+    c.linear_update = c.angular_update = 0.0;  // every scan
+    c.motion = OdometryMotionNoise{ 0.0, 0.0, 0.0, 0.0 };
+    c.proposal_sigma_xy = c.proposal_sigma_theta = 0.0;
+    c.resampling.neff_ratio = 0.0;  // never resample: each particle keeps its own map
+    const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
+    const std::size_t tile_bytes = sizeof(OccupancyGrid::Tile) + (hits ? 64 * 64 * sizeof(std::uint16_t) : 0);
+    const double tile_area = std::pow(64 * 0.05, 2);  // 3.2 m x 3.2 m
+    EXPECT_EQ(slam->mapMemory().tiles, 0u);
+    EXPECT_EQ(slam->mapMemory().megabytesPerParticlePer1000SquareMetres(), 0.0);
+    // Tile (0, 0) spans [0, 3.2) m on both axes. From its centre, a 3 m beam along x ends in tile (1, 0): the first
+    // scan makes two tiles, which all three particles share.
+    const Pose2 centre(1.6, 1.6, 0.0);
+    slam->update(centre, oneBeam(3.0f), Pose2(), 0.0);
+    GridMapMemory m = slam->mapMemory();
+    EXPECT_EQ(m.tiles, 2u);
+    EXPECT_EQ(m.bytes, 2 * tile_bytes);
+    EXPECT_EQ(m.best_tiles, 2u);
+    EXPECT_NEAR(m.best_area, 2 * tile_area, 1e-9);
+    EXPECT_EQ(m.particles, 3);
+    EXPECT_NEAR(m.megabytesPerParticlePer1000SquareMetres(), 2 * tile_bytes * 1e-6 / 3 / (2 * tile_area * 1e-3), 1e-12);
+    // A 1 m beam along y from the same place writes tile (0, 0) only: each particle then owns a copy of it, and
+    // tile (1, 0) stays shared: 3 + 1 distinct tiles, though each particle's map holds two.
+    const Pose2 up(1.6, 1.6, M_PI / 2);
+    EXPECT_FALSE(slam->update(up, oneBeam(1.0f), Pose2(), 1.0).skipped);
+    std::size_t held = 0;
+    for (std::size_t i = 0; i < 3; ++i)
+    {
+      held += slam->particleMap(i).tileCount();
+      EXPECT_TRUE(slam->particleMap(i).sharesTileWith(slam->particleMap((i + 1) % 3), 1, 0));
+      EXPECT_FALSE(slam->particleMap(i).sharesTileWith(slam->particleMap((i + 1) % 3), 0, 0));
+    }
+    EXPECT_EQ(held, 6u);
+    m = slam->mapMemory();
+    EXPECT_EQ(m.tiles, 4u);
+    EXPECT_EQ(m.bytes, 4 * tile_bytes);
+    EXPECT_EQ(m.best_tiles, 2u);
+    EXPECT_NEAR(m.best_area, 2 * tile_area, 1e-9);
+  }
+  // single_map: one map for all particles, its tiles counted once.
+  GridSlamConfig c;
+  c.particles = 30;
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
+  slam->update(Pose2(1.6, 1.6, 0.0), oneBeam(3.0f), Pose2(), 0.0);
+  const GridMapMemory m = slam->mapMemory();
+  EXPECT_EQ(m.tiles, 2u);
+  EXPECT_EQ(m.bytes, 2 * sizeof(OccupancyGrid::Tile));
+  EXPECT_EQ(m.particles, 30);
 }
 
 TEST(Resampling, MultinomialDrawsInProportionToTheWeights)

@@ -108,4 +108,15 @@ TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
   EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (README)
   EXPECT_EQ(c.proposal_motion_weight, 1.0);
   EXPECT_TRUE(params.unusedKeys().empty());
+  // The overlay sets no travel threshold: laid over grid_slam.yaml the node keeps its thresholds (1 m, 0.5 rad),
+  // laid over every-scan settings it keeps every scan.
+  EXPECT_EQ(c.linear_update, 1.0);
+  EXPECT_EQ(c.angular_update, 0.5);
+  EXPECT_EQ(c.temporal_update, 0.0);
+  core::GridSlamConfig every;
+  every.linear_update = every.angular_update = every.temporal_update = 0.0;
+  io::readGridSlamConfig(params, &every);
+  EXPECT_EQ(every.linear_update, 0.0);
+  EXPECT_EQ(every.angular_update, 0.0);
+  EXPECT_EQ(every.temporal_update, 0.0);
 }

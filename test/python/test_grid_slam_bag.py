@@ -1,8 +1,10 @@
 """The shared bag runner with the grid filter (slam_bag --filter grid).
 
 - The ESE 650 lidar path: a run written here in the course's exact .mat layout (Encoders, Hokuyo: a straight
-  corridor), converted by ese650_to_bag, mapped from wheel odometry: every scan is used and the walls land
-  where they are.
+  corridor), converted by ese650_to_bag, mapped from wheel odometry: every scan is used (--every-scan: the drive
+  is about the default travel threshold, 1 m) and the walls land where they are.
+- The travel thresholds: by default a scan is processed after 1 m or 0.5 rad; --every-scan processes every scan
+  whatever the --config files say; the summary line and the timing files say which, with the maps' memory.
 - The truth stays out: a simulated indoor drive and the same bag with every ground-truth topic stripped give
   byte-identical output.
 - trajectory_eval scores the run's TUM files against the bag's reference (the package's one evaluator).
@@ -10,7 +12,9 @@
 import filecmp
 import importlib.machinery
 import importlib.util
+import json
 import os
+import re
 import subprocess
 import sys
 
@@ -70,8 +74,9 @@ def test_ese650_lidar_path_on_a_hokuyo_file(tmp_path, capsys):
     assert code == 0, stdout
     out = str(tmp_path / 'out')
     r = subprocess.run([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--wheels', '/wheel_ticks', '--out', out,
-                        '--seed', '1'], stdout=subprocess.PIPE, universal_newlines=True, check=True)
+                        '--seed', '1', '--every-scan'], stdout=subprocess.PIPE, universal_newlines=True, check=True)
     assert '%d scans, 0 scans dropped' % len(scan_ts) in r.stdout, r.stdout
+    assert '%d processed (every scan' % len(scan_ts) in r.stdout, r.stdout
     est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
     odo = np.loadtxt(os.path.join(out, 'odometry.tum'), ndmin=2)
     assert len(est) == len(scan_ts)
@@ -119,6 +124,70 @@ def test_grid_truth_stripped_gives_identical_output(tmp_path):
     for name in ('estimate.tum', 'odometry.tum', 'map.pgm', 'map.yaml'):
         assert filecmp.cmp(os.path.join(outs[0], name), os.path.join(outs[1], name), shallow=False), name
     assert len(np.loadtxt(os.path.join(outs[0], 'estimate.tum'), ndmin=2)) > 100
+
+
+def _timing(out):
+    with open(os.path.join(out, 'timing.json')) as f:
+        timing = json.load(f)
+    with open(os.path.join(out, 'timing.txt')) as f:
+        text = dict(line.split() for line in f if line.strip())
+    return timing, text
+
+
+def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
+    bag = _record_indoor_drive(tmp_path, 'indoor.bag')
+    grid_yaml = os.path.join(ROOT, 'config', 'grid_slam.yaml')
+    rbpf_yaml = os.path.join(ROOT, 'config', 'grid_rbpf.yaml')
+    far = tmp_path / 'far.yaml'
+    far.write_text('linear_update: 20.0\nangular_update: 3.0\ntemporal_update: 100.0\n')
+
+    def run(name, *args):
+        out = str(tmp_path / name)
+        r = subprocess.run([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--out', out, '--seed', '5'] +
+                           list(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        assert r.returncode == 0, r.stderr
+        summary = r.stdout.splitlines()[0]
+        scans, processed = [int(w) for w in re.match(r'.*: (\d+) scans, .* (\d+) processed \(', summary).groups()]
+        return out, r.stdout, scans, processed
+
+    # The defaults (no file): a scan per metre of the 8 m drive, and the summary names the thresholds.
+    out, stdout, scans, processed = run('defaults')
+    assert scans > 300 and 8 <= processed <= 10, stdout
+    assert 'below the travel thresholds 1 m, 0.5 rad)' in stdout, stdout
+    timing, text = _timing(out)
+    assert (timing['updates'], timing['linear_update'], timing['angular_update'], timing['temporal_update']) == \
+        (processed, 1.0, 0.5, 0.0)
+    assert text['processed'] == str(processed) and text['linear_update'] == '1'
+    # --every-scan: every scan, whatever the files given (before or after it) set, rbpf's overlay included.
+    printed = {}
+    for name, args in (('every', ['--every-scan', '--config', grid_yaml]),
+                       ('every_over_files', ['--every-scan', '--config', grid_yaml, '--config', rbpf_yaml,
+                                             '--config', str(far), '--particles', '3']),
+                       ('every_first', ['--config', str(far), '--every-scan'])):
+        out, stdout, scans, processed = run(name, *args)
+        printed[name] = stdout
+        assert processed == scans > 300, stdout
+        assert '(every scan: --every-scan turned the travel thresholds off)' in stdout, stdout
+        timing, _ = _timing(out)
+        assert (timing['linear_update'], timing['angular_update'], timing['temporal_update']) == (0.0, 0.0, 0.0)
+    # Without --every-scan the far file's thresholds hold: only the first scan.
+    _, stdout, _, processed = run('far', '--config', str(far))
+    assert processed == 1 and 'travel thresholds 20 m, 3 rad, 100 s)' in stdout, stdout
+    # The memory report (rbpf, 3 particles, every scan): distinct tiles, MB, the best map's area in whole tiles
+    # of 3.2 m x 3.2 m, MB per particle per 1000 m^2 - printed and in both timing files.
+    timing, text = _timing(str(tmp_path / 'every_over_files'))
+    tiles, mb, area = timing['map_tiles'], timing['map_mb'], timing['best_map_area_m2']
+    assert tiles > 0 and mb > 0.0 and area > 0.0
+    best_tiles = area / (3.2 * 3.2)
+    assert abs(best_tiles - round(best_tiles)) < 1e-6 and 0 < best_tiles <= tiles
+    assert timing['mb_per_particle_per_1000m2'] == pytest.approx(mb / 3 / (area / 1000.0), rel=1e-9)
+    assert int(text['map_tiles']) == tiles and float(text['map_mb']) == pytest.approx(mb, rel=1e-9)
+    assert float(text['best_map_area_m2']) == pytest.approx(area, rel=1e-9)
+    assert float(text['mb_per_particle_per_1000m2']) == pytest.approx(timing['mb_per_particle_per_1000m2'], rel=1e-9)
+    assert 'map memory: %d distinct tiles (shared tiles once) in %.2f MB; best map %d tiles, %.0f m^2; %.3f MB per ' \
+        'particle per 1000 m^2 of map' % (tiles, mb, round(best_tiles), area,
+                                          timing['mb_per_particle_per_1000m2']) in printed['every_over_files'], \
+        printed['every_over_files']
 
 
 def test_trajectory_eval_scores_a_run_against_the_bags_reference(tmp_path):

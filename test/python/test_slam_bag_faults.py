@@ -110,6 +110,7 @@ def _one_line(stderr):
     (['--track', 'nan'], '--track must be a number'),
     (['--frobnicate', '1'], "unknown argument '--frobnicate'"),
     (['--out'], '--out needs a value'),
+    (['--filter', 'fastslam', '--every-scan'], '--every-scan goes with --filter grid'),
 ])
 def test_bad_arguments_are_one_line_usage_errors(tmp_path, args, says):
     r = _run('--filter', 'grid', '--bag', tmp_path / 'x.bag', *args)

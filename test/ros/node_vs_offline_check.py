@@ -6,6 +6,7 @@ short simulated forest drive (3D lidar) and a short indoor drive (2D scanner), r
 bag into the nodes with rosbag play --clock, and compares the nodes' path (the estimate at every update) with
 slam_bag's estimate.tum: the same number of poses, the same stamps, the same positions within TOLERANCE.
 """
+import json
 import math
 import os
 import shutil
@@ -133,9 +134,19 @@ class NodeVsOffline(unittest.TestCase):
     def test_grid_node_runs_the_offline_pipeline(self):
         bag = self.record('indoor', ['--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml')],
                           '3 0\n6 0\n7 1\n')
-        offline = self.offline(bag, ['--filter', 'grid', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml')])
+        # slam_bag gets the node's settings: the shipped file, then the travel thresholds the node was given.
+        thresholds = os.path.join(self.dir, 'grid_thresholds.yaml')
+        with open(thresholds, 'w') as f:
+            for key in ('linear_update', 'angular_update', 'temporal_update'):
+                f.write('%s: %r\n' % (key, float(rospy.get_param('grid_slam/' + key))))
+        offline = self.offline(bag, ['--filter', 'grid', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml'),
+                                     '--config', thresholds])
         node = self.play(bag, ['/scan', '/odom', '/tf', '/tf_static'], 'grid', len(offline))
         self.compare('grid', node, offline)
+        # Both ran updates and skipped scans between them.
+        with open(os.path.join(self.dir, 'indoor.bag.out', 'timing.json')) as f:
+            timing = json.load(f)
+        self.assertTrue(20 < timing['updates'] < timing['sweeps'], timing)
 
 
 if __name__ == '__main__':

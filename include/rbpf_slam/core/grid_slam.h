@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_GRID_SLAM_H
 #define RBPF_SLAM_CORE_GRID_SLAM_H
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -66,12 +67,13 @@ struct GridSlamConfig
   /// covariance of the increment), so a match far from where the odometry puts the particle counts less.
   /// 0 = off (GMapping's code weighs by the likelihood at the match only).
   double proposal_motion_weight = 0.0;
-  /// Travel thresholds (GMapping's linearUpdate / angularUpdate / temporalUpdate): a scan is processed only
-  /// after the odometry has moved this far [m] or turned this much [rad] since the last processed scan, or
-  /// (temporal_update > 0) this much time [s] has passed; the first scan is always processed. A standing robot
-  /// then adds nothing to the map or the particles, and a fast scanner costs less. 0 / 0 / 0: every scan.
-  double linear_update = 0.1;
-  double angular_update = 0.05;
+  /// Travel thresholds (GMapping's linearUpdate / angularUpdate / temporalUpdate, with GMapping's defaults 1 m,
+  /// 0.5 rad, off): a scan is processed only after the odometry has moved this far [m] or turned this much [rad]
+  /// since the last processed scan, or (temporal_update > 0) this much time [s] has passed; the first scan is
+  /// always processed. A standing robot then adds nothing to the map or the particles (and no memory), and a
+  /// fast scanner costs less. 0 / 0 / 0: every scan.
+  double linear_update = 1.0;
+  double angular_update = 0.5;
   double temporal_update = 0.0;
   /// `rbpf` mode: keep every particle's history (bestTrajectory(), the smoothed path); memory grows with the
   /// scans processed. A node that never asks for it turns it off.
@@ -100,6 +102,31 @@ struct GridSlamStep
   int beams_mapped = 0;
   int matches_trusted = 0;     ///< rbpf mode: particles whose scan match was trusted
   long matcher_evaluations = 0;  ///< rbpf mode: poses scored by the scan matcher, all particles (cost diagnostic)
+};
+
+/**
+ * @brief What the maps of all particles hold in memory (GridSlam::mapMemory()). Per-particle maps share tiles
+ * copy-on-write: a tile held by several particles counts once. Counted: each tile's storage (OccupancyGrid::Tile
+ * and its hit_at cells when kept); not counted: each map's table of tile pointers and the allocator's overhead.
+ */
+struct GridMapMemory
+{
+  std::size_t tiles = 0;       ///< distinct tiles held by all particles' maps
+  std::size_t bytes = 0;       ///< the storage of those tiles
+  std::size_t best_tiles = 0;  ///< tiles of the best map (map())
+  double best_area = 0.0;      ///< [m^2] the area the best map's tiles cover (best_tiles x a tile's area)
+  int particles = 0;           ///< particles holding the maps
+
+  /** @brief bytes in MB (10^6 bytes). */
+  double megabytes() const { return static_cast<double>(bytes) * 1e-6; }
+  /**
+   * @brief MB per particle per 1000 m^2 of the best map: megabytes() / particles / (best_area / 1000); 0 while
+   * nothing is mapped.
+   */
+  double megabytesPerParticlePer1000SquareMetres() const
+  {
+    return particles > 0 && best_area > 0.0 ? megabytes() / particles / (best_area * 1e-3) : 0.0;
+  }
 };
 
 /**
@@ -155,6 +182,11 @@ public:
    */
   virtual std::vector<Pose2> bestTrajectory() const { return {}; }
   const GridSlamConfig& config() const { return config_; }
+  /**
+   * @brief The memory the maps hold: distinct tiles of all particles' maps (shared tiles once), their bytes, and
+   * the area of the best map. Walks every particle's tile table: for reports, not for every scan.
+   */
+  GridMapMemory mapMemory() const;
   /** @brief The odometry pose of the last processed scan. */
   const Pose2& lastOdometry() const { return last_odometry_; }
 

@@ -200,6 +200,14 @@ public:
 
   /** @brief Number of tiles that exist. */
   std::size_t tileCount() const;
+  /** @brief The bytes tile @p t takes: the Tile itself and its hit_at cells (when kept). */
+  static std::size_t tileBytes(const Tile& t) { return sizeof(Tile) + t.hit_at.capacity() * sizeof(std::uint16_t); }
+  /** @brief [m^2] The area one tile covers (kTileSize x kTileSize cells). */
+  double tileArea() const
+  {
+    const double side = kTileSize * config_.resolution;
+    return side * side;
+  }
   /** @brief Tile bounds: tiles [tile_x0, tile_x0 + tiles_x) x [tile_y0, tile_y0 + tiles_y) may exist. */
   int tileX0() const { return tx0_; }
   int tileY0() const { return ty0_; }
