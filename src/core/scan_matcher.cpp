@@ -141,8 +141,7 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
     const OccupancyGrid::Tile* tile = one_tile ? map.tileAt(tx, ty) : nullptr;
     if (one_tile && !tile)
     {
-      if (!config_.unknown_neutral)  // else a point in never-observed space tells nothing
-        m.log_likelihood += no_hit;
+      m.log_likelihood += no_hit;
       continue;
     }
     // Squared distances along each axis from the end point to the window's cell centres.
@@ -211,9 +210,7 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
       m.log_likelihood += -best * inv_like;
       ++m.matched;
     }
-    else if (!config_.unknown_neutral || (tile ? (*tile)[static_cast<std::size_t>(
-                                                     OccupancyGrid::cellIndexInTile(cx, cy))] :
-                                                 map.rawLogOdds(cx, cy)) != 0)
+    else
       m.log_likelihood += no_hit;
   }
   return m;
@@ -352,11 +349,11 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                              const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const
 {
-  if (config_.unknown_neutral)
+  if (config_.climb_on_observed)
   {
     // The climb moves on the end points that fall in observed space at its start: one beyond the map's edge
     // (a corridor's unmapped far end) would pull the match back onto the mapped part. The match is then scored
-    // on all of them, never-observed space counting for nothing.
+    // on all of them.
     std::vector<std::pair<double, double>> known;
     known.reserve(end_points.size());
     const Pose2 s = start * sensor;

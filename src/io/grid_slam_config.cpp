@@ -54,7 +54,7 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   p.get("rbpf/beam_step", &c->matcher.beam_step);
   p.get("rbpf/climb_beam_step", &c->matcher.climb_beam_step);
   p.get("rbpf/sub_cell", &c->matcher.sub_cell);
-  p.get("rbpf/unknown_neutral", &c->matcher.unknown_neutral);
+  p.get("rbpf/climb_on_observed", &c->matcher.climb_on_observed);
   p.get("rbpf/free_check", &c->matcher.free_check);
   p.get("rbpf/coarse_kernel", &c->matcher.coarse_kernel);
   p.get("rbpf/coarse_sigma", &c->matcher.coarse_sigma);

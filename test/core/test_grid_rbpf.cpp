@@ -388,7 +388,7 @@ ScanData corridorScan(double x0, double reach)
 }
 }  // namespace
 
-TEST(GridRbpf, NeverObservedSpaceDoesNotPullACorridorMatchBack)
+TEST(GridRbpf, ClimbOnObservedSpaceDoesNotSlideBackAlongACorridor)
 {
   OccupancyGrid map;
   ScanLimits limits;
@@ -402,14 +402,15 @@ TEST(GridRbpf, NeverObservedSpaceDoesNotPullACorridorMatchBack)
   ScanMatcherConfig config;
   config.linear_step = 0.1;
   const ScanMatch pulled = ScanMatcher(config).match(map, truth, Pose2(), ends);
-  config.unknown_neutral = true;
+  config.climb_on_observed = true;
   const ScanMatch neutral = ScanMatcher(config).match(map, truth, Pose2(), ends);
   std::cout << "match along the corridor from the true pose: " << pulled.pose.x - truth.x << " m (end points past the "
-            << "map pull), " << neutral.pose.x - truth.x << " m (never-observed space neutral)\n";
+            << "map pull), " << neutral.pose.x - truth.x << " m (the climb on observed space)\n";
   EXPECT_LT(pulled.pose.x - truth.x, -0.1);  // slid back onto the mapped part
   EXPECT_NEAR(neutral.pose.x, truth.x, 0.06);  // within about a cell: along the walls nothing holds it
   EXPECT_LT(std::abs(neutral.pose.x - truth.x), 0.5 * std::abs(pulled.pose.x - truth.x));
   EXPECT_NEAR(neutral.pose.y, truth.y, 0.03);
-  // The likelihood charges nothing for the end points past the map.
-  EXPECT_GT(neutral.log_likelihood, ScanMatcher(ScanMatcherConfig()).evaluate(map, truth, Pose2(), ends).log_likelihood);
+  // The match is scored on all end points, as without the option.
+  EXPECT_DOUBLE_EQ(neutral.log_likelihood,
+                   ScanMatcher(ScanMatcherConfig()).evaluate(map, neutral.pose, Pose2(), ends).log_likelihood);
 }

@@ -45,11 +45,10 @@ struct ScanMatcherConfig
   /// Distances to the mean hit point of each occupied cell (OccupancyGrid::hitPoint, as GMapping keeps it)
   /// instead of its centre: matches finer than a cell.
   bool sub_cell = false;
-  /// Never-observed space is neutral: an end point whose cell was never observed and has no occupied cell in
-  /// its window adds nothing to the likelihood (not no_hit_distance), and the climb moves on the end points
-  /// that fall in observed space at its start. Without it a scan whose far end reaches past the map's edge
-  /// scores higher the further it slides back onto the mapped part (a long corridor).
-  bool unknown_neutral = false;
+  /// The climb moves on the end points whose window holds an observed cell at its start (the match is then
+  /// scored on all of them). Without it a scan whose far end reaches past the map's edge scores higher the
+  /// further it slides back onto the mapped part (a long corridor).
+  bool climb_on_observed = false;
   /// Coarse-to-fine: before the fine climb above, a climb on the map's coarse level (cells of 4 x 4 cells,
   /// OccupancyGrid::coarseCount): each end point looks for the nearest occupied coarse cell in a
   /// (2 coarse_kernel + 1)^2 window of coarse cells and scores exp(-d^2 / 2 coarse_sigma^2) with d to its centre;
