@@ -47,6 +47,8 @@ std::string GridSlamConfig::validate() const
   if (!(std::isfinite(linear_update) && linear_update >= 0.0) || !(std::isfinite(angular_update) && angular_update >= 0.0) ||
       !std::isfinite(temporal_update))
     return "linear_update and angular_update must be >= 0, temporal_update finite (<= 0: off)";
+  if (threads < 1 || threads > 64)
+    return "threads must be in 1..64, not " + std::to_string(threads);
   if (particles < 1 || particles > kMaxParticles)
     return "particles must be in 1.." + std::to_string(kMaxParticles) + ", not " + std::to_string(particles);
   const std::string r = resampling.validate();

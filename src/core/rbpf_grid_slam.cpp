@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 namespace rbpf_slam
 {
@@ -55,27 +56,59 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     prior.sigma_xy = std::max(std::hypot(s.trans, u.trans * s.rot1), config_.matcher.prior_floor_xy);
     prior.sigma_theta = std::max(std::hypot(s.rot1, s.rot2), config_.matcher.prior_floor_theta);
   }
+  // The random draws first, in particle order: the odometry sample and the jitter around the match (drawn
+  // whether or not the match is trusted), so the result does not depend on the threads.
+  predicted_.resize(n);
+  jitter_.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    predicted_[i] = sampleOdometryMotion(particles_[i].pose, u, config_.motion, random_);
+    jitter_[i] = Pose2(random_.gaussian(config_.proposal_sigma_xy), random_.gaussian(config_.proposal_sigma_xy),
+                       random_.gaussian(config_.proposal_sigma_theta));
+  }
+  // Proposal: each particle's odometry sample, scan-matched against its own map (independent per particle: read
+  // only, so the matches may run on several threads).
+  matches_.resize(n);
+  trusted_.assign(n, 0);
+  const auto match_range = [&](std::size_t first, std::size_t stride) {
+    for (std::size_t i = first; i < n; i += stride)
+    {
+      MatchPrior own = prior;
+      own.centre = predicted_[i];
+      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, &own);
+      trusted_[i] = used > 0 && static_cast<double>(matches_[i].matched) >= min_matched;
+      if (!trusted_[i])  // weighed at the odometry sample, which the particle keeps
+      {
+        const int evaluations = matches_[i].evaluations;
+        matches_[i] = matcher_.evaluate(maps_[i], predicted_[i], sensor, end_points_);
+        matches_[i].evaluations += evaluations;
+      }
+    }
+  };
+  const std::size_t threads = std::min<std::size_t>(static_cast<std::size_t>(config_.threads), n);
+  if (threads <= 1)
+    match_range(0, 1);
+  else
+  {
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < threads; ++t)
+      pool.emplace_back(match_range, t, threads);
+    match_range(0, threads);
+    for (auto& thread : pool)
+      thread.join();
+  }
   for (std::size_t i = 0; i < n; ++i)
   {
     GridParticle& p = particles_[i];
-    // Proposal: odometry sample, scan-matched against the particle's own map, then a small Gaussian around the
-    // match. The weight is the likelihood at the match (GMapping's "best score" normaliser).
-    const Pose2 predicted = sampleOdometryMotion(p.pose, u, config_.motion, random_);
-    prior.centre = predicted;
-    ScanMatch m = matcher_.match(maps_[i], predicted, sensor, end_points_, &prior);
+    const ScanMatch& m = matches_[i];
     step.matcher_evaluations += m.evaluations;
-    Pose2 pose;
-    if (used > 0 && static_cast<double>(m.matched) >= min_matched)
+    // The pose: a small Gaussian around a trusted match (the weight is the likelihood at the match, GMapping's
+    // "best score" normaliser), else the odometry sample itself.
+    Pose2 pose = predicted_[i];
+    if (trusted_[i])
     {
-      pose = Pose2(m.pose.x + random_.gaussian(config_.proposal_sigma_xy),
-                   m.pose.y + random_.gaussian(config_.proposal_sigma_xy),
-                   wrapAngle(m.pose.theta + random_.gaussian(config_.proposal_sigma_theta)));
+      pose = Pose2(m.pose.x + jitter_[i].x, m.pose.y + jitter_[i].y, wrapAngle(m.pose.theta + jitter_[i].theta));
       ++step.matches_trusted;
-    }
-    else
-    {
-      pose = predicted;
-      m = matcher_.evaluate(maps_[i], predicted, sensor, end_points_);
     }
     double motion_log = 0.0;
     if (config_.proposal_motion_weight > 0.0)

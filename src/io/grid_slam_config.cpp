@@ -24,6 +24,7 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   if (p.get("mode", &name) && !core::parseGridSlamMode(name, &c->mode))
     throw std::runtime_error("invalid parameter: mode must be 'single_map' or 'rbpf' (got '" + name + "')");
   p.get("particles", &c->particles);
+  p.get("threads", &c->threads);
   p.getSeed("seed", &c->seed);
   readResamplingPolicy(p, &c->resampling);
   p.get("correlation_gain", &c->correlation_gain);

@@ -414,3 +414,42 @@ TEST(GridRbpf, ClimbOnObservedSpaceDoesNotSlideBackAlongACorridor)
   EXPECT_DOUBLE_EQ(neutral.log_likelihood,
                    ScanMatcher(ScanMatcherConfig()).evaluate(map, neutral.pose, Pose2(), ends).log_likelihood);
 }
+
+TEST(GridRbpf, ThreadsGiveTheSameResult)
+{
+  // The random draws are made before the matches, in particle order: two or three threads give the one-thread run.
+  const std::vector<Pose2> path = truePath();
+  std::vector<std::vector<Pose2>> runs;
+  for (int threads : { 1, 2, 3 })
+  {
+    GridSlamConfig config;
+    config.mode = GridSlamMode::kRbpf;
+    config.particles = 7;
+    config.threads = threads;
+    config.linear_update = config.angular_update = 0.0;
+    auto slam = GridSlam::create(config);
+    Random drift(4);
+    Pose2 odometry;
+    for (std::size_t i = 0; i < path.size(); i += 3)
+    {
+      if (i > 0)
+        odometry = odometry * (path[i - 3].inverse() * path[i]) * Pose2(0.002, 0.0, drift.gaussian(0.01));
+      slam->update(odometry, simulateScan(path[i]), Pose2());
+    }
+    runs.push_back(slam->bestTrajectory());
+  }
+  ASSERT_GT(runs[0].size(), 10u);
+  for (std::size_t r = 1; r < runs.size(); ++r)
+  {
+    ASSERT_EQ(runs[r].size(), runs[0].size());
+    for (std::size_t k = 0; k < runs[0].size(); ++k)
+    {
+      EXPECT_EQ(runs[r][k].x, runs[0][k].x);
+      EXPECT_EQ(runs[r][k].y, runs[0][k].y);
+      EXPECT_EQ(runs[r][k].theta, runs[0][k].theta);
+    }
+  }
+  GridSlamConfig bad;
+  bad.threads = 0;
+  EXPECT_NE(bad.validate(), "");
+}

@@ -39,6 +39,9 @@ struct GridSlamConfig
   /// Upper bound of `particles`: each particle owns a map (tens of MB apiece on a building in rbpf mode).
   static constexpr int kMaxParticles = 5000;
   int particles = 30;
+  /// `rbpf` mode: threads that scan-match the particles (each particle's match is independent; the random draws
+  /// are made before, in particle order, so any number of threads gives the same result). 1 = none started.
+  int threads = 1;
   std::uint64_t seed = 0;
   /// Noise of each odometry increment (one per scan). An accuracy class for indoor wheel odometry on a
   /// flat floor: 5 % of a rotation, 0.01 rad per metre, 2 % of the distance; not fitted to a log.

@@ -40,6 +40,10 @@ private:
   std::vector<OccupancyGrid> maps_;  ///< one per particle
   std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
   std::size_t best_index_ = 0;
+  // Per step, per particle: the odometry sample, the jitter around its match, the match, whether it is trusted.
+  std::vector<Pose2> predicted_, jitter_;
+  std::vector<ScanMatch> matches_;
+  std::vector<char> trusted_;
 };
 
 }  // namespace core
