@@ -362,6 +362,19 @@ TEST(GridRbpf, SubCellHitPointsMatchFinerThanACell)
             << " m\n";
   EXPECT_LT(err_hits, 0.6 * err_centres);
   EXPECT_LT(err_hits, 0.01);
+  // The room's south wall lies at y = -3 m, on the edge of its cells (centres at -2.975 m): their mean hit points
+  // lie on it.
+  int ix, iy;
+  map.cellOf(0.01, -2.999, &ix, &iy);
+  ASSERT_TRUE(map.occupied(ix, iy));
+  double hx, hy;
+  map.hitPoint(ix, iy, &hx, &hy);
+  EXPECT_NEAR(hy, -3.0, 0.002);
+  EXPECT_GE(hx, ix * map.resolution());
+  EXPECT_LT(hx, (ix + 1) * map.resolution());
+  OccupancyGrid untracked = roomMap();  // without track_hits: the centre
+  untracked.hitPoint(ix, iy, &hx, &hy);
+  EXPECT_NEAR(hy, -3.0 + 0.5 * map.resolution(), 0.001);
 }
 
 namespace
