@@ -54,21 +54,8 @@ Pose2 AckermannRobot::readOdometry(double* linear_velocity, double* angular_velo
                     random_->gaussian(odometry_.speed_sigma * std::sqrt(std::abs(travel_)));
   const double steer = steer_ + odometry_.steer_bias + random_->gaussian(odometry_.steer_sigma);
   travel_ = 0.0;
-  const double dth = ds * std::tan(steer) / odometry_.wheelbase;
-  const double mid = odom_pose_.theta + 0.5 * dth;
-  odom_pose_.x += ds * std::cos(mid);
-  odom_pose_.y += ds * std::sin(mid);
-  odom_pose_.theta = wrapAngle(odom_pose_.theta + dth);
-  if (dt_since_last > 0.0)
-  {
-    *linear_velocity = ds / dt_since_last;
-    *angular_velocity = dth / dt_since_last;
-  }
-  else
-  {
-    *linear_velocity = *angular_velocity = 0.0;
-  }
-  return odom_pose_;
+  return integrateOdometry(ds, ds * std::tan(steer) / odometry_.wheelbase, dt_since_last, &odom_pose_,
+                           linear_velocity, angular_velocity);
 }
 
 }  // namespace core

@@ -114,21 +114,20 @@ Pose2 DiffDriveRobot::readOdometry(double* linear_velocity, double* angular_velo
   const double l = measure(left_travel_, odometry_.left_scale);
   const double r = measure(right_travel_, odometry_.right_scale);
   left_travel_ = right_travel_ = 0.0;
-  const double ds = 0.5 * (l + r), dth = (r - l) / odometry_.track_width;
-  const double mid = odom_pose_.theta + 0.5 * dth;
-  odom_pose_.x += ds * std::cos(mid);
-  odom_pose_.y += ds * std::sin(mid);
-  odom_pose_.theta = wrapAngle(odom_pose_.theta + dth);
-  if (dt_since_last > 0.0)
-  {
-    *linear_velocity = ds / dt_since_last;
-    *angular_velocity = dth / dt_since_last;
-  }
-  else
-  {
-    *linear_velocity = *angular_velocity = 0.0;
-  }
-  return odom_pose_;
+  return integrateOdometry(0.5 * (l + r), (r - l) / odometry_.track_width, dt_since_last, &odom_pose_,
+                           linear_velocity, angular_velocity);
+}
+
+Pose2 Robot::integrateOdometry(double ds, double dth, double dt, Pose2* odom, double* linear_velocity,
+                               double* angular_velocity)
+{
+  const double mid = odom->theta + 0.5 * dth;
+  odom->x += ds * std::cos(mid);
+  odom->y += ds * std::sin(mid);
+  odom->theta = wrapAngle(odom->theta + dth);
+  *linear_velocity = dt > 0.0 ? ds / dt : 0.0;
+  *angular_velocity = dt > 0.0 ? dth / dt : 0.0;
+  return *odom;
 }
 
 }  // namespace core

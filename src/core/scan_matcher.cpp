@@ -9,6 +9,23 @@ namespace rbpf_slam
 namespace core
 {
 
+namespace
+{
+/**
+ * @brief Squared distances along each axis [m^2] from the point (fx, fy) (in cells) to the centres of the cells
+ * cx - k .. cx + k and cy - k .. cy + k of a window (cell size @p res): ax[d + k], ay[d + k].
+ */
+inline void axisDistances(int cx, int cy, double fx, double fy, double res, int k, double* ax, double* ay)
+{
+  for (int d = -k; d <= k; ++d)
+  {
+    const double ex = (cx + d + 0.5 - fx) * res, ey = (cy + d + 0.5 - fy) * res;
+    ax[d + k] = ex * ex;
+    ay[d + k] = ey * ey;
+  }
+}
+}  // namespace
+
 std::string ScanMatcherConfig::validate() const
 {
   if (kernel < 0 || kernel > kMaxKernel)
@@ -144,14 +161,8 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
       m.log_likelihood += no_hit;
       continue;
     }
-    // Squared distances along each axis from the end point to the window's cell centres.
     double ax[2 * kMaxKernel + 1], ay[2 * kMaxKernel + 1];
-    for (int d = -k; d <= k; ++d)
-    {
-      const double ex = (cx + d + 0.5 - fx) * res, ey = (cy + d + 0.5 - fy) * res;
-      ax[d + k] = ex * ex;
-      ay[d + k] = ey * ey;
-    }
+    axisDistances(cx, cy, fx, fy, res, k, ax, ay);
     if (config_.sub_cell)
     {
       // Distances to each occupied cell's mean hit point instead of its centre.
@@ -241,12 +252,7 @@ ScanMatch ScanMatcher::evaluateCoarse(const Level& level, const OccupancyGrid& m
     if (one_tile && !tile)
       continue;
     double ax[2 * kMaxCoarseKernel + 1], ay[2 * kMaxCoarseKernel + 1];
-    for (int d = -k; d <= k; ++d)
-    {
-      const double ex = (cx + d + 0.5 - fx) * res, ey = (cy + d + 0.5 - fy) * res;
-      ax[d + k] = ex * ex;
-      ay[d + k] = ey * ey;
-    }
+    axisDistances(cx, cy, fx, fy, res, k, ax, ay);
     if (tile)
     {
       const std::uint8_t* centre = tile->coarse.data() + OccupancyGrid::coarseIndex(cx, cy);

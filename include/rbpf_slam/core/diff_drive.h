@@ -92,6 +92,14 @@ public:
    * (frame odom, starting at identity) and returns it.
    */
   virtual Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) = 0;
+
+protected:
+  /**
+   * @brief What every odometry read ends with: moves @p odom by the measured arc (@p ds along the heading halfway
+   * through the turn @p dth), sets the velocities over @p dt (0 for dt <= 0) and returns the new pose.
+   */
+  static Pose2 integrateOdometry(double ds, double dth, double dt, Pose2* odom, double* linear_velocity,
+                                 double* angular_velocity);
 };
 
 /** @brief The robot of @p robot.model. @p random must outlive it. */
