@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/path_follower.h"
 #include "rbpf_slam/io/fastslam_config.h"
@@ -97,7 +98,7 @@ struct Series
 int main(int argc, char** argv)
 {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
-  std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml";
+  std::string world_path;  // default: the package's config/worlds/paper_forest.yaml
   std::string drive = "straight", methods = "circle", particle_list = "100", proposals = "fastslam1";
   int seeds = 20, first_seed = 1;
   bool ideal = false;  // diagnostic: odometry without noise, mismatch or latency
@@ -196,6 +197,8 @@ int main(int argc, char** argv)
   {
     if (!(gate > 0.0) || fail_ate < 0.0)
       throw std::runtime_error("--gate must be > 0 and --fail-ate >= 0");
+    if (world_path.empty())
+      world_path = tools::packageFile("config/worlds/paper_forest.yaml");
     const core::ForestWorld world = io::loadForestWorld(world_path);
     core::ScenarioConfig scenario;
     // Configuration files: each key a file gives must be one its reader knows.

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/io/world_file.h"
@@ -221,7 +222,7 @@ int main(int argc, char** argv)
         for (const char* method : { "circle", "centroid" })
         {
           const core::ForestWorld world =
-              io::loadForestWorld(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/" + name + ".yaml");
+              io::loadForestWorld(tools::packageFile(std::string("config/worlds/") + name + ".yaml"));
           core::ForestSlamRunConfig cfg;
           cfg.scenario.drive = core::straightDrive();
           core::parseTrunkMethod(method, &cfg.detector.method);

@@ -8,7 +8,7 @@
 //   --robot YAML: the robot's constants (default config/lego/robot.yaml of the package, which lego_to_bag
 //   reads too: tick, track width, the scanner's offset and mounting angle, beam step, valid ranges, start pose).
 //
-// Layout (see ../shared/data/README.md): robot4_scan.txt "S ts n r0 ... r(n-1)" [mm], beam i at
+// Layout: robot4_scan.txt "S ts n r0 ... r(n-1)" [mm], beam i at
 // (i - n/2) * beam_increment + scanner_yaw rad, ranges below range_min invalid; robot4_reference.txt
 // "P ts x y" [mm] (overhead camera); robot4_motors.txt "M ts left . . . right ..." cumulative ticks;
 // robot_arena_landmarks.txt "L C x y r". The heading for "in view" comes from the wheel ticks (the reference
@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/trunk_detector.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/param_source.h"
@@ -106,8 +107,8 @@ std::vector<std::vector<double>> readRecords(const std::string& path, char tag, 
 int main(int argc, char** argv)
 {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
-  std::string dir = "../shared/data/brenner_lego";
-  std::string robot_path = RBPF_SLAM_SOURCE_DIR "/config/lego/robot.yaml";
+  std::string dir;         // default: $RBPF_SLAM_DATA/brenner_lego
+  std::string robot_path;  // default: the package's config/lego/robot.yaml
   std::string method;
   std::string config_path, dump_path;
   bool verbose = false;
@@ -130,13 +131,17 @@ int main(int argc, char** argv)
     {
       std::fprintf(stderr,
                    "usage: %s [--data DIR] [--robot YAML] [--config YAML] [--method circle|centroid] [--dump CSV] "
-                   "[--verbose]\n",
+                   "[--verbose]\n"
+                   "  --data DIR   the LEGO robot logs (default: $RBPF_SLAM_DATA/brenner_lego)\n",
                    argv[0]);
       return 2;
     }
   }
   try
   {
+    dir = tools::dataDir(dir, "brenner_lego", "lego_trunks");
+    if (robot_path.empty())
+      robot_path = tools::packageFile("config/lego/robot.yaml");
     const LegoRobot robot = readRobot(robot_path);
     const auto scans = readRecords(dir + "/robot4_scan.txt", 'S', 0);
     const auto refs = readRecords(dir + "/robot4_reference.txt", 'P', 0);

@@ -16,6 +16,7 @@
 
 #include <pcl/console/print.h>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/forest_simulator.h"
 #include "rbpf_slam/core/forest_slam_runner.h"
 #include "rbpf_slam/core/random.h"
@@ -50,8 +51,7 @@ int bandOf(double range)
 int main(int argc, char** argv)
 {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
-  std::string world_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/park.yaml";
-  std::string cars_path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/park.cars.txt";
+  std::string world_path, cars_path;  // default: the package's config/worlds/park.yaml and park.cars.txt
   double step = 10.0;
   int min_beams = -1;
   double min_jump = -1.0;
@@ -76,6 +76,10 @@ int main(int argc, char** argv)
   }
   try
   {
+    if (world_path.empty())
+      world_path = tools::packageFile("config/worlds/park.yaml");
+    if (cars_path.empty())
+      cars_path = tools::packageFile("config/worlds/park.cars.txt");
     const core::ForestWorld world = io::loadForestWorld(world_path);
     // Parked cars: boxes of the default size (4.5 x 1.8 x 1.5 m).
     const std::vector<core::BoxSpec> cars =

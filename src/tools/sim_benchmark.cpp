@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/forest_simulator.h"
 #include "rbpf_slam/core/scenario.h"
 #include "rbpf_slam/io/world_file.h"
@@ -132,8 +133,8 @@ int main(int argc, char** argv)
   const bool default_worlds = worlds.empty();
   if (default_worlds)
   {
-    worlds.push_back(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml");
-    worlds.push_back(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/dense_forest.yaml");
+    worlds.push_back(tools::packageFile("config/worlds/paper_forest.yaml"));
+    worlds.push_back(tools::packageFile("config/worlds/dense_forest.yaml"));
   }
   try
   {

@@ -15,6 +15,7 @@
 
 #include <pcl/console/print.h>
 
+#include "package_dir.h"
 #include "rbpf_slam/core/forest_simulator.h"
 #include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/trunk_detector.h"
@@ -313,8 +314,8 @@ int main(int argc, char** argv)
   }
   if (worlds.empty())
   {
-    worlds.push_back(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/paper_forest.yaml");
-    worlds.push_back(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/worlds/dense_forest.yaml");
+    worlds.push_back(tools::packageFile("config/worlds/paper_forest.yaml"));
+    worlds.push_back(tools::packageFile("config/worlds/dense_forest.yaml"));
   }
   try
   {
