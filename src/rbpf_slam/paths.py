@@ -1,0 +1,37 @@
+"""Where the tools find the package's own files and the data sets.
+
+* :func:`package_file`: a file of the package (``config/...``): in the source tree beside this module when run
+  from it, else where ROS finds the package (``share/rbpf_slam`` of an install space).
+* :func:`data_dir`: a data set's folder: the one given, else ``$RBPF_SLAM_DATA/<name>``.
+"""
+import os
+
+DATA_ENV = 'RBPF_SLAM_DATA'
+
+
+def package_dir():
+    """The package's folder (the one holding config/ and launch/)."""
+    here = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
+    if os.path.isfile(os.path.join(here, 'package.xml')) and os.path.isdir(os.path.join(here, 'config')):
+        return here
+    try:
+        import rospkg
+        return rospkg.RosPack().get_path('rbpf_slam')
+    except Exception as e:  # rospkg missing, or the package not on ROS_PACKAGE_PATH
+        raise RuntimeError('cannot find the package rbpf_slam (is a workspace\'s setup.bash sourced?): %s' % e)
+
+
+def package_file(*parts):
+    """A file of the package, e.g. package_file('config', 'grid_slam.yaml')."""
+    return os.path.join(package_dir(), *parts)
+
+
+def data_dir(given, name=''):
+    """The folder of a data set: ``given`` if set, else $RBPF_SLAM_DATA/name; ValueError naming both if neither."""
+    if given:
+        return given
+    root = os.environ.get(DATA_ENV, '')
+    if not root:
+        raise ValueError('no data: give --data DIR or set %s to the folder holding %s' %
+                         (DATA_ENV, (name + '/') if name else 'the data sets'))
+    return os.path.join(root, name) if name else root
