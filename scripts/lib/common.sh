@@ -32,8 +32,8 @@ rbpf_make_ws() {
     name=$(basename "$entry")
     if [ "$entry" -ef "$ws" ] || rbpf_is_workspace "$entry"; then
       [ ! -L "$pkg/$name" ] || rm -f "$pkg/$name"
-    elif [ "$name" = package.xml ]; then
-      # a hard link: catkin installs the manifest as it finds it, and a relative symbolic link would not
+    elif [ "$name" = package.xml ] || [ "$name" = nodelet_plugins.xml ]; then
+      # hard links: these files are installed as they are found, and a relative symbolic link would not
       # resolve in the install space
       rm -f "$pkg/$name"
       ln "$entry" "$pkg/$name"

@@ -1,8 +1,8 @@
 """package.xml's dependencies are rosdep keys that resolve on Debian, and the manifest is complete.
 
 ROS package keys are resolved with Debian's own rosdep database (python3-rosdep2's debian.yaml). The system
-keys (rosdep's base.yaml and python.yaml, which need a download) are checked against the list below, which
-gives what rosdep resolves them to on Debian. Every resolved Debian package must be known to apt."""
+keys (rosdep's base.yaml and python.yaml, which need a download) are checked against test/rosdep/system.yaml,
+which gives what rosdep resolves them to on Debian. Every resolved Debian package must be known to apt."""
 import os
 import re
 import shutil
@@ -15,22 +15,10 @@ import yaml
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEBIAN_DB = '/usr/share/python3-rosdep2/debian.yaml'
 
-# rosdep system keys used by package.xml -> the Debian package(s) rosdep installs for them.
-SYSTEM_KEYS = {
-    'eigen': ['libeigen3-dev'],
-    'gtest': ['libgtest-dev'],
-    'imagemagick': ['imagemagick'],
-    'libpcl-all-dev': ['libpcl-dev'],
-    'python3-matplotlib': ['python3-matplotlib'],
-    'python3-numpy': ['python3-numpy'],
-    'python3-pytest': ['python3-pytest'],
-    'python3-rospkg': ['python3-rospkg'],
-    'python3-scipy': ['python3-scipy'],
-    'python3-tqdm': ['python3-tqdm'],
-    'python3-yaml': ['python3-yaml'],
-    'xvfb': ['xvfb'],
-    'yaml-cpp': ['libyaml-cpp-dev'],
-}
+# rosdep system keys used by package.xml -> the Debian package(s) rosdep installs for them (scripts/test gives
+# the same list to catkin_lint as a rosdep source).
+with open(os.path.join(ROOT, 'test', 'rosdep', 'system.yaml')) as _f:
+    SYSTEM_KEYS = {k: v['debian'] for k, v in yaml.safe_load(_f).items()}
 
 
 def manifest():
