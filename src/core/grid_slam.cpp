@@ -28,7 +28,7 @@ void requireFinite(const Pose2& pose, const char* what)
 
 bool parseGridSlamMode(const std::string& name, GridSlamMode* mode)
 {
-  if (name == "single_map" || name == "course")
+  if (name == "single_map")
     *mode = GridSlamMode::kSingleMap;
   else if (name == "rbpf")
     *mode = GridSlamMode::kRbpf;

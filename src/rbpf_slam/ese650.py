@@ -5,7 +5,7 @@ Inputs of one run N (``Encoders<N>.mat``, ``imu<N>.mat``, optional ``Hokuyo<N>.m
 * ``Encoders``: struct with ``counts`` (4 x K integers, wheel order FR FL RR RL, counts since the
   previous read, forward motion positive) and ``ts`` (1 x K Unix seconds), about 40 Hz.
 * ``imu``: ``ts`` (1 x M) and ``vals`` (6 x M: accx accy accz in g, gyrx gyry gyrz in rad/s), 100 Hz.
-* ``Hokuyo0`` (optional; the course's Hokuyo UTM-30LX file): struct with ``ranges`` (1081 x S, m),
+* ``Hokuyo0`` (optional; the data set's Hokuyo UTM-30LX file): struct with ``ranges`` (1081 x S, m),
   ``angles`` (1081 x 1, rad, -135 to +135 deg, counter-clockwise, 0 = forward) and ``ts`` (1 x S).
 
 Written:
@@ -58,8 +58,8 @@ HOKUYO_STEPS_PER_TURN = 1440
 
 EXAMPLE = """
 Example:
-  ese650_to_bag ../shared/data/ese650 20 -o ese20.bag               # odometry, ticks, IMU
-  ese650_to_bag ../shared/data/ese650 20 --hokuyo Hokuyo20.mat -o ese20.bag
+  ese650_to_bag $RBPF_SLAM_DATA/ese650 20 -o ese20.bag               # odometry, ticks, IMU
+  ese650_to_bag $RBPF_SLAM_DATA/ese650 20 --hokuyo Hokuyo20.mat -o ese20.bag
   rosbag play --clock ese20.bag
 """
 
@@ -198,7 +198,7 @@ def build_parser():
                  'identity transform on /tf_static)'),
                 ('--laser-frame', 'laser', 'Hokuyo frame')))
     p.epilog = ('A record for --limit is an encoder read; IMU and scans are cut at the last one. '
-                'Source: the course\'s platform_config.pdf and README_Encoders.txt.') + '\n' + EXAMPLE
+                'Source: the data set\'s platform_config.pdf and README_Encoders.txt.') + '\n' + EXAMPLE
     return p
 
 

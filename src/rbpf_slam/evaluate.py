@@ -15,8 +15,8 @@ Metrics (REP-103 units: m, rad; printed in mm or deg where said):
   scale) and that scale, which separate a scale error (of the sensors or of the reference) from the shape;
 * RPE over pose pairs ``rpe_distance`` of reference travel apart (translation m, rotation deg; rotation
   only where the reference carries orientation);
-* the map against the true landmarks, moved by the same fit, counted as ../shared/scenarios/README.md pins
-  it (score_map): recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS; without a
+* the map against the true landmarks, moved by the same fit, counted one-to-one within a gate (score_map):
+  recall, duplicates, spurious, mean / RMS / max error of the matched, radius RMS; without a
   reference path, after a rigid fit of the map itself onto the true landmarks (fit_map_rigid).
 
 trajectory_eval pairs a trajectory's poses with the reference's by stamp (match_by_stamp: nearest,
@@ -263,10 +263,11 @@ def rpe(ref_xy, est_xy, distance, ref_yaw=None, est_yaw=None):
 
 
 def score_map(features, trees, gate=0.5, duplicate_radius=1.0):
-    """Counts as ../shared/scenarios/README.md pins them: features (n, 3: x, y, r) matched to true trees
-    (m, 3) one-to-one (optimal assignment) inside ``gate`` [m]; a duplicate is an unmatched feature within
-    ``duplicate_radius`` of a matched tree that is not closer to another tree; every other unmatched
-    feature is spurious (provisional features are passed in by the caller and count too)."""
+    """Counts the map: features (n, 3: x, y, r) matched to true trees (m, 3) one-to-one (optimal assignment)
+    inside ``gate`` [m]; recall = matched / m, reported beside the duplicates and the spurious features (the
+    caller passes only the trees that count, e.g. those seen within the sensor's scope); a duplicate is an
+    unmatched feature within ``duplicate_radius`` of a matched tree that is not closer to another tree; every
+    other unmatched feature is spurious (provisional features are passed in by the caller and count too)."""
     from scipy.optimize import linear_sum_assignment
     out = {'features': int(len(features)), 'trees': int(len(trees)), 'matched': 0, 'duplicates': 0, 'spurious': 0,
            'mean_error': None, 'rms_error': None, 'max_error': None, 'radius_rms': None, 'recall': 0.0}

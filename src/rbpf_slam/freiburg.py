@@ -5,20 +5,20 @@
   time: step k is stamped ``--start-time + k / --rate`` (default 1 s + k * 0.1 s); the start pose (the
   identity) is published at ``--start-time``.
 * Written: ``odom`` (nav_msgs/Odometry) and TF ``odom -> base_link`` per step (the robot starts at the
-  origin of the course's world, so ``odom`` and ``map`` coincide at the start), and per step a
+  origin of the data set's world, so ``odom`` and ``map`` coincide at the start), and per step a
   ``landmarks`` rbpf_slam/TrunkArray in ``base_link`` with the step's observations, even when empty:
   centre (range cos bearing, range sin bearing), range, bearing (a negative range, which the noise
-  gives once in the course data, becomes the same point at |range| and bearing + pi), radius 0
+  gives once in the data set, becomes the same point at |range| and bearing + pi), radius 0
   (unknown), the 2 x 2 covariance of the centre from the stated sensor noise (``--range-sigma``
-  0.1 m, ``--bearing-sigma`` 0.1 rad: the course's EKF-SLAM exercise's Q = 0.01 I) through the
+  0.1 m, ``--bearing-sigma`` 0.1 rad: Q = 0.01 I, as given with the data set) through the
   polar-to-Cartesian Jacobian, method METHOD_GIVEN. FastSLAM runs on them directly, without trunk extraction.
-* Each array states the sensor's scope (TrunkArray min_range .. max_range, all round): the course does not state
-  the sensor's range, so ``--max-range`` defaults to the largest range the file holds less two range sigmas (a
+* Each array states the sensor's scope (TrunkArray min_range .. max_range, all round): the data set does not
+  state the sensor's range, so ``--max-range`` defaults to the largest range the file holds less two range sigmas (a
   landmark at the sensor's limit is reported up to about that much further), to 0.1 m.
-* ``id`` is -1 (unknown) unless ``--keep-ids``: the course data gives each observation the true
+* ``id`` is -1 (unknown) unless ``--keep-ids``: the data set gives each observation the true
   landmark's id, i.e. the true data association, which is ground truth and must not reach a filter
-  that estimates. ``--keep-ids`` reproduces the course's
-  known-correspondence exercise; say so beside any figure made with it.
+  that estimates. ``--keep-ids`` gives the filter the known correspondences (SLAM with the
+  association given); say so beside any figure made with it.
 * ``world.dat`` (``id x y``): the true landmarks on ``ground_truth/landmarks`` (TrunkArray in ``map``,
   with their ids, latched).
 """
@@ -34,7 +34,7 @@ BEARING_SIGMA = 0.1  # [rad]
 
 EXAMPLE = """
 Example:
-  freiburg_to_bag ../shared/data/freiburg_course -o freiburg.bag
+  freiburg_to_bag $RBPF_SLAM_DATA/freiburg_course -o freiburg.bag
   rosbag play --clock freiburg.bag    # /odom, /tf, /landmarks, /ground_truth/landmarks
 """
 

@@ -10,17 +10,17 @@ Files (text, mm and rad, CRLF line ends are fine), in one directory:
   sensor_msgs/LaserScan in metres in the scanner's own frame ``laser``: beam i at
   (i - n/2) * 0.006135923151543 rad; the scanner is mounted 30 mm ahead of the robot centre and turned
   by -0.0698132 rad (4 degrees), which is the ``base_link -> laser`` transform on ``/tf_static`` (so
-  beam i has the bearing (i - 330) * 0.006135923151543 - 0.0698132 in the robot frame, as in the
-  course). Ranges below 20 mm are invalid: NaN, with range_min 0.02 m (REP-117). A scan shows the arena
+  beam i has the bearing (i - 330) * 0.006135923151543 - 0.0698132 in the robot frame, as the
+  data set states it). Ranges below 20 mm are invalid: NaN, with range_min 0.02 m (REP-117). A scan shows the arena
   ``scan_latency`` (config/lego/robot.yaml) before its log stamp: the scans keep their log stamps and the
   odometry and the reference are stamped that much after theirs.
 * ``robot4_reference.txt``: ``P ts x y``, the robot position seen by an overhead camera: ground truth,
-  on ``ground_truth/odom`` (child frame ``laser_truth``: the course compares its scanner pose with
-  these points; positions only, the orientation is identity) and ``ground_truth/path``.
+  on ``ground_truth/odom`` (child frame ``laser_truth``: the points are compared with the scanner's
+  position; positions only, the orientation is identity) and ``ground_truth/path``.
 * ``robot_arena_landmarks.txt``: ``L C x y r``, the true cylinders: ``ground_truth/landmarks``
   (rbpf_slam/TrunkArray with their radius and index as id, latched).
 
-Calibration constants of the course (0.349 mm of track per tick, track width 155 mm, scanner 30 mm ahead
+Calibration constants of the data set (0.349 mm of track per tick, track width 155 mm, scanner 30 mm ahead
 of the robot centre, start pose of the scanner (1850 mm, 1897 mm, 213 deg) in the arena, ...) are stated
 once, in config/lego/robot.yaml, which lego_trunks reads too; :func:`read_robot` loads it.
 
@@ -91,7 +91,7 @@ SCAN_LATENCY = _ROBOT['scan_latency']       # [s] a scan shows the world this lo
 
 EXAMPLE = """
 Example:
-  lego_to_bag ../shared/data/brenner_lego -o lego.bag
+  lego_to_bag $RBPF_SLAM_DATA/brenner_lego -o lego.bag
   rosbag play --clock lego.bag     # /odom, /tf, /tf_static, /scan, /ground_truth/{odom,path,landmarks}
 """
 

@@ -137,10 +137,12 @@ TEST(GridSlam, ValidatesItsConfiguration)
   GridSlamMode m = GridSlamMode::kRbpf;
   EXPECT_TRUE(parseGridSlamMode("single_map", &m));
   EXPECT_EQ(m, GridSlamMode::kSingleMap);
-  m = GridSlamMode::kRbpf;
-  EXPECT_TRUE(parseGridSlamMode("course", &m));  // the former name stays accepted
-  EXPECT_EQ(m, GridSlamMode::kSingleMap);
   EXPECT_STREQ(gridSlamModeName(m), "single_map");
+  EXPECT_TRUE(parseGridSlamMode("rbpf", &m));
+  EXPECT_EQ(m, GridSlamMode::kRbpf);
+  EXPECT_STREQ(gridSlamModeName(m), "rbpf");
+  EXPECT_FALSE(parseGridSlamMode("course", &m));  // no other names: a former alias is refused
+  EXPECT_EQ(m, GridSlamMode::kRbpf);              // and the mode is left as it was
   EXPECT_FALSE(parseGridSlamMode("gmapping", &m));
 }
 

@@ -105,7 +105,7 @@ TEST(OccupancyGrid, CellBordersBelongToTheCellAboveAndRight)
 
 TEST(OccupancyGrid, RayUpdateAndClamping)
 {
-  OccupancyGridConfig c;  // course values: -0.1, +0.9, clamp 20
+  OccupancyGridConfig c;  // defaults: -0.1, +0.9, clamp 20
   OccupancyGrid g(c);
   g.updateRay(0.02, 0.02, 1.02, 0.02, true);
   EXPECT_FLOAT_EQ(g.logOdds(20, 0), 0.9f);

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-DATA = os.path.normpath(os.path.join(ROOT, '..', 'shared', 'data'))
+# The data sets: $RBPF_SLAM_DATA when set, else the folder beside the repository.
+DATA = os.path.normpath(os.environ.get('RBPF_SLAM_DATA') or os.path.join(ROOT, '..', 'shared', 'data'))
 
 
 def built_tool(name):
@@ -19,10 +20,12 @@ def built_tool(name):
 
 
 def data_path(*parts):
-    """A file of the real data sets in <repo>/../shared/data; the test is skipped when it is absent."""
+    """A file of the real data sets in DATA ($RBPF_SLAM_DATA, else <repo>/../shared/data); the test is skipped
+    when it is absent."""
     path = os.path.join(DATA, *parts)
     if not os.path.exists(path):
-        pytest.skip('real data not found: %s (the data sets live in <repo>/../shared/data)' % path)
+        pytest.skip('real data not found: %s (the data sets live in $RBPF_SLAM_DATA or <repo>/../shared/data)'
+                    % path)
     return path
 
 

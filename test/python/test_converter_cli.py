@@ -69,9 +69,24 @@ def test_command_error_and_usage(tmp_path):
 def test_speed_benchmark():
     if not os.path.isfile(os.path.join(DATA, 'carmen', 'intel-corrected.log.gz')):
         pytest.skip('real data not found in %s' % DATA)
-    r = run('converter_benchmark')
+    r = run('converter_benchmark', '--data', DATA)
     assert r.returncode == 0, r.stdout + r.stderr
-    assert 'CARMEN Intel' in r.stdout and 'ESE 650 run 20' in r.stdout and 'NOT MET' not in r.stdout
+    assert 'CARMEN Intel' in r.stdout and 'ESE 650 run 20' in r.stdout and 'x real time' in r.stdout
+    rows = [line for line in r.stdout.splitlines() if line.startswith(('CARMEN Intel', 'ESE 650 run'))]
+    assert len(rows) == 3, r.stdout
+    for line in rows:  # each conversion at least 10 times faster than the log's time span
+        assert float(line.split()[-2]) >= 10.0, r.stdout
+
+
+@pytest.mark.parametrize('name', ('converter_benchmark', 'lego_benchmark'))
+def test_benchmark_without_data_directory_is_a_clear_error(name):
+    env = dict(os.environ)
+    env.pop('RBPF_SLAM_DATA', None)
+    r = subprocess.run([sys.executable, os.path.join(ROOT, 'scripts', name)], env=env,
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, timeout=120)
+    assert r.returncode == 2 and r.stdout == ''
+    assert r.stderr.startswith(name + ': ') and len(r.stderr.splitlines()) == 1, r.stderr
+    assert '--data' in r.stderr and 'RBPF_SLAM_DATA' in r.stderr, r.stderr
 
 
 def test_conversion_error_text():

@@ -1,4 +1,4 @@
-"""ese650_to_bag: skid-steer odometry, wheel ticks, IMU, a Hokuyo file in the course's exact layout (written
+"""ese650_to_bag: skid-steer odometry, wheel ticks, IMU, a Hokuyo file in the data set's exact layout (written
 here), wrong .mat layouts, and a real run."""
 import math
 import os
@@ -18,7 +18,7 @@ T0 = 1298445274.5
 
 
 def write_run(d, counts, ts, imu=True, hokuyo=None):
-    """Encoders<N>.mat (struct Encoders: counts 4 x K, ts 1 x K), imu<N>.mat (ts, vals), as the course has them."""
+    """Encoders<N>.mat (struct Encoders: counts 4 x K, ts 1 x K), imu<N>.mat (ts, vals), as the data set has them."""
     d.mkdir(exist_ok=True)
     scipy_io.savemat(str(d / 'Encoders7.mat'), {'Encoders': {'counts': np.asarray(counts, dtype=np.int16),
                                                              'ts': np.asarray(ts, dtype=float).reshape(1, -1)}})
@@ -34,7 +34,7 @@ def write_run(d, counts, ts, imu=True, hokuyo=None):
 
 
 def small_hokuyo(ts0, n_scans=5):
-    """A Hokuyo file in the exact layout of the course's Hokuyo<N>.mat: struct Hokuyo0 with ranges
+    """A Hokuyo file in the exact layout of the data set's Hokuyo<N>.mat: struct Hokuyo0 with ranges
     (1081 x S, m), angles (1081 x 1, rad, -135..135 deg) and ts (1 x S)."""
     angles = np.radians(np.linspace(-135.0, 135.0, 1081)).reshape(-1, 1)
     ranges = np.full((1081, n_scans), 4.0)
@@ -57,7 +57,7 @@ def test_straight_and_turning_odometry():
     assert ese650.DEFAULT_TRACK == pytest.approx(1.85 * (0.31115 + 0.47625) / 2)
 
 
-def test_synthetic_run_with_hokuyo_in_the_course_layout(tmp_path, capsys):
+def test_synthetic_run_with_hokuyo_in_the_data_set_layout(tmp_path, capsys):
     k = 40
     ts = T0 + 0.025 * np.arange(k)
     counts = np.tile(np.array([[3], [2], [3], [2]]), (1, k))
@@ -83,7 +83,7 @@ def test_synthetic_run_with_hokuyo_in_the_course_layout(tmp_path, capsys):
     imu = bag['/imu/data'][0][1]
     assert imu.linear_acceleration.z == pytest.approx(9.80665) and imu.angular_velocity.z == pytest.approx(0.25)
     assert imu.orientation_covariance[0] == -1 and imu.header.frame_id == 'base_link'
-    # scans: angles, units and REP-117 from the course layout
+    # scans: angles, units and REP-117 from the data set's layout
     scan = bag['/scan'][2][1]
     assert len(scan.ranges) == 1081 and scan.header.frame_id == 'laser'
     assert scan.angle_min == pytest.approx(math.radians(-135), abs=1e-6)

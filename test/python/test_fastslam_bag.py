@@ -10,7 +10,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from bagcheck import built_tool
+from bagcheck import DATA, built_tool
 
 rosbag = pytest.importorskip('rosbag')
 from rbpf_slam import evaluate as ev  # noqa: E402
@@ -32,7 +32,7 @@ def _final_xy(bag_path, topic):
 
 @pytest.fixture(scope='module')
 def bags(tmp_path_factory):
-    d = tmp_path_factory.mktemp('firewall')
+    d = tmp_path_factory.mktemp('truth_stripped')
     full = str(d / 'full.bag')
     subprocess.run([_tool('record_scenario'), '--world', WORLD, '--drive', 'straight', '--seed', '3', '--out', full,
                     '--quiet'], check=True, stdout=subprocess.DEVNULL)
@@ -95,9 +95,9 @@ def test_unknown_filter_is_a_usage_error(tmp_path):
 def test_laser_scan_input_on_the_lego_logs(tmp_path):
     """The runner's 2D path (--scan, per-sensor YAML) on the first 120 records of the LEGO logs, scored by
     evaluate_bag_run: it runs, writes every output, finds cylinders, and the evaluator reads them."""
-    data = os.path.join(ROOT, '..', 'shared', 'data', 'brenner_lego')
+    data = os.path.join(DATA, 'brenner_lego')
     if not os.path.isdir(data):
-        pytest.skip('../shared/data/brenner_lego is not present')
+        pytest.skip('%s is not present' % data)
     bag = str(tmp_path / 'lego.bag')
     subprocess.run([_tool('lego_to_bag'), data, '-o', bag, '-q', '--limit', '120'], check=True)
     out = str(tmp_path / 'run')
@@ -117,9 +117,9 @@ def test_laser_scan_input_on_the_lego_logs(tmp_path):
 
 
 def test_a_missing_scan_topic_is_a_clear_error(tmp_path):
-    data = os.path.join(ROOT, '..', 'shared', 'data', 'brenner_lego')
+    data = os.path.join(DATA, 'brenner_lego')
     if not os.path.isdir(data):
-        pytest.skip('../shared/data/brenner_lego is not present')
+        pytest.skip('%s is not present' % data)
     bag = str(tmp_path / 'lego.bag')
     subprocess.run([_tool('lego_to_bag'), data, '-o', bag, '-q', '--limit', '5'], check=True)
     proc = subprocess.run([_tool('slam_bag'), '--bag', bag, '--scan', '/nothing'], stdout=subprocess.PIPE,
@@ -166,7 +166,7 @@ def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(b
 
 
 def test_landmark_detections_of_any_detector(tmp_path):
-    """slam_bag --landmarks reads a detector's TrunkArrays (the course data's range-bearing observations, unknown
+    """slam_bag --landmarks reads a detector's TrunkArrays (a data set's range-bearing observations, unknown
     association): every landmark is found once."""
     from bagcheck import data_path
     from rbpf_slam import convert_common as cc

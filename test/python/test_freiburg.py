@@ -1,5 +1,5 @@
 """freiburg_to_bag: rot1-trans-rot2 odometry, observations as TrunkArray, no true ids reach a filter; malformed
-data; the real course data."""
+data; the real data set."""
 import math
 import os
 

@@ -1,6 +1,6 @@
 """The shared bag runner with the grid filter (slam_bag --filter grid).
 
-- The ESE 650 lidar path: a run written here in the course's exact .mat layout (Encoders, Hokuyo: a straight
+- The ESE 650 lidar path: a run written here in the data set's exact .mat layout (Encoders, Hokuyo: a straight
   corridor), converted by ese650_to_bag, mapped from wheel odometry: every scan is used (--every-scan: the drive
   is about the default travel threshold, 1 m) and the walls land where they are.
 - The travel thresholds: by default a scan is processed after 1 m or 0.5 rad; --every-scan processes every scan

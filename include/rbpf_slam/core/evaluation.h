@@ -22,8 +22,9 @@ struct MapPoint
 };
 
 /**
- * @brief The map counted as ../shared/scenarios/README.md pins it: features matched to true trees one-to-one
- * (optimal assignment, 0.5 m gate); recall over the trees that came inside the visibility scope; duplicates
+ * @brief The map counted against the true trees: features matched to true trees one-to-one (optimal assignment,
+ * 0.5 m gate); recall over the trees that came inside the visibility scope (1-12 m in the simulated runs: only
+ * trees seen count), reported beside the duplicates and the spurious features; duplicates
  * = unmatched features within 1.0 m of a matched tree that are not closer to another tree; spurious = the
  * other unmatched features (provisional ones count too).
  */

@@ -106,7 +106,7 @@ struct FastSlamConfig
 
   // Resampling (the skeleton's policy): low-variance resampling when Neff < resample_neff_ratio * N.
   ResamplingPolicy resampling;
-  bool roughening = false;          ///< jitter resampled poses (the study did; bends the factorisation)
+  bool roughening = false;          ///< jitter resampled poses (bends the factorisation)
   double roughening_sigma_xy = 0.01;     ///< [m]
   double roughening_sigma_theta = 0.002; ///< [rad]
 

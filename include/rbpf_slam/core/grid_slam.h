@@ -28,7 +28,7 @@ enum class GridSlamMode
   kSingleMap,
   kRbpf
 };
-/** @brief "single_map" (also accepted by its former name "course") or "rbpf"; false for anything else. */
+/** @brief "single_map" or "rbpf"; false (and @p mode unchanged) for anything else. */
 bool parseGridSlamMode(const std::string& name, GridSlamMode* mode);
 const char* gridSlamModeName(GridSlamMode mode);
 

@@ -20,7 +20,7 @@ namespace core
 struct OccupancyGridConfig
 {
   double resolution = 0.05;  ///< [m/cell]
-  // The course's values ("Odometry Based Mapping"): a hit is strong evidence, one free pass weak, and the
+  // Defaults: a hit is strong evidence, one free pass weak, and the
   // clamp keeps a cell able to change its mind after a few dozen scans.
   float log_odds_hit = 0.9f;    ///< added to the cell a beam ends in
   float log_odds_free = -0.1f;  ///< added to each cell a beam crosses
@@ -51,7 +51,7 @@ struct ScanData
 };
 
 /**
- * @brief Which part of a scan a map uses: the usable range window (the course keeps 0.15 - 20 m) and how
+ * @brief Which part of a scan a map uses: the usable range window (0.15 - 20 m by default) and how
  * far a no-return clears free space.
  */
 struct ScanLimits

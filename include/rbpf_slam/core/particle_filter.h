@@ -84,7 +84,7 @@ double effectiveSampleSize(const std::vector<double>& weights);
 std::vector<int> lowVarianceResample(const std::vector<double>& weights, Random& random);
 
 /**
- * @brief Multinomial resampling (N independent draws from the weights, as the course's grid SLAM did): more
+ * @brief Multinomial resampling (N independent draws from the weights): more
  * variance than low-variance resampling, kept as an option for comparison.
  */
 std::vector<int> multinomialResample(const std::vector<double>& weights, Random& random);

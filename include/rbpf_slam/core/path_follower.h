@@ -48,7 +48,7 @@ private:
   bool done_ = false;
 };
 
-/** @brief The study's drive: straight ahead for @p length metres (start frame). */
+/** @brief The straight drive: straight ahead for @p length metres (start frame). */
 std::vector<Eigen::Vector2d> straightDrive(double length = 30.0);
 
 /**

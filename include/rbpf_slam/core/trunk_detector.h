@@ -16,7 +16,7 @@ namespace core
 /** @brief How a trunk's centre is found. */
 enum class TrunkMethod : std::uint8_t
 {
-  kCentroid = 0,  ///< the study's method: centre of the clipped cluster (biased towards the sensor)
+  kCentroid = 0,  ///< centre of the clipped cluster (the paper's method; biased towards the sensor)
   kCircle = 1,    ///< RANSAC circle on the horizontal projection, refined by least squares
   kArc = 2,       ///< arcs too short to fit: centre one (prior) radius behind the arc's middle
 };

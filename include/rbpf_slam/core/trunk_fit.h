@@ -26,9 +26,9 @@ struct TrunkFit
 };
 
 /**
- * @brief The forestry study's method: the centre of the visible points, the radius half their extent across the
- * line of sight. Its covariance adds the method's own error (about half a radius, towards the sensor) to the
- * spread of the mean.
+ * @brief Centroid (the method of the paper this package reproduces): the centre of the visible points, the
+ * radius half their extent across the line of sight. Its covariance adds the method's own error (about half a
+ * radius, towards the sensor) to the spread of the mean.
  */
 TrunkFit fitTrunkCentroid(const std::vector<Eigen::Vector2d>& points, const TrunkDetectorConfig& config);
 

@@ -1,4 +1,4 @@
-"""study_experiments with a stand-in for fastslam_benchmark: worlds, tables, plot."""
+"""fastslam_experiments with a stand-in for fastslam_benchmark: worlds, tables, plot."""
 import importlib.machinery
 import importlib.util
 import json
@@ -30,9 +30,9 @@ for m in methods:
 
 
 def _load():
-    path = os.path.join(ROOT, 'scripts', 'study_experiments')
-    loader = importlib.machinery.SourceFileLoader('study_experiments', path)
-    spec = importlib.util.spec_from_loader('study_experiments', loader)
+    path = os.path.join(ROOT, 'scripts', 'fastslam_experiments')
+    loader = importlib.machinery.SourceFileLoader('fastslam_experiments', path)
+    spec = importlib.util.spec_from_loader('fastslam_experiments', loader)
     module = importlib.util.module_from_spec(spec)
     loader.exec_module(module)
     return module
@@ -54,14 +54,14 @@ def test_tables_and_plot_from_the_benchmark_summaries(tmp_path):
     out = str(tmp_path / 'out')
     assert _load().main(['--out', out, '--bin', str(fake), '--seeds', '2', '--particles', '5,100,1000',
                          '--trees', '50,200']) == 0
-    with open(os.path.join(out, 'study.md')) as f:
+    with open(os.path.join(out, 'experiments.md')) as f:
         table = f.read()
     # 3 particle counts and 3 stands (16, 50, 200), each with both extraction methods.
     rows = [l for l in table.splitlines() if l.startswith('| ') and l[2].isdigit()]
     assert len(rows) == 2 * 3 + 2 * 3
     assert '| 1000 | circle | 0.005 / 0.010 | 1.600 / 3.200 |' in table
-    with open(os.path.join(out, 'study.png'), 'rb') as f:
+    with open(os.path.join(out, 'experiments.png'), 'rb') as f:
         assert f.read(8) == b'\x89PNG\r\n\x1a\n'
-    with open(os.path.join(out, 'study.json')) as f:
+    with open(os.path.join(out, 'experiments.json')) as f:
         data = json.load(f)
     assert data['trees']['centroid_t200']['final_error_m']['median'] > data['trees']['centroid_t16']['final_error_m']['median']
