@@ -1,5 +1,5 @@
 # Sourced by scripts/bootstrap, scripts/test and scripts/demo: paths and an environment in which
-# Debian's ROS 1 works (see README "Platform notes").
+# Debian's ROS 1 works (see docs/development.md, "Platform notes").
 RBPF_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 RBPF_WS="${RBPF_WS:-$RBPF_ROOT/build}"
 # Debian's python3 carries the ROS modules; a pyenv or venv python3 first on PATH does not.

@@ -111,10 +111,10 @@ TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
   EXPECT_EQ(c.mode, core::GridSlamMode::kRbpf);
   EXPECT_EQ(c.particles, 30);
   EXPECT_GT(c.matcher.coarse_kernel, 0);
-  EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (README)
+  EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (docs/grid_slam.md)
   EXPECT_EQ(c.proposal_motion_weight, 1.0);
   EXPECT_EQ(c.threads, 2);
-  EXPECT_FALSE(c.matcher.sub_cell);           // measured, off (docs/grid_slam_buildings.md)
+  EXPECT_FALSE(c.matcher.sub_cell);           // measured, off (docs/grid_slam.md)
   EXPECT_FALSE(c.matcher.climb_on_observed);  // likewise
   EXPECT_TRUE(params.unusedKeys().empty());
   // The overlay sets no travel threshold: laid over grid_slam.yaml the node keeps its thresholds (1 m, 0.5 rad),
