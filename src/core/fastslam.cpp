@@ -377,6 +377,8 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
         updateLandmarkPosition(&l, cd.H, s_inv, v, R);
         fuseLandmarkRadius(&l, o);
         evidence_.recordHit(&l);
+        if (std::isfinite(clock_))
+          l.last_seen = clock_;
       });
       *log_w += association_.logLikelihood(i, kc);
       if (stats)
@@ -416,6 +418,7 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       continue;
     }
     evidence_.initialize(&l);
+    l.first_seen = l.last_seen = clock_;
     if (known)
     {
       l.id = obs[i].id;

@@ -37,6 +37,18 @@ void TrunkSlamPipeline::resetFilter()
   last_estimate_ = Pose2();
 }
 
+void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start)
+{
+  prior_ = LandmarkMap();
+  for (Landmark l : trees)
+  {
+    l.evidence = l.provisional ? 0.0 : filter_config_.evidence_max;
+    prior_.add(l);
+  }
+  prior_start_ = start;
+  has_prior_ = true;
+}
+
 void TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
 {
   const double start = sweep.stamp, end = sweep.stamp + sweep.period;
@@ -190,8 +202,12 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   const bool first = !initialized_;
   if (!initialized_)
   {
-    // The map frame is the odometry frame at the first update: map -> odom starts as the identity.
-    filter_->initialize(odom_mid);
+    // The map frame is the odometry frame at the first update (map -> odom starts as the identity), or the
+    // frame of a saved map with the robot at the start pose given in it.
+    if (has_prior_)
+      filter_->initialize(prior_start_, prior_);
+    else
+      filter_->initialize(odom_mid);
     last_odometry_ = odom_mid;
     last_stamp_ = t_mid;
     initialized_ = true;
@@ -236,6 +252,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
                                                                  sw.geometry);
   PipelineUpdate u;
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
+  filter_->setClock(t_mid);
   u.stats = filter_->update(obs, u.mount, sw.scope);
   u.health = health_.add(u.stats, filter_->config().particles);
   u.stamp = t_mid;

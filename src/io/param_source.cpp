@@ -23,7 +23,9 @@ const std::vector<std::string>& nodeOnlyKeys()
                                                  "tf_timeout",          "transform_tolerance", "map_update_interval",
                                                  "publish_tf",          "map_path",            "max_path_poses",
                                                  "odom_timeout",        "inventory_path",      "run_folder",
-                                                 "time_jump_threshold", "level_frame",         "debug_report_address" };
+                                                 "time_jump_threshold", "level_frame",         "debug_report_address",
+                                                 "map_file",            "initial_x",           "initial_y",
+                                                 "initial_yaw" };
   return keys;
 }
 

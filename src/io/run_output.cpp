@@ -1,6 +1,7 @@
 #include "rbpf_slam/io/run_output.h"
 
 #include "rbpf_slam/io/files.h"
+#include "rbpf_slam/io/forest_map_file.h"
 
 #include <algorithm>
 #include <cmath>
@@ -51,21 +52,13 @@ void readTum(const std::string& path, std::vector<double>* stamps, std::vector<c
   }
 }
 
-const char* const kLandmarksCsvHeader = "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional";
+const char* const kLandmarksCsvHeader = kForestMapHeader;
 
 std::string landmarksCsv(const std::vector<core::Landmark>& landmarks)
 {
-  std::string csv = std::string(kLandmarksCsvHeader) + "\n";
-  char line[512];
-  for (const auto& l : landmarks)
-  {
-    std::snprintf(line, sizeof(line), "%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d\n", l.id, l.mean.x(), l.mean.y(),
-                  2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
-                  std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
-                  l.observations, l.provisional ? 1 : 0);
-    csv += line;
-  }
-  return csv;
+  ForestMap map;
+  map.trees = landmarks;
+  return forestMapCsv(map);
 }
 
 void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark>& landmarks)

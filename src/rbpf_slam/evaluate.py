@@ -97,40 +97,67 @@ def read_trajectory(path):
 
 
 #: The columns of the package's one landmark CSV, in order (io::landmarksCsv writes it: slam_bag's map.csv,
-#: the FastSLAM node's tree inventory, fastslam_benchmark's maps): metres, dbh = 2 x the trunk radius.
+#: the FastSLAM node's tree inventory and saved maps, fastslam_benchmark's maps): metres, dbh = 2 x the trunk radius.
 LANDMARK_COLUMNS = ('id', 'x', 'y', 'dbh', 'sigma_x', 'sigma_y', 'sigma_dbh', 'observations', 'provisional')
+#: Columns after them in a tree map file: the centre's covariance [m^2] and the first and last sighting [s]
+#: (empty when not known).
+LANDMARK_OPTIONAL_COLUMNS = ('cov_xy', 'first_seen', 'last_seen')
 
 
 def read_landmarks_csv(path):
     """The landmark CSV (LANDMARK_COLUMNS) as a dict of numpy arrays, one per column ('id' and 'observations'
-    integers, 'provisional' booleans), plus 'radius' = dbh / 2. Columns after these are ignored; a missing
-    column or a malformed value is a ValueError naming the file (and the line)."""
+    integers, 'provisional' booleans), plus 'radius' = dbh / 2, the LANDMARK_OPTIONAL_COLUMNS (cov_xy 0, times
+    NaN where absent or empty) and 'anchor' (a dict of the '# anchor:' line's values, or None). Comment lines
+    ('#') are skipped; other columns are ignored; a missing column or a malformed value is a ValueError naming
+    the file (and the line)."""
+    anchor = None
+    lines = []
     with open(path) as f:
-        reader = csv.reader(f)
-        header = next(reader, None)
-        if header is None:
-            raise ValueError('%s: empty, expected the header %s' % (path, ','.join(LANDMARK_COLUMNS)))
-        header = [h.strip() for h in header]
-        missing = [c for c in LANDMARK_COLUMNS if c not in header]
-        if missing:
-            raise ValueError('%s: not a landmark CSV: no column %s (expected %s)'
-                             % (path, ', '.join(missing), ','.join(LANDMARK_COLUMNS)))
-        index = [header.index(c) for c in LANDMARK_COLUMNS]
-        rows = []
-        for row in reader:
-            if not row:
+        for number, text in enumerate(f, 1):
+            if text.lstrip().startswith('#'):
+                body = text.lstrip()[1:].strip()
+                if body.startswith('anchor:'):
+                    try:
+                        anchor = {k: float(v) for k, v in (item.split('=', 1) for item in body[7:].split())}
+                    except ValueError:
+                        raise ValueError('%s:%d: expected key=number pairs in the anchor, got %r'
+                                         % (path, number, body))
                 continue
-            try:
-                rows.append([float(row[i]) for i in index])
-            except (IndexError, ValueError):
-                raise ValueError('%s:%d: expected %d numbers (%s), got %r'
-                                 % (path, reader.line_num, len(header), ','.join(header), ','.join(row)))
+            lines.append((number, text))
+    reader = csv.reader(text for _, text in lines)
+    header = next(reader, None)
+    if header is None:
+        raise ValueError('%s: empty, expected the header %s' % (path, ','.join(LANDMARK_COLUMNS)))
+    header = [h.strip() for h in header]
+    missing = [c for c in LANDMARK_COLUMNS if c not in header]
+    if missing:
+        raise ValueError('%s: not a landmark CSV: no column %s (expected %s)'
+                         % (path, ', '.join(missing), ','.join(LANDMARK_COLUMNS)))
+    index = [header.index(c) for c in LANDMARK_COLUMNS]
+    optional = [(c, header.index(c)) for c in LANDMARK_OPTIONAL_COLUMNS if c in header]
+    rows, extra = [], []
+    for k, row in enumerate(reader, 1):
+        if not row:
+            continue
+        number = lines[k][0] if k < len(lines) else k + 1
+        try:
+            rows.append([float(row[i]) for i in index])
+            extra.append([float(row[i]) if row[i].strip() else float('nan') for _, i in optional])
+        except (IndexError, ValueError):
+            raise ValueError('%s:%d: expected %d numbers (%s), got %r'
+                             % (path, number, len(header), ','.join(header), ','.join(row)))
     data = np.array(rows, dtype=float).reshape(-1, len(LANDMARK_COLUMNS))
     out = {c: data[:, k] for k, c in enumerate(LANDMARK_COLUMNS)}
     for c in ('id', 'observations'):
         out[c] = out[c].astype(int)
     out['provisional'] = out['provisional'] != 0
     out['radius'] = out['dbh'] / 2.0
+    more = np.array(extra, dtype=float).reshape(-1, len(optional))
+    for c in LANDMARK_OPTIONAL_COLUMNS:
+        out[c] = np.zeros(len(rows)) if c == 'cov_xy' else np.full(len(rows), np.nan)
+    for k, (c, _) in enumerate(optional):
+        out[c] = more[:, k]
+    out['anchor'] = anchor
     return out
 
 

@@ -43,7 +43,14 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
   readKey(params, "odom_timeout", &c.odom_timeout);
   readKey(params, "inventory_path", &c.inventory_path);
   readKey(params, "run_folder", &c.run_folder);
+  readKey(params, "map_file", &c.map_file);
+  readKey(params, "initial_x", &c.initial_x);
+  readKey(params, "initial_y", &c.initial_y);
+  readKey(params, "initial_yaw", &c.initial_yaw);
+  readKey(params, "map_path", &c.map_path);
   requireNonNegative(params.nodeHandle(), "odom_timeout", c.odom_timeout);
+  if (!std::isfinite(c.initial_x) || !std::isfinite(c.initial_y) || !std::isfinite(c.initial_yaw))
+    throw invalidParameter(params.nodeHandle(), "initial_x", "initial_x, initial_y and initial_yaw must be finite");
   return c;
 }
 
@@ -146,6 +153,23 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   timing.time_jump_threshold = config_.time_jump_threshold;
   timing.odometry_wait = config_.odom_timeout;  // wall seconds: the node's clock for waiting
   pipeline_.reset(new core::TrunkSlamPipeline(core::TrunkDetectorConfig(), filter_config, timing));
+  if (!config_.map_file.empty())
+  {
+    io::ForestMap saved;
+    try
+    {
+      saved = io::readForestMap(io::expandHome(config_.map_file));
+    }
+    catch (const std::exception& e)
+    {
+      throw invalidParameter(pnh_, "map_file", e.what());
+    }
+    anchor_ = saved.anchor;
+    pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
+    ROS_INFO("%s: starting from the map %s (%zu trees), base_link at (%.2f, %.2f, %.1f deg) in it", name_.c_str(),
+             config_.map_file.c_str(), saved.trees.size(), config_.initial_x, config_.initial_y,
+             config_.initial_yaw * 180.0 / M_PI);
+  }
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -162,6 +186,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
   save_run_srv_ = pnh_.advertiseService("save_run", &FastSlamRos::onSaveRun, this);
+  save_map_srv_ = pnh_.advertiseService("save_map", &FastSlamRos::onSaveMap, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
   trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &FastSlamRos::onTimer, this);
@@ -561,6 +586,19 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
   }
 }
 
+bool FastSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string path = config_.map_path;
+  pnh_.getParam("map_path", path);  // may have changed since the start
+  res.success = writeInventory(path, &res.message);
+  if (res.success)
+    ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
+  else
+    ROS_ERROR("%s: save_map: %s", name_.c_str(), res.message.c_str());
+  return true;
+}
+
 bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
 {
   const std::string target = io::expandHome(path);
@@ -570,16 +608,18 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
     *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
     return false;
   }
-  std::vector<core::Landmark> trees;
+  io::ForestMap map;
+  map.anchor = anchor_;
   if (pipeline_->initialized())
   {
     const core::Particle& best = pipeline_->filter().best();
     for (std::size_t i = 0; i < best.map.size(); ++i)
-      trees.push_back(best.map[i]);
+      map.trees.push_back(best.map[i]);
   }
+  const std::vector<core::Landmark>& trees = map.trees;
   try
   {
-    io::writeLandmarksCsv(target, trees);
+    io::writeForestMap(target, map);
   }
   catch (const std::exception& e)
   {

@@ -72,6 +72,7 @@
 #include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/files.h"
+#include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
 #include "rbpf_slam/TrunkArray.h"
@@ -93,6 +94,9 @@ struct Options
   std::vector<std::string> config_paths;  // the filter's YAML files, each overriding the ones before
   bool scan_given = false;  // fastslam: 2D scans instead of point clouds
   std::string landmarks_topic;  // fastslam: a detector's TrunkArrays instead of clouds or scans
+  std::string map_path, save_map_path;  // fastslam: the tree map to start from, the tree map to write
+  double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;  // fastslam: base_link in that map at the start
+  bool initial_given = false;
   std::string wheels_topic, imu_topic = "/imu/data";
   int particles = -1;  // the filter's default
   long seed = -1;  // the configuration's (0 by default)
@@ -111,6 +115,8 @@ void usage(const char* argv0)
                "           overrides the files before it)]\n"
                "  fastslam: [--points TOPIC | --scan TOPIC | --landmarks TOPIC (rbpf_slam/TrunkArray, sensor frame)]\n"
                "            [--extraction-config YAML] [--method circle|centroid]\n"
+               "            [--map FILE (a tree map to start from; its frame is the map frame) [--initial-pose X Y\n"
+               "             YAW_DEG (base_link in that map at the first update; default 0 0 0)]] [--save-map FILE]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
                "             set to 0 over any --config; the defaults are 1 m, 0.5 rad, off; for benchmarks)]\n"
@@ -198,10 +204,10 @@ public:
   const std::string& dir() const { return dir_; }
   void commit()
   {
-    if (!enabled())
+    if (!enabled() && extra_.empty())
       return;
     checkInterrupted();
-    if (!io::makeDirectories(dir_))
+    if (enabled() && !io::makeDirectories(dir_))
       throw std::runtime_error(dir_ + ": cannot create the folder (" + std::strerror(errno) + ")");
     std::vector<io::FileContent> files = extra_;
     for (const auto& name : order_)
@@ -405,6 +411,16 @@ int runFastSlam(const Options& o)
     dc.seed = static_cast<std::uint64_t>(o.seed);
   }
   core::TrunkSlamPipeline pipeline(dc, fc);
+  io::MapAnchor anchor;
+  if (!o.map_path.empty())
+  {
+    const io::ForestMap saved = io::readForestMap(o.map_path);
+    anchor = saved.anchor;
+    pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
+    if (!o.quiet)
+      std::printf("slam_bag fastslam: starting from %s: %zu trees, base_link at (%.2f, %.2f, %.1f deg) in its frame\n",
+                  o.map_path.c_str(), saved.trees.size(), o.initial_x, o.initial_y, o.initial_yaw * 180.0 / M_PI);
+  }
 
   Outputs out(o.out_dir);
   io::FastSlamRunRecord record;  // the run folder, as the node writes it
@@ -470,23 +486,32 @@ int runFastSlam(const Options& o)
                              " covers the sensor's messages?); nothing written");
 
   const core::Particle& best = pipeline.filter().best();
+  if (!o.save_map_path.empty())
+  {
+    io::ForestMap map;
+    map.anchor = anchor;
+    for (std::size_t i = 0; i < best.map.size(); ++i)
+      map.trees.push_back(best.map[i]);
+    out.add(o.save_map_path, io::forestMapCsv(map));
+  }
   if (out.enabled())
   {
     for (const io::FileContent& f : record.files(o.out_dir, pipeline.filter()))
       out.add(f.first, f.second);
     out.stream("timing.json") << timingJson(clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(),
                                             fc.particles, fc.seed);
-    out.commit();
   }
+  out.commit();
   if (!o.quiet)
   {
     std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
                 "backwards or not finite), %d restarts (time jumped back)\n",
                 o.bag_path.c_str(), clouds, updates, drops.count(), resets);
     const core::Pose2 estimate = pipeline.filter().estimate();
-    std::printf("  final estimate (%s; map frame = the odometry frame at the first update): %.3f %.3f %.1f deg; "
+    std::printf("  final estimate (%s; map frame = %s): %.3f %.3f %.1f deg; "
                 "%zu landmarks in the best particle's map\n",
-                core::toString(fc.estimate), estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
+                core::toString(fc.estimate),
+                o.map_path.empty() ? "the odometry frame at the first update" : "the frame of the map it started from", estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
     std::printf("  %s\n", record.healthSummary().c_str());
     std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
                 pipeline.secondsFilter(),
@@ -794,6 +819,19 @@ int main(int argc, char** argv)
         o.imu_weight = parseNumber(a, argv[++i], 0.0, 1.0);
       else if (a == "--out")
         o.out_dir = argv[++i];
+      else if (a == "--map")
+        o.map_path = argv[++i];
+      else if (a == "--save-map")
+        o.save_map_path = argv[++i];
+      else if (a == "--initial-pose")
+      {
+        if (i + 3 >= argc)
+          throw std::invalid_argument("--initial-pose needs X Y YAW_DEG");
+        o.initial_x = parseNumber(a, argv[++i], -1e7, 1e7);
+        o.initial_y = parseNumber(a, argv[++i], -1e7, 1e7);
+        o.initial_yaw = parseNumber(a, argv[++i], -360.0, 360.0) * M_PI / 180.0;
+        o.initial_given = true;
+      }
       else
         throw std::invalid_argument("unknown argument '" + a + "' (--help lists the options)");
     }
@@ -805,6 +843,10 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--landmarks goes with --filter fastslam, without --scan");
     if (o.filter == "fastslam" && o.odometry_only)
       throw std::invalid_argument("--odometry-only goes with --filter grid");
+    if (o.filter != "fastslam" && (!o.map_path.empty() || !o.save_map_path.empty()))
+      throw std::invalid_argument("--map and --save-map go with --filter fastslam (a grid map is map.yaml + map.pgm)");
+    if (o.initial_given && o.map_path.empty())
+      throw std::invalid_argument("--initial-pose goes with --map FILE");
     if (o.filter == "fastslam" && o.every_scan)
       throw std::invalid_argument("--every-scan goes with --filter grid");
   }
@@ -826,6 +868,11 @@ int main(int argc, char** argv)
     if (S_ISDIR(st.st_mode))
       throw std::runtime_error(o.bag_path + ": a folder, not a bag file");
     checkOutputDir(o.out_dir);
+    if (!o.save_map_path.empty())
+    {
+      const std::size_t slash = o.save_map_path.find_last_of('/');
+      checkOutputDir(slash == std::string::npos ? "." : o.save_map_path.substr(0, std::max<std::size_t>(slash, 1)));
+    }
     return o.filter == "grid" ? runGrid(o) : runFastSlam(o);
   }
   catch (const std::exception& e)

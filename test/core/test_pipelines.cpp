@@ -131,3 +131,68 @@ TEST(TrunkSlamPipeline, TheMapFrameIsTheOdometryFrameAtTheFirstUpdate)
   EXPECT_EQ(p.addTrunks(sweep), StampVerdict::kAccept);
   ASSERT_EQ(p.process().size(), 1u);
 }
+
+TEST(TrunkSlamPipeline, StartsFromASavedMapInItsFrameAndStampsTheTrees)
+{
+  // Four trees of a saved map, the robot put at a known pose in that map's frame; the odometry frame is another.
+  std::vector<Landmark> saved;
+  const double xy[4][2] = { { 14.0, 6.0 }, { 12.0, 9.0 }, { 16.5, 3.0 }, { 9.0, 2.0 } };
+  for (int i = 0; i < 4; ++i)
+  {
+    Landmark l;
+    l.id = 40 + i;
+    l.mean = Eigen::Vector2d(xy[i][0], xy[i][1]);
+    l.covariance = 1e-4 * Eigen::Matrix2d::Identity();
+    l.radius = 0.2;
+    l.radius_variance = 1e-4;
+    l.observations = 30;
+    l.provisional = false;
+    l.first_seen = 100.0;
+    l.last_seen = 200.0;
+    saved.push_back(l);
+  }
+  const Pose2 start(10.0, 5.0, 0.5);
+  FastSlamConfig fc;
+  fc.particles = 30;
+  TrunkSlamPipeline p(TrunkDetectorConfig(), fc);
+  p.setPriorMap(saved, start);
+  ASSERT_TRUE(p.hasPriorMap());
+  const Pose2 odom0(5.0, -2.0, 0.3);
+  for (int k = 0; k <= 40; ++k)
+    p.addOdometry(1000.0 + 0.05 * k, odom0 * Pose2(0.05 * k, 0.0, 0.0));  // 1 m/s straight ahead
+  for (int s = 0; s < 10; ++s)
+  {
+    TrunkSweep sweep;
+    sweep.stamp = 1000.0 + 0.1 * s;
+    sweep.period = 0.0;
+    const Pose2 truth = start * Pose2(0.1 * s, 0.0, 0.0);  // base_link in the saved map's frame
+    for (const Landmark& l : saved)
+    {
+      TrunkObservation t;
+      truth.inverse().transformPoint(l.mean.x(), l.mean.y(), &t.center.x(), &t.center.y());
+      t.radius = 0.2;
+      t.radius_variance = 1e-4;
+      t.range = t.center.norm();
+      t.bearing = std::atan2(t.center.y(), t.center.x());
+      t.covariance = 1e-4 * Eigen::Matrix2d::Identity();
+      sweep.trunks.push_back(t);
+    }
+    ASSERT_EQ(p.addTrunks(sweep), StampVerdict::kAccept);
+  }
+  const std::vector<PipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 10u);
+  const Pose2 truth = start * Pose2(0.9, 0.0, 0.0);
+  EXPECT_NEAR(done.back().estimate.x, truth.x, 0.05);
+  EXPECT_NEAR(done.back().estimate.y, truth.y, 0.05);
+  EXPECT_NEAR(done.back().estimate.theta, truth.theta, 0.02);
+  // The saved trees were matched, none was added, and each keeps its id and first sighting.
+  const LandmarkMap& map = p.filter().best().map;
+  ASSERT_EQ(map.size(), 4u);
+  for (std::size_t j = 0; j < map.size(); ++j)
+  {
+    EXPECT_GE(map[j].id, 40);
+    EXPECT_EQ(map[j].first_seen, 100.0);
+    EXPECT_NEAR(map[j].last_seen, 1000.9, 1e-9) << "the last sweep's time";
+    EXPECT_EQ(map[j].observations, 40);
+  }
+}

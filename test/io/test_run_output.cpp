@@ -23,6 +23,8 @@ std::vector<std::string> split(const std::string& text, char sep)
   std::string part;
   while (std::getline(in, part, sep))
     parts.push_back(part);
+  if (sep == ',' && !text.empty() && text.back() == ',')
+    parts.emplace_back();  // a last field left empty
   return parts;
 }
 }  // namespace
@@ -44,10 +46,10 @@ TEST(LandmarksCsv, InventoryColumnsWithDiameterAndProvisional)
 
   const std::vector<std::string> lines = split(io::landmarksCsv({ a, b }), '\n');
   ASSERT_EQ(lines.size(), 3u);
-  EXPECT_EQ(lines[0], "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional");
+  EXPECT_EQ(lines[0], "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional,cov_xy,first_seen,last_seen");
   EXPECT_EQ(lines[0], io::kLandmarksCsvHeader);
   const std::vector<std::string> first = split(lines[1], ',');
-  ASSERT_EQ(first.size(), 9u) << lines[1];
+  ASSERT_EQ(first.size(), 12u) << lines[1];
   EXPECT_EQ(first[0], "7");
   EXPECT_DOUBLE_EQ(std::stod(first[1]), 1.5);
   EXPECT_DOUBLE_EQ(std::stod(first[2]), -2.25);
@@ -57,8 +59,11 @@ TEST(LandmarksCsv, InventoryColumnsWithDiameterAndProvisional)
   EXPECT_NEAR(std::stod(first[6]), 0.02, 1e-9) << "sigma of the diameter";
   EXPECT_EQ(first[7], "12");
   EXPECT_EQ(first[8], "0");
+  EXPECT_EQ(std::stod(first[9]), 0.0);
+  EXPECT_EQ(first[10], "") << "first seen: not known";
+  EXPECT_EQ(first[11], "");
   const std::vector<std::string> second = split(lines[2], ',');
-  ASSERT_EQ(second.size(), 9u) << lines[2];
+  ASSERT_EQ(second.size(), 12u) << lines[2];
   EXPECT_EQ(second[0], "8");
   EXPECT_EQ(std::stod(second[4]), 0.0);
   EXPECT_EQ(second[8], "1");

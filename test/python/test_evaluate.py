@@ -324,3 +324,22 @@ def test_landmark_csv_errors_name_the_file_and_line(tmp_path):
     empty.write_text('')
     with pytest.raises(ValueError, match='empty.csv: empty'):
         ev.read_landmarks_csv(str(empty))
+
+
+def test_tree_map_file_with_anchor_covariance_and_times(tmp_path):
+    path = tmp_path / 'forest_map.csv'
+    path.write_text('# anchor: latitude=61.5 longitude=24.25 altitude=110 yaw=0.3 sigma=0.8\n'
+                    'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional,cov_xy,first_seen,last_seen\n'
+                    '3,1.5,-2.0,0.30,0.02,0.03,0.02,12,0,0.0001,100.5,200.25\n'
+                    '# a comment between trees\n'
+                    '4,5.0,5.0,0.10,0.10,0.10,0.05,1,1,0,,\n')
+    m = ev.read_landmarks_csv(str(path))
+    assert m['anchor'] == {'latitude': 61.5, 'longitude': 24.25, 'altitude': 110.0, 'yaw': 0.3, 'sigma': 0.8}
+    assert list(m['id']) == [3, 4]
+    assert m['cov_xy'] == pytest.approx([0.0001, 0.0])
+    assert m['first_seen'][0] == 100.5 and m['last_seen'][0] == 200.25
+    assert np.isnan(m['first_seen'][1]) and np.isnan(m['last_seen'][1])
+    path.write_text('id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional\n# note\n'
+                    '1,x,2,0.2,0,0,0,1,0\n')
+    with pytest.raises(ValueError, match='forest_map.csv:3: expected 9 numbers'):
+        ev.read_landmarks_csv(str(path))

@@ -190,3 +190,52 @@ def test_landmark_detections_of_any_detector(tmp_path):
     r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--landmarks', '/landmarks', '--scan', '/scan'],
                        capture_output=True, text=True)
     assert r.returncode != 0 and '--landmarks goes with' in r.stderr
+
+
+def test_a_saved_map_is_read_back_and_the_second_visit_keeps_its_trees(bags, tmp_path):
+    """--save-map writes the tree map file (ids, covariance, first and last seen); --map starts a second run of the
+    same drive from it: the trees are matched rather than made again, and the pose stays as good."""
+    _, full, _ = bags
+    first = str(tmp_path / 'forest_map.csv')
+    subprocess.run([_tool('slam_bag'), '--bag', full, '--seed', '3', '--quiet', '--save-map', first], check=True)
+    saved = ev.read_landmarks_csv(first)
+    assert saved['anchor'] is None
+    confirmed = ~saved['provisional']
+    assert confirmed.sum() >= 12
+    assert np.isfinite(saved['first_seen']).all() and (saved['last_seen'] >= saved['first_seen']).all()
+    assert (saved['cov_xy'] ** 2 <= (saved['sigma_x'] * saved['sigma_y']) ** 2 + 1e-12).all()
+
+    out = str(tmp_path / 'second')
+    again = str(tmp_path / 'forest_map_2.csv')
+    r = subprocess.run([_tool('slam_bag'), '--bag', full, '--seed', '4', '--map', first, '--initial-pose', '0', '0',
+                        '0', '--out', out, '--save-map', again], stdout=subprocess.PIPE, universal_newlines=True,
+                       check=True)
+    assert 'starting from %s' % first in r.stdout
+    second = ev.read_landmarks_csv(again)
+    kept = set(saved['id'][confirmed])
+    assert kept <= set(second['id']), 'every confirmed tree of the first visit is still in the map'
+    new = [i for i in second['id'] if i not in set(saved['id'])]
+    assert len(new) <= 2, 'trees made again instead of matched: %s' % new
+    back = {i: k for k, i in enumerate(second['id'])}
+    for k, i in enumerate(saved['id']):
+        if i in back and confirmed[k]:
+            assert second['observations'][back[i]] > saved['observations'][k]
+            assert second['first_seen'][back[i]] == pytest.approx(saved['first_seen'][k])
+    est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
+    err = np.hypot(*(est[-1, 1:3] - _final_xy(full, '/ground_truth/odom')))
+    assert err < 0.3, 'final error %.3f m in the saved map' % err
+
+
+def test_a_bad_map_file_is_one_line_and_nothing_is_written(bags, tmp_path):
+    _, full, _ = bags
+    bad = tmp_path / 'bad.csv'
+    bad.write_text('id,x,y,dbh\n1,2,nan,0.3\n')
+    out = tmp_path / 'run'
+    r = subprocess.run([_tool('slam_bag'), '--bag', full, '--map', str(bad), '--out', str(out)],
+                       stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 1
+    assert 'bad.csv:2: expected a finite number for y' in r.stderr and 'Traceback' not in r.stderr
+    assert not out.exists()
+    r = subprocess.run([_tool('slam_bag'), '--bag', full, '--initial-pose', '1', '2', '3'],
+                       stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 2 and '--initial-pose goes with --map' in r.stderr

@@ -117,17 +117,32 @@ class FastSlamPipelineCheck(unittest.TestCase):
         self.assertTrue(res.success, res.message)
         with open(path) as f:
             lines = f.read().splitlines()
-        self.assertEqual(lines[0], 'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional')
+        self.assertEqual(lines[0], 'id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional,cov_xy,first_seen,'
+                                   'last_seen')
         self.assertGreaterEqual(len(lines), 4)
         for line in lines[1:]:
             cols = line.split(',')
-            self.assertEqual(len(cols), 9)
+            self.assertEqual(len(cols), 12)
             self.assertGreater(float(cols[3]), 0.0)
             self.assertIn(cols[8], ('0', '1'))
         # The evaluators' reader takes the inventory as it takes slam_bag's map.csv.
         trees = evaluate.read_landmarks_csv(path)
         self.assertEqual(len(trees['x']), len(lines) - 1)
         self.assertTrue((trees['radius'] > 0.0).all())
+        # Seen on this drive: the times of the first and the last sighting are simulated ROS time.
+        self.assertTrue((trees['first_seen'] > 0.0).all())
+        self.assertTrue((trees['last_seen'] >= trees['first_seen']).all())
+
+    def test_6_save_map(self):
+        rospy.wait_for_service('fastslam/save_map', 5.0)
+        path = os.path.join(tempfile.mkdtemp(), 'forest_map.csv')
+        rospy.set_param('fastslam/map_path', path)
+        res = rospy.ServiceProxy('fastslam/save_map', Trigger)()
+        self.assertTrue(res.success, res.message)
+        self.assertIn(path, res.message)
+        trees = evaluate.read_landmarks_csv(path)
+        self.assertGreaterEqual(len(trees['x']), 3)
+        self.assertIsNone(trees['anchor'])  # started without a saved map: a local frame only
 
 
 if __name__ == '__main__':

@@ -233,6 +233,9 @@ public:
   FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
                              const SensorScope& sensor_scope = SensorScope());
 
+  /** @brief [s] The time of the observations of the next update(): a landmark's first_seen and last_seen. */
+  void setClock(double stamp) { clock_ = stamp; }
+
   const std::vector<Particle>& particles() const { return particles_; }
   const FastSlamConfig& config() const { return config_; }
   /**
@@ -310,6 +313,7 @@ private:
   std::vector<Particle> particles_;
   Random random_;
   int next_id_ = 0;
+  double clock_ = NAN;  ///< [s] the time of the observations of the next update (setClock)
   std::vector<double> weights_;
   std::vector<double> weights_before_;  ///< normalised weights before the last resampling
   std::size_t best_ = 0;

@@ -26,6 +26,8 @@ struct Landmark
   int observations = 0;          ///< matches so far
   bool provisional = true;       ///< until seen confirm_observations times
   int id = 0;                    ///< unique within the filter (for visualisation and evaluation)
+  double first_seen = NAN;       ///< [s] the filter's clock at the first sighting (NaN: not known)
+  double last_seen = NAN;        ///< [s] the filter's clock at the last match (NaN: not known)
 };
 
 /**

@@ -133,6 +133,16 @@ public:
   StampVerdict addScan(double stamp, double period, const PlanarScan& scan, const SensorMount& mount,
                        double clock = NAN, double arrival = NAN);
 
+  /**
+   * @brief Starts the filter (now and after every restart) from a saved map: the map frame is then the saved
+   * map's frame, every particle starts at @p start (base_link in that frame at the first update) and shares
+   * @p trees. Confirmed trees start with the largest existence evidence (evidence_max), provisional ones with
+   * none; ids, covariances, radii, counts and times are kept. An empty list and the identity are the default:
+   * a new map whose frame is the odometry frame at the first update.
+   */
+  void setPriorMap(const std::vector<Landmark>& trees, const Pose2& start);
+  bool hasPriorMap() const { return has_prior_; }
+
   const FastSlam& filter() const { return *filter_; }
   /** @brief The filter's health monitor (restarts with the filter). */
   const FilterHealth& health() const { return health_; }
@@ -153,6 +163,9 @@ private:
   std::unique_ptr<FastSlam> filter_;
   FilterHealth health_;
   bool initialized_ = false;
+  bool has_prior_ = false;
+  LandmarkMap prior_;
+  Pose2 prior_start_;
   Pose2 last_odometry_;
   Pose2 last_estimate_;
   double last_stamp_ = 0.0;

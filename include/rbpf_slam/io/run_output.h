@@ -30,11 +30,9 @@ void writeTum(const std::string& path, const std::vector<double>& stamps, const 
 void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses);
 
 /**
- * @brief The one landmark CSV of the package (slam_bag's map.csv, the FastSLAM node's tree inventory,
- * fastslam_benchmark's maps; rbpf_slam.evaluate.read_landmarks_csv reads it back): a header line
- * kLandmarksCsvHeader, then one line per landmark: id, centre x and y [m], dbh (trunk diameter, 2 r) [m], the
- * standard deviations of x, y and dbh [m], the number of observations, and provisional (1 until the filter
- * confirmed the landmark, else 0).
+ * @brief The one landmark CSV of the package: the tree map file of forest_map_file.h without an anchor (slam_bag's
+ * map.csv, the FastSLAM node's tree inventory, fastslam_benchmark's maps; rbpf_slam.evaluate.read_landmarks_csv
+ * reads it back). kLandmarksCsvHeader is kForestMapHeader.
  */
 extern const char* const kLandmarksCsvHeader;
 /** @brief The CSV text of @p landmarks (with the header). */

@@ -31,6 +31,13 @@ struct FastSlamRosConfig : SlamRosConfig
   /// Folder of the run's files (io::FastSlamRunRecord, as slam_bag --out writes them), written on ~save_run and at
   /// shutdown; "" = none.
   std::string run_folder;
+  /// Tree map file (io/forest_map_file.h) to start from; "" = a new map whose frame is the odometry frame at the
+  /// first update.
+  std::string map_file;
+  /// [m, m, rad] base_link in the saved map's frame at the first update (only with map_file).
+  double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;
+  /// Where ~save_map writes the tree map (~ = $HOME).
+  std::string map_path = "~/.ros/forest_map.csv";
 };
 
 /** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */
@@ -59,7 +66,10 @@ std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& se
  *   (TrunkArray in the map frame, id = landmark id, method METHOD_GIVEN) and `landmarks` (MarkerArray,
  *   only when subscribed); for rviz also `odom_path` (the raw odometry in the map frame, anchored where the
  *   map starts) and `scope` (Marker: the visibility scope's rings on the ground around the sensor, only when subscribed).
- * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV).
+ * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV);
+ *   `~save_map` the same tree map file, with the anchor of a map it started from, to `~map_path`.
+ * - with `~map_file` it starts from a saved tree map, the robot at `~initial_x`, `~initial_y`, `~initial_yaw`
+ *   in that map's frame (which becomes the map frame).
  *
  * Each TrunkArray updates the filter at its sweep's middle: core::sweepObservations() carries every trunk
  * from its own instant in the sweep (sweep_period, sweep_start_angle, sweep_span) and corrects the lever arm of
@@ -77,6 +87,7 @@ private:
   void onTimer(const ros::WallTimerEvent& event);
   bool onSaveInventory(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSaveRun(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool onSaveMap(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   /** @brief Writes the run folder (~run_folder) atomically; false with @p message saying why. Lock held. */
   bool writeRunFolder(std::string* message);
 
@@ -120,7 +131,8 @@ private:
   core::HealthLevel last_level_ = core::HealthLevel::kOk;
   /** @brief Publishes the filter's health at 1 Hz of data time and at every change of level; warns on a change. */
   void publishHealth(const core::PipelineUpdate& u);
-  ros::ServiceServer save_srv_, save_run_srv_;
+  ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
+  io::MapAnchor anchor_;  ///< of the map it started from (kept when the map is saved)
   io::FastSlamRunRecord record_;  ///< the run folder's content
   ros::WallTimer timer_;
   nav_msgs::Path path_;

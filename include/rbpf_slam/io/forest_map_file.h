@@ -1,0 +1,64 @@
+#ifndef RBPF_SLAM_IO_FOREST_MAP_FILE_H
+#define RBPF_SLAM_IO_FOREST_MAP_FILE_H
+
+#include <string>
+#include <vector>
+
+#include "rbpf_slam/core/landmark_map.h"
+
+namespace rbpf_slam
+{
+namespace io
+{
+/**
+ * @brief Where the map frame lies on the earth: its origin in WGS84 and the heading of its x axis
+ * (counter-clockwise from east, as REP-103's ENU). Not valid: the map is in a local frame only.
+ */
+struct MapAnchor
+{
+  bool valid = false;
+  double latitude = 0.0;   ///< [deg] of the map frame's origin
+  double longitude = 0.0;  ///< [deg]
+  double altitude = 0.0;   ///< [m] above the ellipsoid
+  double yaw = 0.0;        ///< [rad] of the map's x axis from east, counter-clockwise
+  double sigma = 0.0;      ///< [m] standard deviation of the origin's position (0: not known)
+};
+
+/** @brief A saved tree map: the trees of the best particle and the anchor of their frame. */
+struct ForestMap
+{
+  MapAnchor anchor;
+  std::vector<core::Landmark> trees;
+};
+
+/**
+ * @brief The package's one tree map file (the FastSLAM node's save_map and save_inventory, slam_bag's map.csv and
+ * --save-map, the benchmarks' maps; rbpf_slam.evaluate.read_landmarks_csv reads it in Python). A CSV file:
+ * optional comment lines first ('#'; the anchor as "# anchor: latitude=.. longitude=.. altitude=.. yaw=..
+ * sigma=.."), then the header kForestMapHeader and one line per tree: id; centre x, y [m]; dbh (the trunk's
+ * diameter, 2 r) [m]; the standard deviations of x, y and dbh [m]; observations (matches so far); provisional (1
+ * until the filter confirmed the tree); cov_xy [m^2] (the centre's covariance, with sigma_x^2 and sigma_y^2);
+ * first_seen and last_seen [s] (the clock of the data: ROS time of the sensor messages; empty when not known).
+ */
+extern const char* const kForestMapHeader;
+
+/** @brief The file's text of @p map. */
+std::string forestMapCsv(const ForestMap& map);
+/** @brief Writes forestMapCsv() atomically (a temporary beside @p path, then a rename). @throws std::runtime_error. */
+void writeForestMap(const std::string& path, const ForestMap& map);
+/**
+ * @brief Parses a tree map file's @p text (@p name in messages). Columns are found by the header's names, in any
+ * order; id, x, y and dbh are required, the others default (sigma_x, sigma_y: 0.1 m; sigma_dbh: half the dbh;
+ * observations 1; provisional 0; cov_xy 0; first_seen, last_seen unknown). Trees come back confirmed unless marked
+ * provisional, with their covariance and radius variance from the sigmas.
+ * @throws std::runtime_error "name:line: expected ..., got ..." on a malformed line, a missing header or column,
+ * a duplicate id, a value that is not finite, or a negative diameter or variance.
+ */
+ForestMap parseForestMap(const std::string& text, const std::string& name);
+/** @brief Reads and parses a tree map file. @throws std::runtime_error naming the file. */
+ForestMap readForestMap(const std::string& path);
+
+}  // namespace io
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_IO_FOREST_MAP_FILE_H

@@ -1,0 +1,233 @@
+#include "rbpf_slam/io/forest_map_file.h"
+
+#include "rbpf_slam/io/files.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace rbpf_slam
+{
+namespace io
+{
+const char* const kForestMapHeader =
+    "id,x,y,dbh,sigma_x,sigma_y,sigma_dbh,observations,provisional,cov_xy,first_seen,last_seen";
+
+namespace
+{
+std::string trim(const std::string& s)
+{
+  const std::size_t a = s.find_first_not_of(" \t\r");
+  if (a == std::string::npos)
+    return "";
+  const std::size_t b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+std::vector<std::string> splitCommas(const std::string& line)
+{
+  std::vector<std::string> out;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ','))
+    out.push_back(trim(field));
+  if (!line.empty() && line.back() == ',')
+    out.push_back("");
+  return out;
+}
+
+std::string stamp(double t)
+{
+  if (!std::isfinite(t))
+    return "";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.6f", t);
+  return buf;
+}
+
+[[noreturn]] void fail(const std::string& name, int line, const std::string& what)
+{
+  throw std::runtime_error(name + ":" + std::to_string(line) + ": " + what);
+}
+
+double number(const std::string& field, const std::string& column, const std::string& name, int line)
+{
+  std::size_t used = 0;
+  double v = 0.0;
+  try
+  {
+    v = std::stod(field, &used);
+  }
+  catch (const std::exception&)
+  {
+    used = 0;
+  }
+  if (used == 0 || used != field.size() || !std::isfinite(v))
+    fail(name, line, "expected a finite number for " + column + ", got '" + field + "'");
+  return v;
+}
+
+void parseAnchor(const std::string& rest, MapAnchor* anchor, const std::string& name, int line)
+{
+  std::istringstream in(rest);
+  std::string item;
+  std::set<std::string> seen;
+  while (in >> item)
+  {
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos)
+      fail(name, line, "expected key=value in the anchor, got '" + item + "'");
+    const std::string key = item.substr(0, eq);
+    const double v = number(item.substr(eq + 1), "anchor " + key, name, line);
+    if (key == "latitude")
+      anchor->latitude = v;
+    else if (key == "longitude")
+      anchor->longitude = v;
+    else if (key == "altitude")
+      anchor->altitude = v;
+    else if (key == "yaw")
+      anchor->yaw = v;
+    else if (key == "sigma")
+      anchor->sigma = v;
+    else
+      fail(name, line, "expected latitude, longitude, altitude, yaw or sigma in the anchor, got '" + key + "'");
+    seen.insert(key);
+  }
+  if (!seen.count("latitude") || !seen.count("longitude"))
+    fail(name, line, "expected the anchor's latitude and longitude, got '" + trim(rest) + "'");
+  if (std::abs(anchor->latitude) > 90.0 || std::abs(anchor->longitude) > 180.0)
+    fail(name, line, "expected latitude in [-90, 90] and longitude in [-180, 180], got '" + trim(rest) + "'");
+  anchor->valid = true;
+}
+}  // namespace
+
+std::string forestMapCsv(const ForestMap& map)
+{
+  std::string csv;
+  char line[640];
+  if (map.anchor.valid)
+  {
+    std::snprintf(line, sizeof(line), "# anchor: latitude=%.9f longitude=%.9f altitude=%.3f yaw=%.6f sigma=%.3f\n",
+                  map.anchor.latitude, map.anchor.longitude, map.anchor.altitude, map.anchor.yaw, map.anchor.sigma);
+    csv += line;
+  }
+  csv += std::string(kForestMapHeader) + "\n";
+  for (const auto& l : map.trees)
+  {
+    std::snprintf(line, sizeof(line), "%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%.9f,%s,%s\n", l.id, l.mean.x(),
+                  l.mean.y(), 2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
+                  std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
+                  l.observations, l.provisional ? 1 : 0, 0.5 * (l.covariance(0, 1) + l.covariance(1, 0)),
+                  stamp(l.first_seen).c_str(), stamp(l.last_seen).c_str());
+    csv += line;
+  }
+  return csv;
+}
+
+void writeForestMap(const std::string& path, const ForestMap& map)
+{
+  writeFileAtomic(path, forestMapCsv(map));
+}
+
+ForestMap parseForestMap(const std::string& text, const std::string& name)
+{
+  ForestMap map;
+  std::istringstream in(text);
+  std::string raw;
+  int n = 0;
+  std::map<std::string, std::size_t> col;
+  std::size_t columns = 0;
+  std::set<int> ids;
+  while (std::getline(in, raw))
+  {
+    ++n;
+    const std::string line = trim(raw);
+    if (line.empty())
+      continue;
+    if (line[0] == '#')
+    {
+      const std::string body = trim(line.substr(1));
+      if (body.compare(0, 7, "anchor:") == 0)
+        parseAnchor(body.substr(7), &map.anchor, name, n);
+      continue;
+    }
+    const std::vector<std::string> fields = splitCommas(line);
+    if (col.empty())
+    {
+      for (std::size_t i = 0; i < fields.size(); ++i)
+        col[fields[i]] = i;
+      for (const char* c : { "id", "x", "y", "dbh" })
+        if (!col.count(c))
+          fail(name, n, std::string("expected a header with the columns id,x,y,dbh (") + kForestMapHeader +
+                            "), got '" + line + "'");
+      columns = fields.size();
+      continue;
+    }
+    if (fields.size() != columns)
+      fail(name, n, "expected " + std::to_string(columns) + " fields, got " + std::to_string(fields.size()) + ": '" +
+                        line + "'");
+    auto value = [&](const char* c, double fallback, bool may_be_empty) {
+      const auto it = col.find(c);
+      if (it == col.end())
+        return fallback;
+      const std::string& f = fields[it->second];
+      if (f.empty() && may_be_empty)
+        return fallback;
+      return number(f, c, name, n);
+    };
+    core::Landmark l;
+    const double id = value("id", 0.0, false);
+    if (id != std::floor(id) || id < 0 || id > 2e9)
+      fail(name, n, "expected a whole id >= 0, got '" + fields[col["id"]] + "'");
+    l.id = static_cast<int>(id);
+    if (!ids.insert(l.id).second)
+      fail(name, n, "expected a unique id, got " + std::to_string(l.id) + " a second time");
+    l.mean = Eigen::Vector2d(value("x", 0.0, false), value("y", 0.0, false));
+    const double dbh = value("dbh", 0.0, false);
+    const double sx = value("sigma_x", 0.1, false), sy = value("sigma_y", 0.1, false);
+    const double sd = value("sigma_dbh", 0.5 * dbh, false);
+    if (dbh < 0.0 || sx < 0.0 || sy < 0.0 || sd < 0.0)
+      fail(name, n, "expected dbh and sigmas >= 0, got '" + line + "'");
+    const double cxy = value("cov_xy", 0.0, true);
+    if (cxy * cxy > sx * sx * sy * sy * (1.0 + 1e-6) + 1e-18)
+      fail(name, n, "expected |cov_xy| <= sigma_x * sigma_y, got '" + line + "'");
+    l.covariance << sx * sx, cxy, cxy, sy * sy;
+    l.radius = 0.5 * dbh;
+    l.radius_variance = 0.25 * sd * sd;
+    const double obs = value("observations", 1.0, false);
+    if (obs != std::floor(obs) || obs < 0)
+      fail(name, n, "expected a whole number of observations >= 0, got '" + line + "'");
+    l.observations = static_cast<int>(obs);
+    const double prov = value("provisional", 0.0, false);
+    if (prov != 0.0 && prov != 1.0)
+      fail(name, n, "expected provisional 0 or 1, got '" + line + "'");
+    l.provisional = prov != 0.0;
+    l.first_seen = value("first_seen", NAN, true);
+    l.last_seen = value("last_seen", NAN, true);
+    map.trees.push_back(l);
+  }
+  if (col.empty())
+    fail(name, std::max(n, 1), std::string("expected the header ") + kForestMapHeader + ", got an empty file");
+  return map;
+}
+
+ForestMap readForestMap(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw std::runtime_error(path + ": cannot be read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string s = text.str();
+  if (s.find('\0') != std::string::npos)
+    throw std::runtime_error(path + ": expected a text file (a tree map CSV), got binary data");
+  return parseForestMap(s, path);
+}
+
+}  // namespace io
+}  // namespace rbpf_slam

@@ -1,0 +1,122 @@
+// The tree map file: written and read back exactly, an anchor on the earth, columns by name, and malformed files
+// refused with the file and line.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include "rbpf_slam/io/forest_map_file.h"
+#include "temp_files.h"
+
+namespace io = rbpf_slam::io;
+using rbpf_slam::core::Landmark;
+
+namespace
+{
+Landmark tree(int id, double x, double y, double r)
+{
+  Landmark l;
+  l.id = id;
+  l.mean = Eigen::Vector2d(x, y);
+  l.covariance << 0.0004, 0.0001, 0.0001, 0.0009;
+  l.radius = r;
+  l.radius_variance = 0.0001;
+  l.observations = 12;
+  l.provisional = false;
+  l.first_seen = 1700000000.25;
+  l.last_seen = 1700000100.5;
+  return l;
+}
+
+std::string errorOf(const std::string& text)
+{
+  try
+  {
+    io::parseForestMap(text, "m.csv");
+  }
+  catch (const std::runtime_error& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(ForestMapFile, WrittenMapReadsBackWithAnchorCovarianceAndTimes)
+{
+  io::ForestMap m;
+  m.anchor.valid = true;
+  m.anchor.latitude = 61.8441234;
+  m.anchor.longitude = 24.2899876;
+  m.anchor.altitude = 112.5;
+  m.anchor.yaw = 0.35;
+  m.anchor.sigma = 0.8;
+  m.trees = { tree(3, 1.5, -2.25, 0.15), tree(9, -40.125, 12.0, 0.31) };
+  m.trees[1].provisional = true;
+  m.trees[1].first_seen = m.trees[1].last_seen = NAN;
+
+  const std::string dir = temp_files::makeDir("rbpf_forest_map");
+  const std::string path = dir + "/forest_map.csv";
+  io::writeForestMap(path, m);
+  const io::ForestMap back = io::readForestMap(path);
+  ASSERT_TRUE(back.anchor.valid);
+  EXPECT_NEAR(back.anchor.latitude, 61.8441234, 1e-9);
+  EXPECT_NEAR(back.anchor.longitude, 24.2899876, 1e-9);
+  EXPECT_NEAR(back.anchor.altitude, 112.5, 1e-3);
+  EXPECT_NEAR(back.anchor.yaw, 0.35, 1e-6);
+  EXPECT_NEAR(back.anchor.sigma, 0.8, 1e-3);
+  ASSERT_EQ(back.trees.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i)
+  {
+    const Landmark& a = m.trees[i];
+    const Landmark& b = back.trees[i];
+    EXPECT_EQ(b.id, a.id);
+    EXPECT_NEAR(b.mean.x(), a.mean.x(), 1e-6);
+    EXPECT_NEAR(b.mean.y(), a.mean.y(), 1e-6);
+    EXPECT_NEAR(b.radius, a.radius, 1e-6);
+    EXPECT_NEAR(b.radius_variance, a.radius_variance, 1e-9);
+    EXPECT_TRUE(b.covariance.isApprox(a.covariance, 1e-6)) << b.covariance;
+    EXPECT_EQ(b.observations, a.observations);
+    EXPECT_EQ(b.provisional, a.provisional);
+  }
+  EXPECT_NEAR(back.trees[0].first_seen, 1700000000.25, 1e-6);
+  EXPECT_NEAR(back.trees[0].last_seen, 1700000100.5, 1e-6);
+  EXPECT_TRUE(std::isnan(back.trees[1].first_seen)) << "not known stays not known";
+  // The file is the package's landmark CSV: no anchor, no comment line.
+  m.anchor.valid = false;
+  EXPECT_EQ(io::forestMapCsv(m).compare(0, 3, "id,"), 0);
+}
+
+TEST(ForestMapFile, ColumnsAreFoundByNameAndTheOthersDefault)
+{
+  const io::ForestMap m = io::parseForestMap("# trees of a survey\nx,y,id,dbh\n1,2,5,0.4\n-3,4.5,6,0.2\n", "s.csv");
+  EXPECT_FALSE(m.anchor.valid);
+  ASSERT_EQ(m.trees.size(), 2u);
+  EXPECT_EQ(m.trees[0].id, 5);
+  EXPECT_DOUBLE_EQ(m.trees[0].mean.x(), 1.0);
+  EXPECT_DOUBLE_EQ(m.trees[0].mean.y(), 2.0);
+  EXPECT_DOUBLE_EQ(m.trees[0].radius, 0.2);
+  EXPECT_NEAR(m.trees[0].covariance(0, 0), 0.01, 1e-12) << "sigma 0.1 m when the file does not say";
+  EXPECT_FALSE(m.trees[0].provisional);
+  EXPECT_TRUE(std::isnan(m.trees[1].last_seen));
+}
+
+TEST(ForestMapFile, MalformedFilesAreRefusedWithFileAndLine)
+{
+  EXPECT_NE(errorOf("").find("m.csv:1: expected the header"), std::string::npos) << errorOf("");
+  EXPECT_NE(errorOf("a,b,c\n1,2,3\n").find("m.csv:1: expected a header with the columns id,x,y,dbh"),
+            std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n1,2,3\n").find("m.csv:2: expected 4 fields, got 3"), std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n1,2,nan,0.3\n").find("m.csv:2: expected a finite number for y"), std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n1,2,3,0.3\n1,4,5,0.3\n").find("m.csv:3: expected a unique id"), std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n1,2,3,-0.3\n").find("m.csv:2: expected dbh and sigmas >= 0"), std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n1.5,2,3,0.3\n").find("m.csv:2: expected a whole id"), std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh,sigma_x,sigma_y,cov_xy\n1,2,3,0.3,0.1,0.1,0.5\n").find("|cov_xy|"), std::string::npos);
+  EXPECT_NE(errorOf("# anchor: latitude=95 longitude=10\nid,x,y,dbh\n").find("m.csv:1: expected latitude in"),
+            std::string::npos);
+  EXPECT_NE(errorOf("# anchor: latitude=60\nid,x,y,dbh\n").find("m.csv:1: expected the anchor's latitude and"),
+            std::string::npos);
+  EXPECT_THROW(io::readForestMap("/nonexistent/forest_map.csv"), std::runtime_error);
+}
