@@ -152,7 +152,7 @@ def read_landmarks_csv(path):
         out[c] = out[c].astype(int)
     out['provisional'] = out['provisional'] != 0
     out['radius'] = out['dbh'] / 2.0
-    more = np.array(extra, dtype=float).reshape(-1, len(optional))
+    more = np.array(extra, dtype=float).reshape(len(rows), len(optional))
     for c in LANDMARK_OPTIONAL_COLUMNS:
         out[c] = np.zeros(len(rows)) if c == 'cov_xy' else np.full(len(rows), np.nan)
     for k, (c, _) in enumerate(optional):

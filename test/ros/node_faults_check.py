@@ -52,6 +52,11 @@ def start(node, name, params, log):
     return subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, universal_newlines=True)
 
 
+MALFORMED_MAP = os.path.join(tempfile.mkdtemp(), 'forest_map_bad.csv')
+with open(MALFORMED_MAP, 'w') as _f:
+    _f.write('id,x,y,dbh\n1,2,nan,0.3\n')
+
+
 class ConfigFaults(object):
     """Invalid values, misspelt keys, a refused load."""
 
@@ -80,6 +85,8 @@ class ConfigFaults(object):
             ('fastslam', [('particles', 'many')], 'particles'),
             ('fastslam', [('odom_timeout', '-1.0')], 'odom_timeout'),
             ('fastslam', [('max_path_poses', '0')], 'max_path_poses'),
+            ('fastslam', [('map_file', '/nonexistent/forest_map.csv')], 'map_file: /nonexistent/forest_map.csv'),
+            ('fastslam', [('map_file', MALFORMED_MAP)], 'forest_map_bad.csv:2: expected a finite number for y'),
             ('trunk_extraction', [('min_height', 'abc')], 'min_height'),
             ('noise_relay', [('linear_sigma_abs', '-1.0')], 'linear_sigma_abs'),
             ('path_follower', [('speed', '0.0')], 'speed'),

@@ -18,6 +18,7 @@
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
 
