@@ -293,6 +293,18 @@ void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)
     next_id_ = std::max(next_id_, map[j].id + 1);
 }
 
+void FastSlam::initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy,
+                          double sigma_theta)
+{
+  initialize(starts.empty() ? Pose2() : starts.front(), map);
+  for (std::size_t i = 0; i < particles_.size() && !starts.empty(); ++i)
+  {
+    const Pose2& s = starts[i % starts.size()];
+    particles_[i].pose = Pose2(s.x + random_.gaussian(sigma_xy), s.y + random_.gaussian(sigma_xy),
+                               wrapAngle(s.theta + random_.gaussian(sigma_theta)));
+  }
+}
+
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
                               FastSlamUpdateStats* stats)
 {

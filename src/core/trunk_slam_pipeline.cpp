@@ -31,6 +31,9 @@ void TrunkSlamPipeline::resetFilter()
   // Filter and detector start over with their seeds, so that each timeline is reproducible on its own.
   detector_.reset(new TrunkDetector(detector_config_));
   filter_.reset(new FastSlam(filter_config_));
+  gathered_.clear();
+  search_travel_ = 0.0;
+  search_started_ = false;
   health_ = FilterHealth();
   initialized_ = false;
   last_odometry_ = Pose2();
@@ -47,6 +50,104 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Po
   }
   prior_start_ = start;
   has_prior_ = true;
+  relocalize_ = false;
+  matcher_.reset();
+}
+
+void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const RelocalizationConfig& relocalization)
+{
+  setPriorMap(trees, Pose2());
+  relocalize_ = true;
+  relocalization_config_ = relocalization;
+  matcher_.reset(new ConstellationMatcher(trees, relocalization.constellation));
+}
+
+bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, RelocalizationStatus* st)
+{
+  const auto t0 = std::chrono::steady_clock::now();
+  const RelocalizationConfig& rc = relocalization_config_;
+  if (search_started_)
+    search_travel_ += std::hypot(odom_mid.x - search_last_odometry_.x, odom_mid.y - search_last_odometry_.y);
+  search_started_ = true;
+  search_last_odometry_ = odom_mid;
+  // The trunks of this sweep in the odometry frame, merged with those gathered before.
+  const Pose2 sensor = odom_mid * Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);
+  for (const TrunkObservation& t : sw.trunks)
+  {
+    if (!std::isfinite(t.center.x()) || !std::isfinite(t.center.y()) || !std::isfinite(t.radius))
+      continue;
+    Eigen::Vector2d p;
+    sensor.transformPoint(t.center.x(), t.center.y(), &p.x(), &p.y());
+    Gathered* near = nullptr;
+    double best = rc.merge_distance;
+    for (Gathered& g : gathered_)
+    {
+      const double d = (g.center - p).norm();
+      if (d < best)
+      {
+        best = d;
+        near = &g;
+      }
+    }
+    if (!near)
+    {
+      gathered_.push_back(Gathered());
+      near = &gathered_.back();
+      near->center = p;
+      near->radius = t.radius;
+    }
+    else
+    {
+      const double w = 1.0 / (near->sightings + 1.0);
+      near->center += w * (p - near->center);
+      near->radius += w * (t.radius - near->radius);
+    }
+    ++near->sightings;
+    near->travel = search_travel_;
+  }
+  gathered_.erase(std::remove_if(gathered_.begin(), gathered_.end(),
+                                 [&](const Gathered& g) { return search_travel_ - g.travel > rc.window; }),
+                  gathered_.end());
+  std::vector<TrunkPoint> seen;
+  for (const Gathered& g : gathered_)
+    if (g.sightings >= rc.min_sightings)
+    {
+      TrunkPoint tp;
+      tp.center = g.center;
+      tp.radius = g.radius;
+      tp.radius_sigma = 0.02;
+      seen.push_back(tp);
+    }
+  st->active = true;
+  st->trunks = static_cast<int>(seen.size());
+  st->travel = search_travel_;
+  bool found = false;
+  if (static_cast<int>(seen.size()) < rc.constellation.min_inliers)
+    st->reason = "gathering trunks: " + std::to_string(seen.size()) + " seen twice, " +
+                 std::to_string(rc.constellation.min_inliers) + " needed";
+  else
+  {
+    const ConstellationResult r = matcher_->match(seen);
+    if (!r.hypotheses.empty())
+      st->best_inliers = r.hypotheses.front().inliers;
+    if (r.hypotheses.size() > 1)
+      st->second_inliers = r.hypotheses[1].inliers;
+    st->reason = r.reason;
+    if (r.accepted)
+    {
+      std::vector<Pose2> starts;
+      for (const PoseHypothesis& h : r.hypotheses)
+        if (h.inliers >= rc.hypothesis_share * r.hypotheses.front().inliers)
+          starts.push_back(h.transform * odom_mid);
+      filter_->initialize(starts, prior_, rc.spread_xy, rc.spread_theta);
+      st->found = true;
+      st->hypotheses = static_cast<int>(starts.size());
+      gathered_.clear();
+      found = true;
+    }
+  }
+  st->seconds = since(t0);
+  return found;
 }
 
 void TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
@@ -200,6 +301,31 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   const double t_mid = sw.stamp + 0.5 * sw.period;
   const Pose2 odom_mid = odometry_.at(t_mid);
   const bool first = !initialized_;
+  RelocalizationStatus search;
+  if (!initialized_ && has_prior_ && relocalize_)
+  {
+    if (!relocalize(sw, odom_mid, &search))
+    {
+      // Still searching: no estimate, nothing given to the filter.
+      PipelineUpdate u;
+      u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);
+      u.stamp = t_mid;
+      u.odometry = odom_mid;
+      u.estimate = odom_mid;
+      u.odometry_covered = covered;
+      u.filtered = false;
+      u.localized = false;
+      u.relocalization = search;
+      u.stats.observations = static_cast<int>(sw.trunks.size());
+      u.health = health_.status();
+      u.trunks = std::move(sweep.trunks);
+      seconds_filter_ += since(t0);
+      return u;
+    }
+    last_odometry_ = odom_mid;
+    last_stamp_ = t_mid;
+    initialized_ = true;
+  }
   if (!initialized_)
   {
     // The map frame is the odometry frame at the first update (map -> odom starts as the identity), or the
@@ -254,6 +380,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
   filter_->setClock(t_mid);
   u.stats = filter_->update(obs, u.mount, sw.scope);
+  u.relocalization = search;
   u.health = health_.add(u.stats, filter_->config().particles);
   u.stamp = t_mid;
   u.odometry = odom_mid;

@@ -25,7 +25,7 @@ const std::vector<std::string>& nodeOnlyKeys()
                                                  "odom_timeout",        "inventory_path",      "run_folder",
                                                  "time_jump_threshold", "level_frame",         "debug_report_address",
                                                  "map_file",            "initial_x",           "initial_y",
-                                                 "initial_yaw" };
+                                                 "initial_yaw",         "relocalize" };
   return keys;
 }
 

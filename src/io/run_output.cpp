@@ -74,6 +74,48 @@ FastSlamRunRecord::FastSlamRunRecord()
             "pose_spread,relocalizing,health\n";
 }
 
+void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
+{
+  if (u.relocalization.active)
+  {
+    search_seconds_ += u.relocalization.seconds;
+    max_search_seconds_ = std::max(max_search_seconds_, u.relocalization.seconds);
+    last_reason_ = u.relocalization.reason;
+    if (u.relocalization.found)
+    {
+      found_ = true;
+      found_stamp_ = u.stamp;
+      found_travel_ = u.relocalization.travel;
+      found_hypotheses_ = u.relocalization.hypotheses;
+      found_inliers_ = u.relocalization.best_inliers;
+      found_trunks_ = u.relocalization.trunks;
+    }
+  }
+  if (!u.localized)
+  {
+    ++searching_;
+    return;
+  }
+  addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health);
+}
+
+std::string FastSlamRunRecord::relocalizationSummary() const
+{
+  if (!found_ && searching_ == 0)
+    return "";
+  char buf[512];
+  if (found_)
+    std::snprintf(buf, sizeof(buf),
+                  "relocalized in the saved map at %.3f s after %.1f m of travel and %d sweeps of search: %d of %d "
+                  "trunks explained, particles over %d hypotheses; search time %.3f s in all, %.3f s at most per sweep",
+                  found_stamp_, found_travel_, searching_ + 1, found_inliers_, found_trunks_, found_hypotheses_,
+                  search_seconds_, max_search_seconds_);
+  else
+    std::snprintf(buf, sizeof(buf), "not relocalized in the saved map after %d sweeps of search (%s)", searching_,
+                  last_reason_.c_str());
+  return buf;
+}
+
 void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2& estimate,
                                   const core::Pose2& odometry, const core::FastSlamUpdateStats& st,
                                   const core::HealthStatus& health)

@@ -48,6 +48,7 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
   readKey(params, "initial_y", &c.initial_y);
   readKey(params, "initial_yaw", &c.initial_yaw);
   readKey(params, "map_path", &c.map_path);
+  readKey(params, "relocalize", &c.relocalize);
   requireNonNegative(params.nodeHandle(), "odom_timeout", c.odom_timeout);
   if (!std::isfinite(c.initial_x) || !std::isfinite(c.initial_y) || !std::isfinite(c.initial_yaw))
     throw invalidParameter(params.nodeHandle(), "initial_x", "initial_x, initial_y and initial_yaw must be finite");
@@ -165,10 +166,19 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
       throw invalidParameter(pnh_, "map_file", e.what());
     }
     anchor_ = saved.anchor;
-    pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
-    ROS_INFO("%s: starting from the map %s (%zu trees), base_link at (%.2f, %.2f, %.1f deg) in it", name_.c_str(),
-             config_.map_file.c_str(), saved.trees.size(), config_.initial_x, config_.initial_y,
-             config_.initial_yaw * 180.0 / M_PI);
+    if (config_.relocalize)
+    {
+      pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
+      ROS_INFO("%s: starting from the map %s (%zu trees); searching it for the start pose", name_.c_str(),
+               config_.map_file.c_str(), saved.trees.size());
+    }
+    else
+    {
+      pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
+      ROS_INFO("%s: starting from the map %s (%zu trees), base_link at (%.2f, %.2f, %.1f deg) in it", name_.c_str(),
+               config_.map_file.c_str(), saved.trees.size(), config_.initial_x, config_.initial_y,
+               config_.initial_yaw * 180.0 / M_PI);
+    }
   }
 
   tf_buffer_.reset(new tf2_ros::Buffer());
@@ -335,8 +345,16 @@ void FastSlamRos::processPending()
     if (!u.odometry_covered)
       ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); used the newest",
                         name_.c_str(), u.stamp, config_.odom_timeout, pipeline_->odometry().latest());
-    ++updates_;
     record_.addUpdate(u);
+    if (u.relocalization.found)
+      ROS_INFO("%s: %s", name_.c_str(), record_.relocalizationSummary().c_str());
+    if (!u.localized)
+    {
+      ROS_INFO_THROTTLE(2.0, "%s: searching the saved map: %s (%.1f m travelled)", name_.c_str(),
+                        u.relocalization.reason.c_str(), u.relocalization.travel);
+      continue;  // no estimate yet: no map -> odom
+    }
+    ++updates_;
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publishHealth(u);

@@ -116,7 +116,8 @@ void usage(const char* argv0)
                "  fastslam: [--points TOPIC | --scan TOPIC | --landmarks TOPIC (rbpf_slam/TrunkArray, sensor frame)]\n"
                "            [--extraction-config YAML] [--method circle|centroid]\n"
                "            [--map FILE (a tree map to start from; its frame is the map frame) [--initial-pose X Y\n"
-               "             YAW_DEG (base_link in that map at the first update; default 0 0 0)]] [--save-map FILE]\n"
+               "             YAW_DEG (base_link in that map at the first update; without it the start is searched\n"
+               "             from the trunks seen)]] [--save-map FILE]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
                "             set to 0 over any --config; the defaults are 1 m, 0.5 rad, off; for benchmarks)]\n"
@@ -416,10 +417,16 @@ int runFastSlam(const Options& o)
   {
     const io::ForestMap saved = io::readForestMap(o.map_path);
     anchor = saved.anchor;
-    pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
-    if (!o.quiet)
+    if (o.initial_given)
+      pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
+    else
+      pipeline.setPriorMap(saved.trees, core::RelocalizationConfig());
+    if (!o.quiet && o.initial_given)
       std::printf("slam_bag fastslam: starting from %s: %zu trees, base_link at (%.2f, %.2f, %.1f deg) in its frame\n",
                   o.map_path.c_str(), saved.trees.size(), o.initial_x, o.initial_y, o.initial_yaw * 180.0 / M_PI);
+    else if (!o.quiet)
+      std::printf("slam_bag fastslam: starting from %s: %zu trees, the start pose searched from the trunks seen\n",
+                  o.map_path.c_str(), saved.trees.size());
   }
 
   Outputs out(o.out_dir);
@@ -485,6 +492,8 @@ int runFastSlam(const Options& o)
     throw std::runtime_error(o.bag_path + ": no filter update (no odometry on " + o.odom_topic +
                              " covers the sensor's messages?); nothing written");
 
+  if (!pipeline.localized())
+    throw std::runtime_error(o.bag_path + ": " + record.relocalizationSummary() + "; nothing written");
   const core::Particle& best = pipeline.filter().best();
   if (!o.save_map_path.empty())
   {
@@ -507,12 +516,14 @@ int runFastSlam(const Options& o)
     std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
                 "backwards or not finite), %d restarts (time jumped back)\n",
                 o.bag_path.c_str(), clouds, updates, drops.count(), resets);
-    const core::Pose2 estimate = pipeline.filter().estimate();
+    const core::Pose2 estimate = pipeline.localized() ? pipeline.filter().estimate() : core::Pose2(NAN, NAN, NAN);
     std::printf("  final estimate (%s; map frame = %s): %.3f %.3f %.1f deg; "
                 "%zu landmarks in the best particle's map\n",
                 core::toString(fc.estimate),
                 o.map_path.empty() ? "the odometry frame at the first update" : "the frame of the map it started from", estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
     std::printf("  %s\n", record.healthSummary().c_str());
+    if (!record.relocalizationSummary().empty())
+      std::printf("  %s\n", record.relocalizationSummary().c_str());
     std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
                 pipeline.secondsFilter(),
                 clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));

@@ -61,7 +61,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
     EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
                 k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
                 k == "time_jump_threshold" || k == "run_folder" || k == "map_file" || k == "initial_x" ||
-                k == "initial_y" || k == "initial_yaw" || k == "map_path")
+                k == "initial_y" || k == "initial_yaw" || k == "map_path" || k == "relocalize")
         << "unexpected key " << k;
 }
 

@@ -224,6 +224,11 @@ public:
   void initialize(const Pose2& start = Pose2());
   /** @brief All particles at @p start sharing the prior map @p map (copy-on-write), equal weights. */
   void initialize(const Pose2& start, const LandmarkMap& map);
+  /**
+   * @brief The particles spread over the poses @p starts (in turn, each drawn around its pose with the standard
+   * deviations @p sigma_xy [m] and @p sigma_theta [rad] from the filter's generator), sharing the prior map @p map.
+   */
+  void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta);
   /** @brief Samples every particle's motion for one odometry increment (after its own drift). */
   void predict(const OdometryIncrement& u);
   /**

@@ -5,10 +5,12 @@
 #include <deque>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "rbpf_slam/core/constellation.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/filter_health.h"
 #include "rbpf_slam/core/odometry_buffer.h"
@@ -73,6 +75,32 @@ SensorScope scanScope(const PlanarScan& scan, const TrunkDetectorConfig& config)
  */
 SensorScope sweepScope(const TrunkDetectorConfig& config, double reach = NAN);
 
+/** @brief The state of a global relocalization in a saved map. */
+struct RelocalizationStatus
+{
+  bool active = false;      ///< a search took place on this update
+  bool found = false;       ///< this update found the robot (the filter starts here)
+  int trunks = 0;           ///< distinct trunks gathered so far (seen at least twice)
+  int best_inliers = 0;     ///< of the best hypothesis
+  int second_inliers = 0;   ///< of the runner-up (0: none)
+  int hypotheses = 0;       ///< distinct hypotheses the particles were spread over (when found)
+  double travel = 0.0;      ///< [m] odometry travel since the search began
+  double seconds = 0.0;     ///< [s] CPU time of the search on this update
+  std::string reason;       ///< why not found yet
+};
+
+/** @brief Parameters of the search for the start pose in a saved map. */
+struct RelocalizationConfig
+{
+  ConstellationConfig constellation;
+  double merge_distance = 0.5;  ///< [m] detections this close in the odometry frame are one trunk
+  int min_sightings = 2;        ///< a trunk takes part once seen this often
+  double window = 30.0;         ///< [m] of travel: trunks gathered longer ago are forgotten (odometry drifts)
+  double hypothesis_share = 0.5;  ///< particles go to every hypothesis with this share of the best's inliers
+  double spread_xy = 0.1;       ///< [m] the particles' spread around each hypothesis
+  double spread_theta = 0.02;   ///< [rad]
+};
+
 /** @brief One sweep after extraction and the filter update. */
 struct PipelineUpdate
 {
@@ -88,6 +116,11 @@ struct PipelineUpdate
   /// false: the robot had not moved update_min_travel or turned update_min_turn since the last filter update; the
   /// sweep was not given to the filter and the estimate is the last one moved by the odometry since
   bool filtered = true;
+  /// false: still searching where the robot is in a saved map (setPriorMap without a start): no estimate yet
+  bool localized = true;
+  /// set on the update that found the robot in a saved map (and on every update while searching): what the
+  /// constellation search said
+  RelocalizationStatus relocalization;
 };
 
 /**
@@ -141,7 +174,17 @@ public:
    * a new map whose frame is the odometry frame at the first update.
    */
   void setPriorMap(const std::vector<Landmark>& trees, const Pose2& start);
+  /**
+   * @brief The same with the start pose unknown: the pipeline gathers the trunks of the first sweeps in the
+   * odometry frame (merged, each seen at least min_sightings times) and searches the saved map for them by
+   * constellation (ConstellationMatcher) after each sweep; until the search is accepted, updates come out with
+   * localized = false and no estimate. Then the particles start spread over the hypotheses that explain at least
+   * hypothesis_share of the best's trunks (each around its pose), and the next sweeps weigh them.
+   */
+  void setPriorMap(const std::vector<Landmark>& trees, const RelocalizationConfig& relocalization);
   bool hasPriorMap() const { return has_prior_; }
+  /** @brief Localized in the map: always true without a saved map, or with a known start. */
+  bool localized() const { return initialized_; }
 
   const FastSlam& filter() const { return *filter_; }
   /** @brief The filter's health monitor (restarts with the filter). */
@@ -166,6 +209,22 @@ private:
   bool has_prior_ = false;
   LandmarkMap prior_;
   Pose2 prior_start_;
+  bool relocalize_ = false;
+  RelocalizationConfig relocalization_config_;
+  std::unique_ptr<ConstellationMatcher> matcher_;
+  struct Gathered
+  {
+    Eigen::Vector2d center;
+    double radius = 0.0;
+    int sightings = 0;
+    double travel = 0.0;  ///< odometry travel at the last sighting
+  };
+  std::vector<Gathered> gathered_;
+  double search_travel_ = 0.0;
+  bool search_started_ = false;
+  Pose2 search_last_odometry_;
+  /** @brief One sweep of the search; true when the robot was found (the filter is then initialised). */
+  bool relocalize(const TrunkSweep& sweep, const Pose2& odom_mid, RelocalizationStatus* status);
   Pose2 last_odometry_;
   Pose2 last_estimate_;
   double last_stamp_ = 0.0;

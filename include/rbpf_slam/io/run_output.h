@@ -57,7 +57,11 @@ public:
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
                  const core::FastSlamUpdateStats& stats, const core::HealthStatus& health);
   /** @brief One pipeline update (as above). */
-  void addUpdate(const core::PipelineUpdate& u) { addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health); }
+  /** @brief One pipeline update (as above); while the pipeline searches a saved map (not localized) only the search
+   * is recorded (relocalizationSummary), no pose. */
+  void addUpdate(const core::PipelineUpdate& u);
+  /** @brief How the search for the start in a saved map went (empty when there was none). */
+  std::string relocalizationSummary() const;
   /** @brief Updates whose health was a warning. */
   std::size_t warnings() const { return warnings_; }
   /** @brief The health summary of health.txt (one paragraph). */
@@ -74,6 +78,11 @@ private:
   std::size_t warnings_ = 0;
   double first_warning_ = 0.0, last_warning_ = 0.0;
   std::string last_warning_message_;
+  int searching_ = 0;            ///< updates spent searching
+  bool found_ = false;
+  double found_stamp_ = 0.0, found_travel_ = 0.0, search_seconds_ = 0.0, max_search_seconds_ = 0.0;
+  int found_hypotheses_ = 0, found_inliers_ = 0, found_trunks_ = 0;
+  std::string last_reason_;
 };
 
 }  // namespace io

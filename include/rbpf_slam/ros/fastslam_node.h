@@ -35,7 +35,9 @@ struct FastSlamRosConfig : SlamRosConfig
   /// Tree map file (io/forest_map_file.h) to start from; "" = a new map whose frame is the odometry frame at the
   /// first update.
   std::string map_file;
-  /// [m, m, rad] base_link in the saved map's frame at the first update (only with map_file).
+  /// With map_file: search the saved map for the start pose from the trunks seen (true), or start at initial_*.
+  bool relocalize = true;
+  /// [m, m, rad] base_link in the saved map's frame at the first update (with map_file and relocalize false).
   double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;
   /// Where ~save_map writes the tree map (~ = $HOME).
   std::string map_path = "~/.ros/forest_map.csv";

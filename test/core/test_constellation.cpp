@@ -1,0 +1,125 @@
+// Global relocalization by constellation: the transform from the trunks seen to a saved map is found from
+// positions and radii alone, refused where the stand is ambiguous or unknown.
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rbpf_slam/core/constellation.h"
+
+using namespace rbpf_slam::core;
+
+namespace
+{
+std::vector<Landmark> randomStand(int n, double size, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> pos(0.0, size), rad(0.08, 0.35);
+  std::vector<Landmark> trees;
+  while (static_cast<int>(trees.size()) < n)
+  {
+    Landmark l;
+    l.mean = Eigen::Vector2d(pos(rng), pos(rng));
+    bool clear = true;
+    for (const Landmark& o : trees)
+      clear = clear && (o.mean - l.mean).norm() > 1.5;
+    if (!clear)
+      continue;
+    l.radius = rad(rng);
+    l.radius_variance = 0.01 * 0.01;
+    l.covariance = 0.03 * 0.03 * Eigen::Matrix2d::Identity();
+    l.provisional = false;
+    l.id = static_cast<int>(trees.size());
+    trees.push_back(l);
+  }
+  return trees;
+}
+
+/** The trees within @p range of @p pose (map frame), in the robot's frame, with noise. */
+std::vector<TrunkPoint> seenFrom(const std::vector<Landmark>& trees, const Pose2& pose, double range, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.03), rnoise(0.0, 0.015);
+  std::vector<TrunkPoint> seen;
+  const Pose2 inv = pose.inverse();
+  for (const Landmark& l : trees)
+  {
+    if ((l.mean - Eigen::Vector2d(pose.x, pose.y)).norm() > range)
+      continue;
+    TrunkPoint t;
+    inv.transformPoint(l.mean.x(), l.mean.y(), &t.center.x(), &t.center.y());
+    t.center += Eigen::Vector2d(noise(rng), noise(rng));
+    t.radius = l.radius + rnoise(rng);
+    t.radius_sigma = 0.02;
+    seen.push_back(t);
+  }
+  return seen;
+}
+}  // namespace
+
+TEST(Constellation, FindsThePoseInARandomStandDespiteMissesAndClutter)
+{
+  const std::vector<Landmark> trees = randomStand(150, 60.0, 3);
+  const ConstellationMatcher matcher(trees);
+  EXPECT_GT(matcher.mapPairs(), 1000u);
+  int found = 0;
+  for (unsigned k = 0; k < 10; ++k)
+  {
+    const Pose2 truth(15.0 + 3.0 * k, 20.0 + 2.0 * k, -2.5 + 0.6 * k);
+    std::vector<TrunkPoint> seen = seenFrom(trees, truth, 12.0, 10 + k);
+    ASSERT_GE(seen.size(), 8u);
+    seen.erase(seen.begin());  // a trunk hidden
+    TrunkPoint bush;           // two trunk-like objects that are not in the map
+    bush.center = Eigen::Vector2d(2.0, 1.0);
+    bush.radius = 0.1;
+    bush.radius_sigma = 0.02;
+    seen.push_back(bush);
+    bush.center = Eigen::Vector2d(-4.0, 6.5);
+    seen.push_back(bush);
+    const ConstellationResult r = matcher.match(seen);
+    ASSERT_FALSE(r.hypotheses.empty()) << r.reason;
+    const Pose2& t = r.hypotheses.front().transform;  // robot frame -> map: the robot's pose
+    if (!r.accepted)
+      continue;
+    ++found;
+    EXPECT_NEAR(t.x, truth.x, 0.05) << k;
+    EXPECT_NEAR(t.y, truth.y, 0.05) << k;
+    EXPECT_NEAR(std::remainder(t.theta - truth.theta, 2 * M_PI), 0.0, 0.01) << k;
+    EXPECT_GE(r.hypotheses.front().inliers, static_cast<int>(seen.size()) - 2);
+  }
+  EXPECT_EQ(found, 10);
+}
+
+TEST(Constellation, RefusesAnUnknownStand)
+{
+  const std::vector<Landmark> map = randomStand(150, 60.0, 3);
+  const std::vector<Landmark> elsewhere = randomStand(150, 60.0, 99);
+  const ConstellationMatcher matcher(map);
+  for (unsigned k = 0; k < 10; ++k)
+  {
+    const ConstellationResult r = matcher.match(seenFrom(elsewhere, Pose2(20.0 + 2.0 * k, 30.0, 0.3 * k), 12.0, k));
+    EXPECT_FALSE(r.accepted) << k << ": " << r.hypotheses.front().inliers << " inliers";
+  }
+}
+
+TEST(Constellation, RefusesARegularPlantationAsAmbiguous)
+{
+  // Rows 4 m apart, trees 3 m apart, all of one radius: every shift by a row or a tree explains as much.
+  std::vector<Landmark> rows;
+  for (int i = 0; i < 12; ++i)
+    for (int j = 0; j < 12; ++j)
+    {
+      Landmark l;
+      l.mean = Eigen::Vector2d(3.0 * i, 4.0 * j);
+      l.radius = 0.15;
+      l.radius_variance = 1e-4;
+      l.provisional = false;
+      l.id = 12 * i + j;
+      rows.push_back(l);
+    }
+  const ConstellationMatcher matcher(rows);
+  const ConstellationResult r = matcher.match(seenFrom(rows, Pose2(16.5, 22.0, 0.0), 10.0, 1));
+  EXPECT_FALSE(r.accepted);
+  EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
+}
