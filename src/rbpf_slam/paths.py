@@ -35,3 +35,20 @@ def data_dir(given, name=''):
         raise ValueError('no data: give --data DIR or set %s to the folder holding %s' %
                          (DATA_ENV, (name + '/') if name else 'the data sets'))
     return os.path.join(root, name) if name else root
+
+
+def program(name):
+    """A compiled program of the package (e.g. 'slam_bag'): in $RBPF_WS/devel/lib, a sourced workspace (devel or
+    install, as rosrun finds it) or the source tree's build/devel; ValueError when none is built."""
+    candidates = []
+    if os.environ.get('RBPF_WS'):
+        candidates.append(os.path.join(os.environ['RBPF_WS'], 'devel', 'lib'))
+    candidates += [os.path.join(prefix, 'lib') for prefix in os.environ.get('CMAKE_PREFIX_PATH', '').split(':')
+                   if prefix]
+    candidates.append(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'build', 'devel', 'lib'))
+    for lib in candidates:
+        path = os.path.join(lib, 'rbpf_slam', name)
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
+    raise ValueError('%s: expected the built program (scripts/bootstrap builds it, or source a workspace), got none'
+                     % name)

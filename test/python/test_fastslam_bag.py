@@ -239,3 +239,51 @@ def test_a_bad_map_file_is_one_line_and_nothing_is_written(bags, tmp_path):
     r = subprocess.run([_tool('slam_bag'), '--bag', full, '--initial-pose', '1', '2', '3'],
                        stderr=subprocess.PIPE, universal_newlines=True)
     assert r.returncode == 2 and '--initial-pose goes with --map' in r.stderr
+
+
+def _compose(a, b):
+    c, s = np.cos(a[2]), np.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
+
+
+def test_the_start_is_found_in_a_saved_map_and_an_unknown_stand_is_refused(tmp_path):
+    """Visit 2 starts elsewhere in the paper world, heading elsewhere, with no start pose given: slam_bag --map finds
+    it from the trunks (constellation search) and tracks in the saved map's frame. The same search in another stand's
+    map finds nothing and writes nothing."""
+    saved = os.path.join(ROOT, 'test', 'ros', 'paper_forest_map.csv')  # frame: the default start (0, 15), east
+    drive = tmp_path / 'drive.txt'
+    drive.write_text('5 0\n10 0\n')
+    bag = str(tmp_path / 'visit2.bag')
+    subprocess.run([_tool('record_scenario'), '--world', WORLD, '--drive', str(drive), '--seed', '5', '--start', '25',
+                    '20', '200', '--out', bag, '--quiet'], check=True, stdout=subprocess.DEVNULL)
+    out = str(tmp_path / 'run')
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', saved, '--out', out], stdout=subprocess.PIPE,
+                       universal_newlines=True, check=True)
+    assert 'the start pose searched from the trunks seen' in r.stdout
+    assert 'relocalized in the saved map' in r.stdout, r.stdout
+    stamps, xy, _ = ev.read_tum(os.path.join(out, 'estimate.tum'))
+    truth = []
+    with rosbag.Bag(bag) as b:
+        for _, msg, _ in b.read_messages(topics=['/ground_truth/odom']):
+            p = msg.pose.pose.position
+            truth.append((msg.header.stamp.to_sec(), p.x, p.y))
+    to_map = _compose((0.0, -15.0, 0.0), (25.0, 20.0, np.radians(200.0)))
+    errors = []
+    for t, (x, y) in zip(stamps, xy):
+        k = int(np.argmin([abs(s - t) for s, _, _ in truth]))
+        px, py, _ = _compose(to_map, (truth[k][1], truth[k][2], 0.0))
+        errors.append(np.hypot(x - px, y - py))
+    assert len(errors) > 50 and max(errors) < 0.3, 'errors in the saved map: first %.3f, max %.3f m' % (
+        errors[0], max(errors))
+
+    other = tmp_path / 'other_map.csv'  # the trees of another stand
+    clumped = os.path.join(ROOT, 'config', 'worlds', 'clumped.trees.txt')
+    rows = [line.split() for line in open(clumped) if line.strip() and not line.startswith('#')]
+    other.write_text('id,x,y,dbh\n' + ''.join('%d,%s,%s,%.3f\n' % (i, r[0], r[1], 2 * float(r[2]))
+                                               for i, r in enumerate(rows)))
+    refused = str(tmp_path / 'refused')
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', str(other), '--out', refused],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode == 1
+    assert 'not relocalized in the saved map' in r.stderr and 'nothing written' in r.stderr, r.stderr
+    assert not os.path.exists(refused)

@@ -121,6 +121,7 @@ def test_the_live_demo_launches_from_the_install_space(tmp_path):
 def test_the_installed_world_generators_and_experiments_run(tmp_path):
     r = _run('rosrun rbpf_slam make_dense_forest 20 3 "%s/f.trees.txt" && rosrun rbpf_slam make_stand clumped 1 '
              '"%s/c.trees.txt" && rosrun rbpf_slam fastslam_experiments --help && rosrun rbpf_slam grid_benchmark --help'
+             ' && rosrun rbpf_slam lifelong_benchmark --help'
              % (tmp_path, tmp_path), str(tmp_path))
     assert r.returncode == 0, r.stdout[-3000:]
     assert len([line for line in (tmp_path / 'f.trees.txt').read_text().splitlines()

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""rostest node: FastSLAM started from a saved map finds the robot in it (fastslam_localize.test).
+
+The saved map's frame is the simulator's default start (0, 15) heading east; this run starts at (25, 20) heading
+200 degrees, and the simulator's truth is relative to that start. At the end, map -> base_link must be the truth
+carried into the saved map's frame, and the published trees must be the saved ones (their ids).
+"""
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from nav_msgs.msg import Odometry
+from rbpf_slam.msg import TrunkArray
+from std_msgs.msg import Bool
+
+SAVED_START = (0.0, 15.0, 0.0)
+THIS_START = (25.0, 20.0, math.radians(200.0))
+
+
+def compose(a, b):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
+
+
+def inverse(a):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (-c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2])
+
+
+class FastSlamLocalizeCheck(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.lock = threading.Lock()
+        cls.truth = []
+        cls.landmarks = None
+        cls.done = False
+        cls.tf_buffer = tf2_ros.Buffer(rospy.Duration(60.0))
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
+
+        def on_truth(msg):
+            p = msg.pose.pose
+            yaw = 2.0 * math.atan2(p.orientation.z, p.orientation.w)
+            with cls.lock:
+                cls.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, yaw))
+
+        def on_landmarks(msg):
+            with cls.lock:
+                cls.landmarks = msg
+
+        def on_done(msg):
+            cls.done = cls.done or msg.data
+
+        cls.subs = [rospy.Subscriber('ground_truth/odom', Odometry, on_truth, queue_size=200),
+                    rospy.Subscriber('landmark_array', TrunkArray, on_landmarks, queue_size=2),
+                    rospy.Subscriber('sim_done', Bool, on_done)]
+        t0 = time.time()
+        while not rospy.is_shutdown() and not cls.done and time.time() - t0 < 80.0:
+            time.sleep(0.1)
+        time.sleep(1.0)
+
+    def test_1_found_in_the_saved_map(self):
+        self.assertTrue(self.done, 'no sim_done within 80 s wall time')
+        t = self.tf_buffer.lookup_transform('map', 'base_link', rospy.Time(0), rospy.Duration(2.0))
+        stamp = t.header.stamp.to_sec()
+        with self.lock:
+            truth = list(self.truth)
+        self.assertGreater(len(truth), 10, 'no ground truth')
+        nearest = min(truth, key=lambda s: abs(s[0] - stamp))
+        expected = compose(compose(inverse(SAVED_START), THIS_START), nearest[1:])
+        got = (t.transform.translation.x, t.transform.translation.y)
+        error = math.hypot(got[0] - expected[0], got[1] - expected[1])
+        rospy.loginfo('fastslam_localize: map -> base_link (%.2f, %.2f), truth in the saved map (%.2f, %.2f): %.3f m',
+                      got[0], got[1], expected[0], expected[1], error)
+        self.assertLess(error, 0.3)
+
+    def test_2_the_saved_trees_are_kept(self):
+        with self.lock:
+            lm = self.landmarks
+        self.assertIsNotNone(lm, 'no landmark_array')
+        ids = set(t.id for t in lm.trunks)
+        self.assertGreaterEqual(len(ids & set(range(16))), 14, 'the saved trees (ids 0..15) are gone: %s' % sorted(ids))
+
+
+if __name__ == '__main__':
+    rospy.init_node('fastslam_localize_check')
+    rostest.rosrun('rbpf_slam', 'fastslam_localize', FastSlamLocalizeCheck)
