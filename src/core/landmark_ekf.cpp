@@ -23,6 +23,18 @@ void fuseLandmarkRadius(Landmark* l, const LandmarkObservation& o)
 {
   if (!(o.radius_variance > 0.0))
     return;
+  if (l->visit_observations == 0 || !(l->visit_radius_variance > 0.0))
+  {
+    l->visit_radius = o.radius;
+    l->visit_radius_variance = o.radius_variance;
+  }
+  else
+  {
+    const double gv = l->visit_radius_variance / (l->visit_radius_variance + o.radius_variance);
+    l->visit_radius += gv * (o.radius - l->visit_radius);
+    l->visit_radius_variance *= (1.0 - gv);
+  }
+  ++l->visit_observations;
   if (l->radius_variance <= 0.0 || l->observations == 0)
   {
     l->radius = o.radius;
@@ -44,6 +56,9 @@ Landmark landmarkFromObservation(const LandmarkObservation& o, const Pose2& sens
   l.covariance = G * R * G.transpose();
   l.radius = o.radius;
   l.radius_variance = std::max(0.0, o.radius_variance);  // 0: the radius is not known yet
+  l.visit_radius = o.radius;
+  l.visit_radius_variance = l.radius_variance;
+  l.visit_observations = 1;
   return l;
 }
 

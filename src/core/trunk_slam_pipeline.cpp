@@ -46,6 +46,9 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Po
   for (Landmark l : trees)
   {
     l.evidence = l.provisional ? 0.0 : filter_config_.evidence_max;
+    l.visit_radius = NAN;  // this run has not seen it yet
+    l.visit_radius_variance = 0.0;
+    l.visit_observations = 0;
     prior_.add(l);
   }
   prior_start_ = start;

@@ -229,5 +229,126 @@ ForestMap readForestMap(const std::string& path)
   return parseForestMap(s, path);
 }
 
+namespace
+{
+std::string csvNumber(double v, const char* format = "%.6f")
+{
+  if (!std::isfinite(v))
+    return "";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), format, v);
+  return buf;
+}
+
+std::string jsonNumber(double v, const char* format = "%.6f")
+{
+  return std::isfinite(v) ? csvNumber(v, format) : "null";
+}
+
+std::string jsonString(const std::string& s)
+{
+  std::string out = "\"";
+  for (char c : s)
+  {
+    if (c == '"' || c == '\\')
+      out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20)
+      continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string point(const MapAnchor& anchor, const Eigen::Vector2d& p)
+{
+  double lat = 0.0, lon = 0.0;
+  toWgs84(anchor, p.x(), p.y(), &lat, &lon);
+  return "{\"type\": \"Point\", \"coordinates\": [" + jsonNumber(lon, "%.9f") + ", " + jsonNumber(lat, "%.9f") + "]}";
+}
+
+std::string collection(const std::vector<std::string>& features)
+{
+  std::string out = "{\"type\": \"FeatureCollection\", \"features\": [\n";
+  for (std::size_t i = 0; i < features.size(); ++i)
+    out += "  " + features[i] + (i + 1 < features.size() ? ",\n" : "\n");
+  return out + "]}\n";
+}
+
+void requireAnchor(const MapAnchor& anchor)
+{
+  if (!anchor.valid)
+    throw std::invalid_argument("the map has no anchor on the earth (a '# anchor:' line): GeoJSON needs WGS84");
+}
+}  // namespace
+
+void toWgs84(const MapAnchor& anchor, double x, double y, double* latitude, double* longitude)
+{
+  const double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2.0 - f);
+  const double lat0 = anchor.latitude * M_PI / 180.0;
+  const double s = std::sin(lat0);
+  const double w = std::sqrt(1.0 - e2 * s * s);
+  const double rn = a / w;                        // prime vertical
+  const double rm = a * (1.0 - e2) / (w * w * w);  // meridian
+  const double c = std::cos(anchor.yaw), sn = std::sin(anchor.yaw);
+  const double east = c * x - sn * y, north = sn * x + c * y;
+  *latitude = anchor.latitude + (north / (rm + anchor.altitude)) * 180.0 / M_PI;
+  *longitude = anchor.longitude + (east / ((rn + anchor.altitude) * std::cos(lat0))) * 180.0 / M_PI;
+}
+
+const char* const kChangesHeader =
+    "kind,id,x,y,sigma_x,sigma_y,dbh_before,sigma_dbh_before,dbh_after,sigma_dbh_after,observations,first_seen,"
+    "last_seen,evidence";
+
+std::string changesCsv(const std::vector<core::TreeChange>& changes)
+{
+  std::string csv = std::string(kChangesHeader) + "\n";
+  for (const core::TreeChange& c : changes)
+  {
+    std::string evidence = c.evidence;
+    for (char& ch : evidence)
+      if (ch == '"')
+        ch = '\'';
+    csv += std::string(core::toString(c.kind)) + "," + std::to_string(c.id) + "," + csvNumber(c.center.x()) + "," +
+           csvNumber(c.center.y()) + "," + csvNumber(std::sqrt(std::max(0.0, c.covariance(0, 0)))) + "," +
+           csvNumber(std::sqrt(std::max(0.0, c.covariance(1, 1)))) + "," + csvNumber(c.dbh_before) + "," +
+           csvNumber(c.sigma_dbh_before) + "," + csvNumber(c.dbh_after) + "," + csvNumber(c.sigma_dbh_after) + "," +
+           std::to_string(c.observations) + "," + csvNumber(c.first_seen) + "," + csvNumber(c.last_seen) + ",\"" +
+           evidence + "\"\n";
+  }
+  return csv;
+}
+
+std::string treesGeoJson(const ForestMap& map)
+{
+  requireAnchor(map.anchor);
+  std::vector<std::string> features;
+  for (const core::Landmark& l : map.trees)
+    features.push_back(
+        "{\"type\": \"Feature\", \"geometry\": " + point(map.anchor, l.mean) + ", \"properties\": {\"id\": " +
+        std::to_string(l.id) + ", \"dbh_m\": " + jsonNumber(2.0 * l.radius) + ", \"sigma_dbh_m\": " +
+        jsonNumber(2.0 * std::sqrt(std::max(0.0, l.radius_variance))) + ", \"sigma_x_m\": " +
+        jsonNumber(std::sqrt(std::max(0.0, l.covariance(0, 0)))) + ", \"sigma_y_m\": " +
+        jsonNumber(std::sqrt(std::max(0.0, l.covariance(1, 1)))) + ", \"observations\": " +
+        std::to_string(l.observations) + ", \"provisional\": " + (l.provisional ? "true" : "false") +
+        ", \"first_seen\": " + jsonNumber(l.first_seen) + ", \"last_seen\": " + jsonNumber(l.last_seen) + "}}");
+  return collection(features);
+}
+
+std::string changesGeoJson(const MapAnchor& anchor, const std::vector<core::TreeChange>& changes)
+{
+  requireAnchor(anchor);
+  std::vector<std::string> features;
+  for (const core::TreeChange& c : changes)
+    features.push_back("{\"type\": \"Feature\", \"geometry\": " + point(anchor, c.center) +
+                       ", \"properties\": {\"kind\": " + jsonString(core::toString(c.kind)) + ", \"id\": " +
+                       std::to_string(c.id) + ", \"dbh_before_m\": " + jsonNumber(c.dbh_before) +
+                       ", \"dbh_after_m\": " + jsonNumber(c.dbh_after) + ", \"sigma_x_m\": " +
+                       jsonNumber(std::sqrt(std::max(0.0, c.covariance(0, 0)))) + ", \"sigma_y_m\": " +
+                       jsonNumber(std::sqrt(std::max(0.0, c.covariance(1, 1)))) + ", \"observations\": " +
+                       std::to_string(c.observations) + ", \"last_seen\": " + jsonNumber(c.last_seen) +
+                       ", \"evidence\": " + jsonString(c.evidence) + "}}");
+  return collection(features);
+}
+
 }  // namespace io
 }  // namespace rbpf_slam

@@ -95,6 +95,7 @@ struct Options
   bool scan_given = false;  // fastslam: 2D scans instead of point clouds
   std::string landmarks_topic;  // fastslam: a detector's TrunkArrays instead of clouds or scans
   std::string map_path, save_map_path;  // fastslam: the tree map to start from, the tree map to write
+  std::string changes_prefix;  // fastslam with --map: the change report PREFIX.csv (+ PREFIX.geojson)
   double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;  // fastslam: base_link in that map at the start
   bool initial_given = false;
   std::string wheels_topic, imu_topic = "/imu/data";
@@ -117,7 +118,9 @@ void usage(const char* argv0)
                "            [--extraction-config YAML] [--method circle|centroid]\n"
                "            [--map FILE (a tree map to start from; its frame is the map frame) [--initial-pose X Y\n"
                "             YAW_DEG (base_link in that map at the first update; without it the start is searched\n"
-               "             from the trunks seen)]] [--save-map FILE]\n"
+               "             from the trunks seen)] [--changes PREFIX (felled, new and changed trees since that map:\n"
+               "             PREFIX.csv, and PREFIX.geojson when the map has an anchor)]] [--save-map FILE (+ .geojson\n"
+               "             when anchored)]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
                "             set to 0 over any --config; the defaults are 1 m, 0.5 rad, off; for benchmarks)]\n"
@@ -413,9 +416,10 @@ int runFastSlam(const Options& o)
   }
   core::TrunkSlamPipeline pipeline(dc, fc);
   io::MapAnchor anchor;
+  io::ForestMap saved;
   if (!o.map_path.empty())
   {
-    const io::ForestMap saved = io::readForestMap(o.map_path);
+    saved = io::readForestMap(o.map_path);
     anchor = saved.anchor;
     if (o.initial_given)
       pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
@@ -502,6 +506,25 @@ int runFastSlam(const Options& o)
     for (std::size_t i = 0; i < best.map.size(); ++i)
       map.trees.push_back(best.map[i]);
     out.add(o.save_map_path, io::forestMapCsv(map));
+    if (anchor.valid)  // the inventory for GIS tools beside it: FILE.csv -> FILE.geojson
+    {
+      const std::size_t dot = o.save_map_path.rfind('.');
+      const std::size_t slash = o.save_map_path.rfind('/');
+      const bool has_extension = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
+      out.add(o.save_map_path.substr(0, has_extension ? dot : o.save_map_path.size()) + ".geojson",
+              io::treesGeoJson(map));
+    }
+  }
+  std::vector<core::TreeChange> changes;
+  if (!o.changes_prefix.empty())
+  {
+    std::vector<core::Landmark> now;
+    for (std::size_t i = 0; i < best.map.size(); ++i)
+      now.push_back(best.map[i]);
+    changes = core::detectChanges(saved.trees, now);
+    out.add(o.changes_prefix + ".csv", io::changesCsv(changes));
+    if (anchor.valid)
+      out.add(o.changes_prefix + ".geojson", io::changesGeoJson(anchor, changes));
   }
   if (out.enabled())
   {
@@ -524,6 +547,14 @@ int runFastSlam(const Options& o)
     std::printf("  %s\n", record.healthSummary().c_str());
     if (!record.relocalizationSummary().empty())
       std::printf("  %s\n", record.relocalizationSummary().c_str());
+    if (!o.changes_prefix.empty())
+    {
+      int n[3] = { 0, 0, 0 };
+      for (const core::TreeChange& c : changes)
+        ++n[static_cast<int>(c.kind)];
+      std::printf("  changes since the saved map: %d felled, %d new, %d changed radii; written to %s.csv%s\n", n[0],
+                  n[1], n[2], o.changes_prefix.c_str(), anchor.valid ? " and .geojson" : " (no anchor: no GeoJSON)");
+    }
     std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
                 pipeline.secondsFilter(),
                 clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
@@ -834,6 +865,8 @@ int main(int argc, char** argv)
         o.map_path = argv[++i];
       else if (a == "--save-map")
         o.save_map_path = argv[++i];
+      else if (a == "--changes")
+        o.changes_prefix = argv[++i];
       else if (a == "--initial-pose")
       {
         if (i + 3 >= argc)
@@ -856,6 +889,8 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--odometry-only goes with --filter grid");
     if (o.filter != "fastslam" && (!o.map_path.empty() || !o.save_map_path.empty()))
       throw std::invalid_argument("--map and --save-map go with --filter fastslam (a grid map is map.yaml + map.pgm)");
+    if (!o.changes_prefix.empty() && o.map_path.empty())
+      throw std::invalid_argument("--changes goes with --map FILE (the changes since that map)");
     if (o.initial_given && o.map_path.empty())
       throw std::invalid_argument("--initial-pose goes with --map FILE");
     if (o.filter == "fastslam" && o.every_scan)
@@ -879,10 +914,12 @@ int main(int argc, char** argv)
     if (S_ISDIR(st.st_mode))
       throw std::runtime_error(o.bag_path + ": a folder, not a bag file");
     checkOutputDir(o.out_dir);
-    if (!o.save_map_path.empty())
+    for (const std::string& file : { o.save_map_path, o.changes_prefix })
     {
-      const std::size_t slash = o.save_map_path.find_last_of('/');
-      checkOutputDir(slash == std::string::npos ? "." : o.save_map_path.substr(0, std::max<std::size_t>(slash, 1)));
+      if (file.empty())
+        continue;
+      const std::size_t slash = file.find_last_of('/');
+      checkOutputDir(slash == std::string::npos ? "." : file.substr(0, std::max<std::size_t>(slash, 1)));
     }
     return o.filter == "grid" ? runGrid(o) : runFastSlam(o);
   }

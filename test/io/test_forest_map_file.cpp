@@ -120,3 +120,58 @@ TEST(ForestMapFile, MalformedFilesAreRefusedWithFileAndLine)
             std::string::npos);
   EXPECT_THROW(io::readForestMap("/nonexistent/forest_map.csv"), std::runtime_error);
 }
+
+TEST(ForestMapFile, Wgs84OfTheAnchorAndOfPointsAMetreAway)
+{
+  io::MapAnchor a;
+  a.valid = true;
+  a.latitude = 61.5;
+  a.longitude = 24.25;
+  double lat = 0.0, lon = 0.0;
+  io::toWgs84(a, 0.0, 0.0, &lat, &lon);
+  EXPECT_DOUBLE_EQ(lat, 61.5);
+  EXPECT_DOUBLE_EQ(lon, 24.25);
+  // 1000 m north and east at 61.5 deg: about 0.00897 deg of latitude, 0.01886 deg of longitude (WGS84).
+  io::toWgs84(a, 1000.0, 1000.0, &lat, &lon);
+  EXPECT_NEAR(lat - 61.5, 1000.0 / 111440.0 * 1.0, 2e-5);
+  EXPECT_NEAR(lon - 24.25, 1000.0 / (111440.0 * std::cos(61.5 * M_PI / 180.0)) * 1.0, 1e-4);
+  // The map's x axis turned 90 deg from east: x is north.
+  a.yaw = M_PI / 2.0;
+  double lat2 = 0.0, lon2 = 0.0;
+  io::toWgs84(a, 1000.0, 0.0, &lat2, &lon2);
+  EXPECT_NEAR(lat2, lat, 1e-9);
+  EXPECT_NEAR(lon2, 24.25, 1e-9);
+}
+
+TEST(ForestMapFile, ChangeReportAndGeoJsonNeedAnAnchor)
+{
+  rbpf_slam::core::TreeChange felled;
+  felled.kind = rbpf_slam::core::ChangeKind::kFelled;
+  felled.id = 4;
+  felled.center = Eigen::Vector2d(3.0, -1.0);
+  felled.covariance = 0.0004 * Eigen::Matrix2d::Identity();
+  felled.dbh_before = 0.3;
+  felled.sigma_dbh_before = 0.01;
+  felled.evidence = "not seen \"at all\"";
+  const std::string csv = io::changesCsv({ felled });
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), io::kChangesHeader);
+  EXPECT_NE(csv.find("\nfelled,4,3.000000,-1.000000,0.020000,0.020000,0.300000,0.010000,,,0,,,\"not seen 'at all'\"\n"),
+            std::string::npos)
+      << csv;
+  io::MapAnchor none;
+  EXPECT_THROW(io::changesGeoJson(none, { felled }), std::invalid_argument);
+  io::MapAnchor a;
+  a.valid = true;
+  a.latitude = 61.5;
+  a.longitude = 24.25;
+  const std::string json = io::changesGeoJson(a, { felled });
+  EXPECT_EQ(json.rfind("{\"type\": \"FeatureCollection\", \"features\": [\n", 0), 0u) << json;
+  EXPECT_NE(json.find("\"kind\": \"felled\""), std::string::npos);
+  EXPECT_NE(json.find("\"dbh_after_m\": null"), std::string::npos) << "NaN is null in JSON";
+  EXPECT_NE(json.find("\"evidence\": \"not seen \\\"at all\\\"\""), std::string::npos) << json;
+  io::ForestMap m;
+  m.trees = { tree(1, 0.0, 0.0, 0.1) };
+  EXPECT_THROW(io::treesGeoJson(m), std::invalid_argument);
+  m.anchor = a;
+  EXPECT_NE(io::treesGeoJson(m).find("\"coordinates\": [24.250000000, 61.500000000]"), std::string::npos);
+}

@@ -4,7 +4,9 @@ Records a bag with record_scenario, strips every ground-truth topic from a copy,
 (slam_bag --filter fastslam) on both: the outputs must be identical (extraction and filter never read the truth), and the final pose
 must be near the truth and far better than dead reckoning.
 """
+import csv
 import filecmp
+import json
 import os
 import subprocess
 
@@ -257,9 +259,28 @@ def test_the_start_is_found_in_a_saved_map_and_an_unknown_stand_is_refused(tmp_p
     subprocess.run([_tool('record_scenario'), '--world', WORLD, '--drive', str(drive), '--seed', '5', '--start', '25',
                     '20', '200', '--out', bag, '--quiet'], check=True, stdout=subprocess.DEVNULL)
     out = str(tmp_path / 'run')
-    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', saved, '--out', out], stdout=subprocess.PIPE,
-                       universal_newlines=True, check=True)
+    anchored = tmp_path / 'anchored_map.csv'  # the same map placed on the earth
+    with open(saved) as f:
+        anchored.write_text('# anchor: latitude=61.5 longitude=24.25 altitude=100 yaw=0.3 sigma=1\n' + f.read())
+    changes, after = str(tmp_path / 'changes'), str(tmp_path / 'after.csv')
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', str(anchored), '--out', out, '--changes', changes,
+                        '--save-map', after], stdout=subprocess.PIPE, universal_newlines=True, check=True)
     assert 'the start pose searched from the trunks seen' in r.stdout
+    # Nothing changed in this stand: no tree is felled; the files a GIS reads are valid GeoJSON in WGS84.
+    with open(changes + '.csv') as f:
+        rows = list(csv.DictReader(f))
+    assert [row['kind'] for row in rows].count('felled') == 0, rows
+    for path in (changes + '.geojson', str(tmp_path / 'after.geojson')):
+        with open(path) as f:
+            doc = json.load(f)
+        assert doc['type'] == 'FeatureCollection'
+        for feature in doc['features']:
+            assert feature['type'] == 'Feature' and feature['geometry']['type'] == 'Point'
+            lon, lat = feature['geometry']['coordinates']
+            assert abs(lon - 24.25) < 0.001 and abs(lat - 61.5) < 0.001, (lon, lat)
+    trees = json.load(open(str(tmp_path / 'after.geojson')))['features']
+    assert len(trees) >= 14 and all(t['properties']['dbh_m'] > 0 for t in trees)
+    assert ev.read_landmarks_csv(after)['anchor']['latitude'] == 61.5  # the anchor is kept
     assert 'relocalized in the saved map' in r.stdout, r.stdout
     stamps, xy, _ = ev.read_tum(os.path.join(out, 'estimate.tum'))
     truth = []

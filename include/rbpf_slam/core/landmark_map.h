@@ -28,6 +28,11 @@ struct Landmark
   int id = 0;                    ///< unique within the filter (for visualisation and evaluation)
   double first_seen = NAN;       ///< [s] the filter's clock at the first sighting (NaN: not known)
   double last_seen = NAN;        ///< [s] the filter's clock at the last match (NaN: not known)
+  /// The radius from this run's observations alone (a tree of a saved map keeps its old radius in `radius`, fused
+  /// with the new observations; this one shows growth), its variance, and this run's matches.
+  double visit_radius = NAN;
+  double visit_radius_variance = 0.0;
+  int visit_observations = 0;
 };
 
 /**

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "rbpf_slam/core/forest_changes.h"
 #include "rbpf_slam/core/landmark_map.h"
 
 namespace rbpf_slam
@@ -57,6 +58,30 @@ void writeForestMap(const std::string& path, const ForestMap& map);
 ForestMap parseForestMap(const std::string& text, const std::string& name);
 /** @brief Reads and parses a tree map file. @throws std::runtime_error naming the file. */
 ForestMap readForestMap(const std::string& path);
+
+/**
+ * @brief [deg] WGS84 latitude and longitude of the map point (@p x, @p y) [m] of a valid @p anchor: the map frame
+ * turned by the anchor's yaw onto east-north, then the local tangent plane at the anchor (the ellipsoid's radii of
+ * curvature there; within a few millimetres over a kilometre).
+ */
+void toWgs84(const MapAnchor& anchor, double x, double y, double* latitude, double* longitude);
+
+/** @brief The header of the change report CSV. */
+extern const char* const kChangesHeader;
+/**
+ * @brief The change report as CSV: per change kind (felled, new, changed), id, centre x, y and their standard
+ * deviations [m], dbh and its standard deviation before and after [m] (empty where there is none), this visit's
+ * matches, first and last seen [s], and the evidence in words.
+ */
+std::string changesCsv(const std::vector<core::TreeChange>& changes);
+/**
+ * @brief A GeoJSON FeatureCollection (RFC 7946: WGS84 longitude, latitude) of the trees of @p map, one Point each
+ * with id, dbh, the standard deviations, observations, provisional and the times as properties.
+ * @throws std::invalid_argument when the map has no anchor (a local frame cannot be placed on the earth).
+ */
+std::string treesGeoJson(const ForestMap& map);
+/** @brief The same for the change report (properties: kind, id, dbh before and after, evidence, ...). */
+std::string changesGeoJson(const MapAnchor& anchor, const std::vector<core::TreeChange>& changes);
 
 }  // namespace io
 }  // namespace rbpf_slam

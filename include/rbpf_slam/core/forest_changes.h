@@ -1,0 +1,61 @@
+#ifndef RBPF_SLAM_CORE_FOREST_CHANGES_H
+#define RBPF_SLAM_CORE_FOREST_CHANGES_H
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/landmark_map.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief When a difference between a saved map and the map of a later visit is reported as a change. */
+struct ChangeConfig
+{
+  int min_observations = 10;    ///< a new tree, or a tree's new radius, needs this many matches of this visit
+  double growth_sigmas = 3.0;   ///< a radius change beyond this many combined standard deviations ...
+  double growth_floor = 0.005;  ///< [m] ... plus this (the fit's bias between visits) is reported
+};
+
+enum class ChangeKind
+{
+  kFelled,   ///< a confirmed tree of the saved map that this visit removed by the expected-miss rule
+  kNew,      ///< a confirmed tree of this visit where the saved map had none
+  kChanged,  ///< a tree of both whose radius of this visit differs from the saved one beyond its uncertainty
+};
+const char* toString(ChangeKind kind);
+
+/** @brief One reported change, with its evidence. */
+struct TreeChange
+{
+  ChangeKind kind = ChangeKind::kNew;
+  int id = 0;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();             ///< [m] map frame
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();         ///< [m^2]
+  double dbh_before = NAN, sigma_dbh_before = NAN;              ///< [m] saved (NaN for a new tree)
+  double dbh_after = NAN, sigma_dbh_after = NAN;                ///< [m] this visit's (NaN for a felled tree)
+  int observations = 0;      ///< matches of this visit
+  double first_seen = NAN;   ///< [s]
+  double last_seen = NAN;    ///< [s] the last sighting (of the saved map for a felled tree)
+  std::string evidence;      ///< in words
+};
+
+/**
+ * @brief The changes between the trees of a saved map (@p before, as it was loaded) and the best particle's map at
+ * the end of a later visit started from it (@p after; ids of saved trees are kept, new trees have new ids): felled
+ * (confirmed saved trees that are gone: the filter removes a tree only after it was expected inside the sensor's
+ * scope, not hidden behind a nearer trunk, and not seen, sweep after sweep), new (confirmed trees of this visit
+ * with min_observations matches and an id the saved map does not have), and changed radii (trees of both whose
+ * radius from this visit's observations alone differs from the saved one beyond growth_sigmas combined standard
+ * deviations plus growth_floor). Saved trees this visit never came near stay as they were and are not reported.
+ */
+std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const std::vector<Landmark>& after,
+                                      const ChangeConfig& config = ChangeConfig());
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FOREST_CHANGES_H
