@@ -166,6 +166,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
       throw invalidParameter(pnh_, "map_file", e.what());
     }
     anchor_ = saved.anchor;
+    saved_trees_ = saved.trees;
     if (config_.relocalize)
     {
       pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
@@ -188,6 +189,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   pose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
   particles_pub_ = nh_.advertise<geometry_msgs::PoseArray>("particles", 2);
   landmarks_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("landmark_markers", 2);
+  change_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("change_markers", 2);
   landmark_array_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("landmark_array", 2);
   path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
   odom_path_.header.frame_id = config_.map_frame;
@@ -537,6 +539,48 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
     landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(array));
   }
 
+  if (!saved_trees_.empty() && change_markers_pub_.getNumSubscribers() > 0)
+  {
+    // Felled (red, where the saved tree stood) and new (blue) trees since the saved map.
+    std::vector<core::Landmark> now;
+    for (std::size_t i = 0; i < best.map.size(); ++i)
+      now.push_back(best.map[i]);
+    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
+    visualization_msgs::Marker clear;
+    clear.header.stamp = stamp;
+    clear.header.frame_id = config_.map_frame;
+    clear.action = visualization_msgs::Marker::DELETEALL;
+    markers->markers.push_back(clear);
+    for (const core::TreeChange& c : core::detectChanges(saved_trees_, now))
+    {
+      if (c.kind == core::ChangeKind::kChanged)
+        continue;
+      visualization_msgs::Marker m;
+      m.header = clear.header;
+      m.ns = core::toString(c.kind);
+      m.id = c.id;
+      m.type = visualization_msgs::Marker::CYLINDER;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose.position.x = c.center.x();
+      m.pose.position.y = c.center.y();
+      m.pose.position.z = 1.5;
+      m.pose.orientation.w = 1.0;
+      const double dbh = c.kind == core::ChangeKind::kFelled ? c.dbh_before : c.dbh_after;
+      m.scale.x = m.scale.y = std::max(0.3, std::isfinite(dbh) ? dbh + 0.2 : 0.3);
+      m.scale.z = 3.0;
+      m.color.a = 0.6f;
+      if (c.kind == core::ChangeKind::kFelled)
+        m.color.r = 1.0f;
+      else
+      {
+        m.color.g = 0.4f;
+        m.color.b = 1.0f;
+      }
+      markers->markers.push_back(m);
+    }
+    change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(markers));
+  }
+
   if (landmarks_pub_.getNumSubscribers() > 0)
   {
     auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
@@ -611,9 +655,54 @@ bool FastSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigg
   pnh_.getParam("map_path", path);  // may have changed since the start
   res.success = writeInventory(path, &res.message);
   if (res.success)
+    res.success = writeChanges(path, &res.message);
+  if (res.success)
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   else
     ROS_ERROR("%s: save_map: %s", name_.c_str(), res.message.c_str());
+  return true;
+}
+
+bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message)
+{
+  // Beside a map file FILE.csv: FILE.geojson (anchored maps) and, started from a saved map, FILE_changes.csv (and
+  // FILE_changes.geojson when anchored).
+  const std::string target = io::expandHome(map_path);
+  const std::size_t dot = target.rfind('.'), slash = target.rfind('/');
+  const std::string stem =
+      dot != std::string::npos && (slash == std::string::npos || dot > slash + 1) ? target.substr(0, dot) : target;
+  if (!pipeline_->localized())
+    return true;
+  io::ForestMap map;
+  map.anchor = anchor_;
+  const core::Particle& best = pipeline_->filter().best();
+  for (std::size_t i = 0; i < best.map.size(); ++i)
+    map.trees.push_back(best.map[i]);
+  std::vector<io::FileContent> files;
+  try
+  {
+    if (anchor_.valid)
+      files.emplace_back(stem + ".geojson", io::treesGeoJson(map));
+    if (!saved_trees_.empty())
+    {
+      const std::vector<core::TreeChange> changes = core::detectChanges(saved_trees_, map.trees);
+      files.emplace_back(stem + "_changes.csv", io::changesCsv(changes));
+      if (anchor_.valid)
+        files.emplace_back(stem + "_changes.geojson", io::changesGeoJson(anchor_, changes));
+      int n[3] = { 0, 0, 0 };
+      for (const core::TreeChange& c : changes)
+        ++n[static_cast<int>(c.kind)];
+      *message += "; changes since " + config_.map_file + ": " + std::to_string(n[0]) + " felled, " +
+                  std::to_string(n[1]) + " new, " + std::to_string(n[2]) + " changed radii in " + stem +
+                  "_changes.csv";
+    }
+    io::writeFilesAtomic(files);
+  }
+  catch (const std::exception& e)
+  {
+    *message = e.what();
+    return false;
+  }
   return true;
 }
 

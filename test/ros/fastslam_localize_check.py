@@ -5,7 +5,10 @@ The saved map's frame is the simulator's default start (0, 15) heading east; thi
 200 degrees, and the simulator's truth is relative to that start. At the end, map -> base_link must be the truth
 carried into the saved map's frame, and the published trees must be the saved ones (their ids).
 """
+import csv
 import math
+import os
+import tempfile
 import threading
 import time
 import unittest
@@ -16,6 +19,7 @@ import tf2_ros
 from nav_msgs.msg import Odometry
 from rbpf_slam.msg import TrunkArray
 from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
 
 SAVED_START = (0.0, 15.0, 0.0)
 THIS_START = (25.0, 20.0, math.radians(200.0))
@@ -83,6 +87,18 @@ class FastSlamLocalizeCheck(unittest.TestCase):
         self.assertIsNotNone(lm, 'no landmark_array')
         ids = set(t.id for t in lm.trunks)
         self.assertGreaterEqual(len(ids & set(range(16))), 14, 'the saved trees (ids 0..15) are gone: %s' % sorted(ids))
+
+    def test_3_save_map_writes_the_change_report(self):
+        rospy.wait_for_service('fastslam/save_map', 5.0)
+        path = os.path.join(tempfile.mkdtemp(), 'visit2.csv')
+        rospy.set_param('fastslam/map_path', path)
+        res = rospy.ServiceProxy('fastslam/save_map', Trigger)()
+        self.assertTrue(res.success, res.message)
+        self.assertIn('changes since', res.message)
+        with open(os.path.join(os.path.dirname(path), 'visit2_changes.csv')) as f:
+            rows = list(csv.DictReader(f))
+        # The stand is the saved one: nothing was felled.
+        self.assertEqual([r['id'] for r in rows if r['kind'] == 'felled'], [], rows)
 
 
 if __name__ == '__main__':

@@ -70,7 +70,9 @@ std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& se
  *   only when subscribed); for rviz also `odom_path` (the raw odometry in the map frame, anchored where the
  *   map starts) and `scope` (Marker: the visibility scope's rings on the ground around the sensor, only when subscribed).
  * - service `~save_inventory` (std_srvs/Trigger): the best particle's trees to `~inventory_path` (CSV);
- *   `~save_map` the same tree map file, with the anchor of a map it started from, to `~map_path`.
+ *   `~save_map` the same tree map file, with the anchor of a map it started from, to `~map_path` (beside it its
+ *   GeoJSON when anchored, and the change report FILE_changes.csv since the saved map); `change_markers`
+ *   (MarkerArray, only when subscribed): felled (red) and new (blue) trees since the saved map.
  * - with `~map_file` it starts from a saved tree map, the robot at `~initial_x`, `~initial_y`, `~initial_yaw`
  *   in that map's frame (which becomes the map frame).
  *
@@ -104,6 +106,8 @@ private:
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
   bool writeInventory(const std::string& path, std::string* message);
+  /** @brief Beside the map file @p map_path: its GeoJSON (anchored) and the change report (started from a saved map). */
+  bool writeChanges(const std::string& map_path, std::string* message);
   /** @brief Says what the pipeline's stamp rule made of a message: drops (the first of each kind, then throttled)
    * and restarts. Lock held. */
   void report(core::StampVerdict verdict, const char* stream, const ros::Time& stamp);
@@ -136,6 +140,8 @@ private:
   void publishHealth(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
   io::MapAnchor anchor_;  ///< of the map it started from (kept when the map is saved)
+  std::vector<core::Landmark> saved_trees_;  ///< the trees of the map it started from (for the change report)
+  ros::Publisher change_markers_pub_;
   io::FastSlamRunRecord record_;  ///< the run folder's content
   ros::WallTimer timer_;
   nav_msgs::Path path_;
