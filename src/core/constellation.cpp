@@ -158,10 +158,13 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
     int inliers;
   };
   std::vector<Scored> scored;
-  for (std::size_t i = 0; i < seen.size(); ++i)
-    for (std::size_t j = i + 1; j < seen.size(); ++j)
+  const std::vector<TrunkPoint> head(
+      seen.begin(), seen.begin() + std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(seen.size()),
+                                                            std::max(2, config_.max_pair_trunks)));
+  for (std::size_t i = 0; i < head.size(); ++i)
+    for (std::size_t j = i + 1; j < head.size(); ++j)
     {
-      const Eigen::Vector2d dij = seen[j].center - seen[i].center;
+      const Eigen::Vector2d dij = head[j].center - head[i].center;
       const double d = dij.norm();
       if (d < config_.min_pair_length || d > config_.max_pair_length)
         continue;
@@ -172,20 +175,20 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
         for (int flip = 0; flip < 2; ++flip)
         {
           const int a = flip ? it->b : it->a, b = flip ? it->a : it->b;
-          if (!radiiAgree(seen[i], a) || !radiiAgree(seen[j], b))
+          if (!radiiAgree(head[i], a) || !radiiAgree(head[j], b))
             continue;
           const Eigen::Vector2d& ma = trees_[static_cast<std::size_t>(a)].center;
           const Eigen::Vector2d dab = trees_[static_cast<std::size_t>(b)].center - ma;
           const double th = wrap(std::atan2(dab.y(), dab.x()) - std::atan2(dij.y(), dij.x()));
           const double c = std::cos(th), s = std::sin(th);
           // The pair's midpoints coincide: the least-squares transform of the two correspondences.
-          const Eigen::Vector2d mid_seen = 0.5 * (seen[i].center + seen[j].center);
+          const Eigen::Vector2d mid_seen = 0.5 * (head[i].center + head[j].center);
           const Eigen::Vector2d mid_map = ma + 0.5 * dab;
           const Eigen::Vector2d tr =
               mid_map - Eigen::Vector2d(c * mid_seen.x() - s * mid_seen.y(), s * mid_seen.x() + c * mid_seen.y());
           const Pose2 t(tr.x(), tr.y(), th);
           ++result.candidates;
-          const int n = score(seen, t, nullptr);
+          const int n = score(head, t, nullptr);
           if (n >= 3)
             scored.push_back({ t, n });
         }

@@ -193,6 +193,8 @@ std::string FastSlamConfig::validate() const
     return "association_gate must be > 0";
   if (!(radius_sigma_floor > 0.0))
     return "radius_sigma_floor must be > 0";
+  if (!(prior_sigma_floor >= 0.0) || !std::isfinite(prior_sigma_floor))
+    return "prior_sigma_floor must be a finite number >= 0";
   if (!(min_trunk_gap >= 0.0))
     return "min_trunk_gap must be >= 0";
   if (!(evidence_hit > 0.0) || !(evidence_miss >= 0.0) || !(evidence_max > 0.0))

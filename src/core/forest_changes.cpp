@@ -89,7 +89,30 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
     c.evidence = buf;
     changes.push_back(c);
   }
-  return changes;
+  // A felled tree with a new one beside it, of the same radius: the same tree, removed and made again.
+  std::vector<bool> drop(changes.size(), false);
+  for (std::size_t i = 0; i < changes.size(); ++i)
+  {
+    if (changes[i].kind != ChangeKind::kFelled)
+      continue;
+    for (std::size_t j = 0; j < changes.size(); ++j)
+    {
+      if (drop[j] || changes[j].kind != ChangeKind::kNew ||
+          (changes[i].center - changes[j].center).norm() > config.remade_distance)
+        continue;
+      const double sigma = std::hypot(changes[i].sigma_dbh_before, changes[j].sigma_dbh_after);
+      if (std::abs(changes[i].dbh_before - changes[j].dbh_after) <= 2.0 * (config.growth_sigmas * sigma + 0.03))
+      {
+        drop[i] = drop[j] = true;
+        break;
+      }
+    }
+  }
+  std::vector<TreeChange> kept;
+  for (std::size_t i = 0; i < changes.size(); ++i)
+    if (!drop[i])
+      kept.push_back(changes[i]);
+  return kept;
 }
 
 }  // namespace core

@@ -1,6 +1,8 @@
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 #include <chrono>
+
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
@@ -46,6 +48,10 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Po
   for (Landmark l : trees)
   {
     l.evidence = l.provisional ? 0.0 : filter_config_.evidence_max;
+    // The saved covariance, no surer than the floor in any direction.
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
+    const double floor2 = filter_config_.prior_sigma_floor * filter_config_.prior_sigma_floor;
+    l.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseMax(floor2).asDiagonal() * eig.eigenvectors().transpose();
     l.visit_radius = NAN;  // this run has not seen it yet
     l.visit_radius_variance = 0.0;
     l.visit_observations = 0;
@@ -121,6 +127,11 @@ bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, 
       tp.radius_sigma = 0.02;
       seen.push_back(tp);
     }
+  // The nearest trunks first: they make the pairs of the search (max_pair_trunks).
+  std::sort(seen.begin(), seen.end(), [&](const TrunkPoint& a, const TrunkPoint& b) {
+    return (a.center - Eigen::Vector2d(sensor.x, sensor.y)).squaredNorm() <
+           (b.center - Eigen::Vector2d(sensor.x, sensor.y)).squaredNorm();
+  });
   st->active = true;
   st->trunks = static_cast<int>(seen.size());
   st->travel = search_travel_;

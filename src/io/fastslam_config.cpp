@@ -32,6 +32,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("use_radius", &c->use_radius);
   p.get("use_known_ids", &c->use_known_ids);
   p.get("radius_sigma_floor", &c->radius_sigma_floor);
+  p.get("prior_sigma_floor", &c->prior_sigma_floor);
   p.get("min_trunk_gap", &c->min_trunk_gap);
   p.get("evidence_hit", &c->evidence_hit);
   p.get("evidence_miss", &c->evidence_miss);

@@ -76,3 +76,14 @@ TEST(ForestChanges, AGrowthWithinItsUncertaintyIsNoChange)
   a.visit_radius = 0.24;
   EXPECT_EQ(detectChanges({ b }, { a }).size(), 1u);
 }
+
+TEST(ForestChanges, ATreeRemovedAndMadeAgainBesideItselfIsNoChange)
+{
+  const Landmark saved = tree(3, 10.0, 0.15);  // its saved position was 0.4 m off
+  Landmark again = tree(12, 10.4, 0.155);
+  again.visit_observations = 40;
+  EXPECT_TRUE(detectChanges({ saved }, { again }).empty());
+  Landmark sapling = tree(12, 10.4, 0.05);  // a thin tree planted where a thick one was felled: both are reported
+  sapling.visit_observations = 40;
+  EXPECT_EQ(detectChanges({ saved }, { sapling }).size(), 2u);
+}

@@ -38,6 +38,9 @@ struct ConstellationConfig
   double distinct_distance = 1.0;  ///< [m] hypotheses closer than this (and distinct_angle) are one
   double distinct_angle = 0.2;     ///< [rad]
   int max_hypotheses = 5;          ///< distinct hypotheses returned, best first
+  /// Transforms are drawn from the pairs of the first this many seen trunks (the caller puts the nearest first) and
+  /// scored on them; the best are then scored and refitted on all: the search's cost stays bounded in dense stands.
+  int max_pair_trunks = 16;
 };
 
 /** @brief One transform from the seen trunks' frame to the map, with its support. */
@@ -62,7 +65,8 @@ struct ConstellationResult
  * of seen trunks whose length lies in [min_pair_length, max_pair_length] is matched against the map's tree pairs of
  * the same length (a sorted table, built once by the constructor) whose radii agree with theirs; each match
  * fixes a rigid transform, which is scored by the seen trunks it puts within the gate of a map tree of a matching
- * radius (one to one, through a grid of the map). The best distinct transforms are refitted on their inliers by
+ * radius (one to one, through a grid of the map). Only the first max_pair_trunks seen trunks make pairs and the first
+ * scores; the best distinct transforms are scored again on all. The best distinct transforms are refitted on their inliers by
  * least squares. Deterministic; no random draws.
  */
 class ConstellationMatcher

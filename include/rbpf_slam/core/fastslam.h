@@ -90,6 +90,9 @@ struct FastSlamConfig
   /// an observation updates the landmark of its id, without a gate, or starts it.
   bool use_known_ids = false;
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
+  /// [m] a tree of a saved map starts with at least this standard deviation of its centre (the filter's own
+  /// covariance treats the sweeps of one tree as independent and ends far too sure; 0: as saved)
+  double prior_sigma_floor = 0.0;
   double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
 
   // Landmark existence (log odds): + evidence_hit per match, - evidence_miss per expected miss (inside the

@@ -18,6 +18,9 @@ struct ChangeConfig
   int min_observations = 10;    ///< a new tree, or a tree's new radius, needs this many matches of this visit
   double growth_sigmas = 3.0;   ///< a radius change beyond this many combined standard deviations ...
   double growth_floor = 0.005;  ///< [m] ... plus this (the fit's bias between visits) is reported
+  /// [m] a felled tree and a new one closer than this with radii that agree are one tree that the filter removed
+  /// and made again (its saved position was off): neither is reported
+  double remade_distance = 1.0;
 };
 
 enum class ChangeKind
@@ -50,7 +53,8 @@ struct TreeChange
  * scope, not hidden behind a nearer trunk, and not seen, sweep after sweep), new (confirmed trees of this visit
  * with min_observations matches and an id the saved map does not have), and changed radii (trees of both whose
  * radius from this visit's observations alone differs from the saved one beyond growth_sigmas combined standard
- * deviations plus growth_floor). Saved trees this visit never came near stay as they were and are not reported.
+ * deviations plus growth_floor). Saved trees this visit never came near stay as they were and are not reported. A
+ * felled and a new tree within remade_distance whose radii agree are one tree removed and made again: not reported.
  */
 std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const std::vector<Landmark>& after,
                                       const ChangeConfig& config = ChangeConfig());
