@@ -12,7 +12,9 @@ namespace
 {
 long long key(long cx, long cy)
 {
-  return (static_cast<long long>(cx) << 32) ^ (static_cast<long long>(cy) & 0xffffffffLL);
+  // Two 32-bit cell indices in one number (shifted as unsigned: a negative index is no undefined shift).
+  const unsigned long long hi = static_cast<unsigned long long>(static_cast<unsigned int>(cx)) << 32;
+  return static_cast<long long>(hi | static_cast<unsigned int>(cy));
 }
 
 double wrap(double a)
