@@ -84,10 +84,10 @@ def test_no_machine_paths_and_no_data_defaults_outside_the_package():
 
 
 @pytest.mark.parametrize('line,bad', [
-    ('see issue 12 for this', True), ('as in session 3', True), ('the goal is met', True),
-    ('pin' 'ned scenario', True), ('/work/main/config', True), ('../sha' 'red/data', True),
-    ('goal_tolerance: 0.3', False), ('path_follower target point', False), ('$HOME/maps', False),
-    ('~/work/x', False), ('${prefix}/home/x', False),
+    ('see iss' 'ue 12 for this', True), ('as in sess' 'ion 3', True), ('the go' 'al is met', True),
+    ('pin' 'ned scenario', True), ('/wo' 'rk/main/config', True), ('../sha' 'red/data', True),
+    ('go' 'al_tolerance: 0.3', False), ('path_follower target point', False), ('$HOME/maps', False),
+    ('~/wo' 'rk/x', False), ('${prefix}/ho' 'me/x', False),
 ])
 def test_the_patterns_catch_what_they_should(line, bad):
     assert any(re.search(p, line, re.IGNORECASE) for p in WORDS + PATHS) == bad
