@@ -629,6 +629,38 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   return stats;
 }
 
+double FastSlam::weighPosition(const Eigen::Vector2d& position, const Eigen::Matrix2d& covariance,
+                               const Eigen::Vector2d& lever)
+{
+  if (particles_.empty() || !position.allFinite() || !covariance.allFinite() || !lever.allFinite() ||
+      !(covariance.determinant() > 0.0))
+    return -1.0;
+  const Eigen::Matrix2d info = covariance.inverse();
+  double lse = kNegInf;
+  for (Particle& p : particles_)
+  {
+    Eigen::Vector2d at;
+    p.pose.transformPoint(lever.x(), lever.y(), &at.x(), &at.y());
+    const Eigen::Vector2d d = position - at;
+    p.log_weight += -0.5 * d.dot(info * d);
+    lse = logSumExp(lse, p.log_weight);
+  }
+  double sum2 = 0.0, best = kNegInf;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+  {
+    Particle& p = particles_[i];
+    p.log_weight -= lse;
+    const double w = std::exp(p.log_weight);
+    sum2 += w * w;
+    if (p.log_weight > best)
+    {
+      best = p.log_weight;
+      best_ = i;
+    }
+  }
+  return 1.0 / (sum2 * static_cast<double>(particles_.size()));
+}
+
 double FastSlam::kernelBandwidth() const
 {
   const double n = static_cast<double>(particles_.size()), d = 3.0;

@@ -72,6 +72,8 @@ bool SimulatorConfig::validate(std::string* error) const
     return fail("lidar2d: need beams >= 2, rate > 0, min_range < max_range, angle_min < angle_max");
   if (imu.enabled && !(imu.rate > 0.0))
     return fail("imu rate must be > 0");
+  if (!gnss.validate(error))
+    return false;
   if (!(truth_rate > 0.0))
     return fail("truth_rate must be > 0");
   return true;
@@ -84,11 +86,12 @@ void SimulatorOutput::clear()
   scans.clear();
   imu.clear();
   truth.clear();
+  gnss.clear();
 }
 
 bool SimulatorOutput::empty() const
 {
-  return odometry.empty() && sweeps.empty() && scans.empty() && imu.empty() && truth.empty();
+  return odometry.empty() && sweeps.empty() && scans.empty() && imu.empty() && truth.empty() && gnss.empty();
 }
 
 ForestSimulator::ForestSimulator(const ForestWorld& world, const SimulatorConfig& config)
@@ -119,6 +122,11 @@ void ForestSimulator::init()
   scan_period_ = std::max<std::int64_t>(1, ticksOf(1.0 / config_.lidar2d.rate, hz));
   imu_period_ = std::max<std::int64_t>(1, ticksOf(1.0 / config_.imu.rate, hz));
   truth_period_ = std::max<std::int64_t>(1, ticksOf(1.0 / config_.truth_rate, hz));
+  if (config_.gnss.enabled)
+  {
+    gnss_period_ = std::max<std::int64_t>(1, ticksOf(1.0 / config_.gnss.rate, hz));
+    gnss_.reset(new GnssReceiver(config_.gnss, config_.seed ^ 0x6A09E667F3BCC909ull));
+  }
   if (config_.imu.enabled)
   {
     for (int i = 0; i < 3; ++i)
@@ -388,6 +396,26 @@ void ForestSimulator::step(SimulatorOutput* out)
   }
   if (tick_ % truth_period_ == 0)
     out->truth.push_back({ now, robot_->pose(), bodyPose(robot_->pose()) });
+  if (gnss_ && tick_ % gnss_period_ == 0)
+  {
+    const Eigen::Vector3d antenna = bodyPose(robot_->pose()) * config_.gnss.antenna;
+    out->gnss.push_back(gnss_->sample(now, antenna, image_ ? 0.0 : canopyAt(antenna.x(), antenna.y())));
+  }
+}
+
+double ForestSimulator::canopyAt(double x, double y) const
+{
+  const GnssConfig& g = config_.gnss;
+  const double disc = M_PI * g.canopy_radius * g.canopy_radius;
+  double covered = 0.0;
+  for (const TrunkSpec& t : world().trunks)
+  {
+    const double crown = g.crown_ratio * t.radius;
+    if (std::hypot(t.x - x, t.y - y) > g.canopy_radius + crown)
+      continue;
+    covered += M_PI * crown * crown;
+  }
+  return std::min(1.0, covered / disc);
 }
 
 }  // namespace core

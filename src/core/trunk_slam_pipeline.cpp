@@ -25,6 +25,8 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
   , filter_config_(filter)
   , detector_(new TrunkDetector(detector))
   , filter_(new FastSlam(filter))
+  , gnss_config_(filter.gnss)
+  , anchor_estimator_(filter.gnss)
 {
 }
 
@@ -37,6 +39,9 @@ void TrunkSlamPipeline::resetFilter()
   search_travel_ = 0.0;
   search_started_ = false;
   health_ = FilterHealth();
+  anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
+  pending_fixes_.clear();
+  last_weigh_stamp_ = -1e300;
   initialized_ = false;
   last_odometry_ = Pose2();
   last_estimate_ = Pose2();
@@ -69,6 +74,70 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Re
   relocalize_ = true;
   relocalization_config_ = relocalization;
   matcher_.reset(new ConstellationMatcher(trees, relocalization.constellation));
+}
+
+void TrunkSlamPipeline::setMapAnchor(const GeoAnchor& anchor)
+{
+  map_anchor_ = anchor;
+}
+
+GeoAnchor TrunkSlamPipeline::anchor() const
+{
+  return combineAnchors(map_anchor_, anchor_estimator_.anchor());
+}
+
+std::string TrunkSlamPipeline::addFix(const GnssFix& fix, const Eigen::Vector2d& antenna)
+{
+  if (!gnss_config_.enabled)
+    return "satellite fixes are not used (gps enabled: false)";
+  std::string why = gnssFixProblem(fix, gnss_config_.max_sigma);
+  if (why.empty() && !antenna.allFinite())
+    why = "antenna position not finite";
+  if (why.empty() && initialized_ && fix.stamp < last_stamp_ - 1.0)
+    why = "older than the last filter update by more than 1 s";
+  if (why.empty() && !pending_fixes_.empty() && fix.stamp <= pending_fixes_.back().fix.stamp)
+    why = "stamp not after the previous fix's";
+  if (!why.empty())
+    return why;
+  pending_fixes_.push_back({ fix, antenna });
+  while (pending_fixes_.size() > 600)  // e.g. a long search without an update: keep the last ten minutes at 1 Hz
+    pending_fixes_.pop_front();
+  return "";
+}
+
+void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
+{
+  const Pose2 estimate = filter_->estimate();
+  const Pose2 odom_mid_inv = odom_mid.inverse();
+  while (!pending_fixes_.empty() && pending_fixes_.front().fix.stamp <= t_mid)
+  {
+    const PendingFix f = pending_fixes_.front();
+    pending_fixes_.pop_front();
+    if (odometry_.empty() || f.fix.stamp < odometry_.earliest())
+      continue;  // before the odometry kept (e.g. while the start was searched): not placed
+    // base_link at the fix's instant, in base_link at this update's, by the odometry between them.
+    const Pose2 back = odom_mid_inv * odometry_.at(f.fix.stamp);
+    Eigen::Vector2d lever;
+    back.transformPoint(f.antenna.x(), f.antenna.y(), &lever.x(), &lever.y());
+    Eigen::Vector2d antenna_map;
+    estimate.transformPoint(lever.x(), lever.y(), &antenna_map.x(), &antenna_map.y());
+    anchor_estimator_.add(f.fix, antenna_map);
+    ++gnss_used_;
+    const GeoAnchor a = anchor();
+    const bool known = a.valid && (a.sigma <= gnss_config_.weigh_max_anchor_sigma || map_anchor_.valid);
+    if (known && gnss_config_.weigh_max_anchor_sigma > 0.0 &&
+        f.fix.stamp - last_weigh_stamp_ >= gnss_config_.correlation_time)
+    {
+      Eigen::Vector2d z;
+      Eigen::Matrix2d cov;
+      gnssInFrame(f.fix, a, gnss_config_.sigma_floor, &z, &cov);
+      if (filter_->weighPosition(z, cov, lever) >= 0.0)
+      {
+        last_weigh_stamp_ = f.fix.stamp;
+        ++gnss_weighed_;
+      }
+    }
+  }
 }
 
 bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, RelocalizationStatus* st)
@@ -394,6 +463,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
   filter_->setClock(t_mid);
   u.stats = filter_->update(obs, u.mount, sw.scope);
+  useFixes(t_mid, odom_mid);
   u.relocalization = search;
   u.health = health_.add(u.stats, filter_->config().particles);
   u.stamp = t_mid;

@@ -34,6 +34,13 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("radius_sigma_floor", &c->radius_sigma_floor);
   p.get("prior_sigma_floor", &c->prior_sigma_floor);
   p.get("min_trunk_gap", &c->min_trunk_gap);
+  p.get("gps/enabled", &c->gnss.enabled);
+  p.get("gps/max_sigma", &c->gnss.max_sigma);
+  p.get("gps/sigma_floor", &c->gnss.sigma_floor);
+  p.get("gps/correlation_time", &c->gnss.correlation_time);
+  p.get("gps/anchor_min_spread", &c->gnss.anchor_min_spread);
+  p.get("gps/anchor_min_fixes", &c->gnss.anchor_min_fixes);
+  p.get("gps/weigh_max_anchor_sigma", &c->gnss.weigh_max_anchor_sigma);
   p.get("evidence_hit", &c->evidence_hit);
   p.get("evidence_miss", &c->evidence_miss);
   p.get("evidence_max", &c->evidence_max);

@@ -283,16 +283,9 @@ void requireAnchor(const MapAnchor& anchor)
 
 void toWgs84(const MapAnchor& anchor, double x, double y, double* latitude, double* longitude)
 {
-  const double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2.0 - f);
-  const double lat0 = anchor.latitude * M_PI / 180.0;
-  const double s = std::sin(lat0);
-  const double w = std::sqrt(1.0 - e2 * s * s);
-  const double rn = a / w;                        // prime vertical
-  const double rm = a * (1.0 - e2) / (w * w * w);  // meridian
-  const double c = std::cos(anchor.yaw), sn = std::sin(anchor.yaw);
-  const double east = c * x - sn * y, north = sn * x + c * y;
-  *latitude = anchor.latitude + (north / (rm + anchor.altitude)) * 180.0 / M_PI;
-  *longitude = anchor.longitude + (east / ((rn + anchor.altitude) * std::cos(lat0))) * 180.0 / M_PI;
+  const core::GeoPoint g = core::anchoredToGeo(anchor, x, y);
+  *latitude = g.latitude;
+  *longitude = g.longitude;
 }
 
 const char* const kChangesHeader =

@@ -97,6 +97,27 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
   p.get("imu/accel_sigma", &c->imu.accel_sigma);
   p.get("imu/accel_bias_sigma", &c->imu.accel_bias_sigma);
 
+  core::GnssConfig& g = c->gnss;
+  p.get("gps/enabled", &g.enabled);
+  p.get("gps/rate", &g.rate);
+  p.get("gps/origin/latitude", &g.origin.latitude);
+  p.get("gps/origin/longitude", &g.origin.longitude);
+  p.get("gps/origin/altitude", &g.origin.altitude);
+  readDegrees(p, "gps/world_yaw_deg", &g.world_yaw);
+  p.get("gps/open_sigma", &g.open_sigma);
+  p.get("gps/canopy_sigma", &g.canopy_sigma);
+  p.get("gps/open_bias_sigma", &g.open_bias_sigma);
+  p.get("gps/canopy_bias_sigma", &g.canopy_bias_sigma);
+  p.get("gps/bias_time", &g.bias_time);
+  p.get("gps/vertical_factor", &g.vertical_factor);
+  p.get("gps/canopy_radius", &g.canopy_radius);
+  p.get("gps/crown_ratio", &g.crown_ratio);
+  p.get("gps/outage_interval", &g.outage_interval);
+  p.get("gps/outage_duration", &g.outage_duration);
+  p.get("gps/antenna/x", &g.antenna.x());
+  p.get("gps/antenna/y", &g.antenna.y());
+  p.get("gps/antenna/z", &g.antenna.z());
+
   std::string error;
   if (!c->validate(&error))
     throw std::runtime_error("invalid simulator parameter: " + error);

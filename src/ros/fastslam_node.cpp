@@ -29,6 +29,7 @@
 
 #include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
@@ -165,7 +166,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
     {
       throw invalidParameter(pnh_, "map_file", e.what());
     }
-    anchor_ = saved.anchor;
+    pipeline_->setMapAnchor(saved.anchor);
     saved_trees_ = saved.trees;
     if (config_.relocalize)
     {
@@ -196,9 +197,16 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   odom_path_pub_ = nh_.advertise<nav_msgs::Path>("odom_path", 2);
   scope_pub_ = nh_.advertise<visualization_msgs::Marker>("scope", 2);
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
-  save_srv_ = pnh_.advertiseService("save_inventory", &FastSlamRos::onSaveInventory, this);
+  save_srv_ = pnh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
+      "save_inventory", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+        return onSave("inventory_path", config_.inventory_path, false, res);
+      });
   save_run_srv_ = pnh_.advertiseService("save_run", &FastSlamRos::onSaveRun, this);
-  save_map_srv_ = pnh_.advertiseService("save_map", &FastSlamRos::onSaveMap, this);
+  save_map_srv_ = pnh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
+      "save_map", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+        return onSave("map_path", config_.map_path, true, res);
+      });
+  gps_sub_ = nh_.subscribe("gps/fix", 10, &FastSlamRos::onFix, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
   trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &FastSlamRos::onTimer, this);
@@ -648,19 +656,50 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
   }
 }
 
-bool FastSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
+bool FastSlamRos::onSave(const std::string& key, const std::string& fallback, bool with_report,
+                         std_srvs::Trigger::Response& res)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  std::string path = config_.map_path;
-  pnh_.getParam("map_path", path);  // may have changed since the start
+  std::string path = fallback;
+  pnh_.getParam(key, path);  // may have changed since the start
   res.success = writeInventory(path, &res.message);
-  if (res.success)
+  if (res.success && with_report)
     res.success = writeChanges(path, &res.message);
   if (res.success)
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   else
-    ROS_ERROR("%s: save_map: %s", name_.c_str(), res.message.c_str());
+    ROS_ERROR("%s: %s: %s", name_.c_str(), with_report ? "save_map" : "save_inventory", res.message.c_str());
   return true;
+}
+
+void FastSlamRos::onFix(const sensor_msgs::NavSatFix::ConstPtr& msg)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (msg->status.status < sensor_msgs::NavSatStatus::STATUS_FIX)
+    return;  // an outage: the receiver says so; nothing to use
+  if (msg->header.frame_id != gps_frame_)
+  {
+    // The antenna on base_link from TF; at base_link itself when the fix names no frame or TF does not know it.
+    gps_antenna_.setZero();
+    if (!msg->header.frame_id.empty() && msg->header.frame_id != config_.base_frame)
+    {
+      try
+      {
+        const auto t = tf_buffer_->lookupTransform(config_.base_frame, msg->header.frame_id, ros::Time(0));
+        gps_antenna_ = Eigen::Vector2d(t.transform.translation.x, t.transform.translation.y);
+      }
+      catch (const tf2::TransformException& e)
+      {
+        ROS_WARN_THROTTLE(10.0, "%s: no transform %s -> %s (%s); the fix is not used until there is", name_.c_str(),
+                          msg->header.frame_id.c_str(), config_.base_frame.c_str(), e.what());
+        return;
+      }
+    }
+    gps_frame_ = msg->header.frame_id;
+  }
+  const std::string why = pipeline_->addFix(toGnssFix(*msg, kUnknownGpsSigma), gps_antenna_);
+  if (!why.empty())
+    ROS_WARN_THROTTLE(10.0, "%s: fix at %.3f dropped: %s", name_.c_str(), msg->header.stamp.toSec(), why.c_str());
 }
 
 bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message)
@@ -674,21 +713,21 @@ bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message
   if (!pipeline_->localized())
     return true;
   io::ForestMap map;
-  map.anchor = anchor_;
+  map.anchor = pipeline_->anchor();
   const core::Particle& best = pipeline_->filter().best();
   for (std::size_t i = 0; i < best.map.size(); ++i)
     map.trees.push_back(best.map[i]);
   std::vector<io::FileContent> files;
   try
   {
-    if (anchor_.valid)
+    if (map.anchor.valid)
       files.emplace_back(stem + ".geojson", io::treesGeoJson(map));
     if (!saved_trees_.empty())
     {
       const std::vector<core::TreeChange> changes = core::detectChanges(saved_trees_, map.trees);
       files.emplace_back(stem + "_changes.csv", io::changesCsv(changes));
-      if (anchor_.valid)
-        files.emplace_back(stem + "_changes.geojson", io::changesGeoJson(anchor_, changes));
+      if (map.anchor.valid)
+        files.emplace_back(stem + "_changes.geojson", io::changesGeoJson(map.anchor, changes));
       int n[3] = { 0, 0, 0 };
       for (const core::TreeChange& c : changes)
         ++n[static_cast<int>(c.kind)];
@@ -716,7 +755,7 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
     return false;
   }
   io::ForestMap map;
-  map.anchor = anchor_;
+  map.anchor = pipeline_->anchor();
   if (pipeline_->initialized())
   {
     const core::Particle& best = pipeline_->filter().best();
@@ -734,19 +773,6 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
     return false;
   }
   *message = std::to_string(trees.size()) + " trees written to " + target;
-  return true;
-}
-
-bool FastSlamRos::onSaveInventory(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
-{
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string path = config_.inventory_path;
-  pnh_.getParam("inventory_path", path);  // may have changed since the start
-  res.success = writeInventory(path, &res.message);
-  if (res.success)
-    ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
-  else
-    ROS_ERROR("%s: save_inventory: %s", name_.c_str(), res.message.c_str());
   return true;
 }
 

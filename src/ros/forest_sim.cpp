@@ -12,6 +12,7 @@
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/sim_config.h"
 #include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 
@@ -41,6 +42,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
     params.get("frames/truth_base", &frames_.truth_base);
     params.get("frames/lidar3d", &frames_.lidar3d);
     params.get("frames/lidar2d", &frames_.lidar2d);
+    params.get("frames/gps", &frames_.gps);
     params.get("lockstep_topics", &lockstep_topics);
     warnUnknownKeys(params);
     if (world_path.empty() && indoor_map.empty())
@@ -70,6 +72,11 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10);
   odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 50);
   imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu/data", 100);
+  if (sim_->config().gnss.enabled)
+  {
+    gps_pub_ = nh_.advertise<sensor_msgs::NavSatFix>("gps/fix", 10);
+    gps_truth_pub_ = nh_.advertise<sensor_msgs::NavSatFix>("ground_truth/fix", 10);
+  }
   truth_pub_ = nh_.advertise<nav_msgs::Odometry>("ground_truth/odom", 50);
   truth_path_pub_ = nh_.advertise<nav_msgs::Path>("ground_truth/path", 1, true);
   trees_pub_ = nh_.advertise<rbpf_slam::TrunkArray>("ground_truth/trees", 1, true);
@@ -92,6 +99,8 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
                                                                    time_base_),
                                                         toStaticTf(c.lidar2d.mount, frames_.base, frames_.lidar2d, 0.0,
                                                                    time_base_) };
+  if (c.gnss.enabled)
+    statics.push_back(toStaticTf(gpsMount(c.gnss), frames_.base, frames_.gps, 0.0, time_base_));
   static_tf_.sendTransform(statics);
   const auto trees = toTruthTrees(sim_->world(), c.start, frames_, 0.0, time_base_);
   trees_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(trees));
@@ -239,6 +248,13 @@ void ForestSim::publish(const core::SimulatorOutput& out)
     cloud_pub_.publish(sensor_msgs::PointCloud2::ConstPtr(toPointCloud2(s, frames_.lidar3d, time_base_)));
   for (const auto& s : out.scans)
     scan_pub_.publish(sensor_msgs::LaserScan::ConstPtr(toLaserScan(s, frames_.lidar2d, time_base_)));
+  for (const auto& g : out.gnss)
+  {
+    const ros::Time stamp = toRosTime(g.fix.stamp, time_base_);
+    const double vertical = sim_->config().gnss.vertical_factor;
+    gps_pub_.publish(sensor_msgs::NavSatFix::ConstPtr(toNavSatFix(g.fix, frames_.gps, stamp, vertical)));
+    gps_truth_pub_.publish(sensor_msgs::NavSatFix::ConstPtr(toNavSatFix(g.truth, frames_.gps, stamp, vertical)));
+  }
   for (const auto& t : out.truth)
   {
     const auto msg = toTruthOdometry(t, sim_->config().start, start_ground_z_, frames_, time_base_);

@@ -20,6 +20,7 @@
 #include "rbpf_slam/core/scenario.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/map_image_file.h"
+#include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/io/sim_config.h"
 #include "rbpf_slam/io/waypoints_file.h"
 #include "rbpf_slam/io/world_file.h"
@@ -192,6 +193,8 @@ int main(int argc, char** argv)
     tf2_msgs::TFMessage statics;
     statics.transforms = { toStaticTf(config.sim.lidar3d.mount, frames.base, frames.lidar3d, 0.0, base),
                            toStaticTf(config.sim.lidar2d.mount, frames.base, frames.lidar2d, 0.0, base) };
+    if (config.sim.gnss.enabled)
+      statics.transforms.push_back(toStaticTf(gpsMount(config.sim.gnss), frames.base, frames.gps, 0.0, base));
     const ros::Time t0 = toRosTime(0.0, base);
     bag.write("/tf_static", t0, statics);
     const auto trees = toTruthTrees(scenario.simulator().world(), config.sim.start, frames, 0.0, base);
@@ -202,7 +205,7 @@ int main(int argc, char** argv)
 
     nav_msgs::Path truth_path;
     truth_path.header.frame_id = frames.map;
-    std::size_t n_odom = 0, n_points = 0, n_scans = 0, n_imu = 0, n_truth = 0;
+    std::size_t n_odom = 0, n_points = 0, n_scans = 0, n_imu = 0, n_truth = 0, n_gps = 0;
     core::SimulatorOutput step_out;
     double last_report = -1.0;
     bool running = true;
@@ -235,6 +238,14 @@ int main(int argc, char** argv)
       {
         bag.write("/scan", now, *toLaserScan(s, frames.lidar2d, base));
         ++n_scans;
+      }
+      for (const auto& g : step_out.gnss)
+      {
+        const ros::Time stamp = toRosTime(g.fix.stamp, base);
+        const double vertical = config.sim.gnss.vertical_factor;
+        bag.write("/gps/fix", now, *toNavSatFix(g.fix, frames.gps, stamp, vertical));
+        bag.write("/ground_truth/fix", now, *toNavSatFix(g.truth, frames.gps, stamp, vertical));
+        ++n_gps;
       }
       for (const auto& t : step_out.truth)
       {
@@ -275,9 +286,9 @@ int main(int argc, char** argv)
     std::printf("record_scenario: wrote %s: %.1f s simulated, drive '%s' %s, seed %d\n", out.c_str(),
                 scenario.simulator().time(), drive.c_str(),
                 scenario.timedOut() ? "TIMED OUT before its end" : "completed", seed);
-    std::printf("  /points %zu  /scan %zu  /odom %zu  /imu/data %zu  /ground_truth/odom %zu  (+ /tf, /tf_static, "
-                "/ground_truth/trees, /ground_truth/tree_markers, /ground_truth/path)\n",
-                n_points, n_scans, n_odom, n_imu, n_truth);
+    std::printf("  /points %zu  /scan %zu  /odom %zu  /imu/data %zu  /gps/fix %zu  /ground_truth/odom %zu  (+ /tf, "
+                "/tf_static, /ground_truth/trees, /ground_truth/tree_markers, /ground_truth/path%s)\n",
+                n_points, n_scans, n_odom, n_imu, n_gps, n_truth, n_gps > 0 ? ", /ground_truth/fix" : "");
     std::printf("  final true pose in the start frame: (%.2f, %.2f, %.1f deg)\n", truth.x, truth.y,
                 truth.theta * 180.0 / M_PI);
     return scenario.timedOut() ? 1 : 0;

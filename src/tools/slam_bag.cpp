@@ -57,6 +57,7 @@
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -74,6 +75,7 @@
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/run_output.h"
+#include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/ros/cloud_conversions.h"
@@ -99,6 +101,8 @@ struct Options
   double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;  // fastslam: base_link in that map at the start
   bool initial_given = false;
   std::string wheels_topic, imu_topic = "/imu/data";
+  std::string gps_topic = "/gps/fix";  // fastslam: satellite fixes, used when the bag has them
+  bool gps_given = false, no_gps = false;
   int particles = -1;  // the filter's default
   long seed = -1;  // the configuration's (0 by default)
   bool quiet = false;
@@ -120,7 +124,8 @@ void usage(const char* argv0)
                "             YAW_DEG (base_link in that map at the first update; without it the start is searched\n"
                "             from the trunks seen)] [--changes PREFIX (felled, new and changed trees since that map:\n"
                "             PREFIX.csv, and PREFIX.geojson when the map has an anchor)]] [--save-map FILE (+ .geojson\n"
-               "             when anchored)]\n"
+               "             when anchored)] [--gps TOPIC (sensor_msgs/NavSatFix; default /gps/fix, used when the bag\n"
+               "             has it: the map's anchor on the earth and a weak prior on the pose) | --no-gps]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
                "             set to 0 over any --config; the defaults are 1 m, 0.5 rad, off; for benchmarks)]\n"
@@ -421,6 +426,7 @@ int runFastSlam(const Options& o)
   {
     saved = io::readForestMap(o.map_path);
     anchor = saved.anchor;
+    pipeline.setMapAnchor(saved.anchor);
     if (o.initial_given)
       pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
     else
@@ -433,9 +439,34 @@ int runFastSlam(const Options& o)
                   o.map_path.c_str(), saved.trees.size());
   }
 
+  // Satellite fixes: the bag's --gps topic (default /gps/fix when it is there), the antenna from /tf_static.
+  std::string gps_topic;
+  core::SensorMount antenna;
+  if (!o.no_gps && fc.gnss.enabled)
+  {
+    if (o.gps_given)
+      requireTopic(topics, o.bag_path, o.gps_topic, "sensor_msgs/NavSatFix", "--gps");
+    const auto it = topics.find(o.gps_topic);
+    if (it != topics.end() && it->second == "sensor_msgs/NavSatFix")
+    {
+      gps_topic = o.gps_topic;
+      rosbag::View first(bag, rosbag::TopicQuery(gps_topic));
+      std::string gps_frame;
+      for (const auto& m : first)
+        if (const auto fix = m.instantiate<sensor_msgs::NavSatFix>())
+        {
+          gps_frame = fix->header.frame_id;
+          break;
+        }
+      if (!gps_frame.empty() && gps_frame != o.base_frame && !staticMount(bag, o.base_frame, gps_frame, &antenna))
+        std::fprintf(stderr, "slam_bag: warning: no %s -> %s transform on /tf_static: the antenna is taken at %s\n",
+                     o.base_frame.c_str(), gps_frame.c_str(), o.base_frame.c_str());
+    }
+  }
+
   Outputs out(o.out_dir);
   io::FastSlamRunRecord record;  // the run folder, as the node writes it
-  int clouds = 0, updates = 0;
+  int clouds = 0, updates = 0, gps_outages = 0;
   DropLog drops;
   core::PlanarScan planar;
   CloudPoints cloud_points;
@@ -466,6 +497,17 @@ int runFastSlam(const Options& o)
                    m.getTopic(), stamp, &drops))
         ++clouds;
     }
+    else if (const auto nav = m.instantiate<sensor_msgs::NavSatFix>())
+    {
+      if (nav->status.status < sensor_msgs::NavSatStatus::STATUS_FIX)
+      {
+        ++gps_outages;  // the receiver says it has no fix: an outage, not a bad message
+        return;
+      }
+      const std::string why = pipeline.addFix(toGnssFix(*nav, kUnknownGpsSigma), Eigen::Vector2d(antenna.x, antenna.y));
+      if (!why.empty())
+        drops.drop(m.getTopic(), nav->header.stamp.toSec(), why);
+    }
     else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
     {
       const double stamp = array->header.stamp.toSec();
@@ -487,8 +529,12 @@ int runFastSlam(const Options& o)
       record.addUpdate(u);
     }
   };
-  replay(bag, { sensor_topic, o.odom_topic }, feed, process);
+  std::vector<std::string> replayed{ sensor_topic, o.odom_topic };
+  if (!gps_topic.empty())
+    replayed.push_back(gps_topic);
+  replay(bag, replayed, feed, process);
   const int resets = pipeline.restarts();
+  anchor = pipeline.anchor();  // the saved map's, or the one fitted to the fixes
   if (clouds == 0)
     throw std::runtime_error(o.bag_path + ": no usable message on " + sensor_topic + " (" +
                              std::to_string(drops.count()) + " dropped); nothing written");
@@ -547,6 +593,20 @@ int runFastSlam(const Options& o)
     std::printf("  %s\n", record.healthSummary().c_str());
     if (!record.relocalizationSummary().empty())
       std::printf("  %s\n", record.relocalizationSummary().c_str());
+    if (!gps_topic.empty())
+    {
+      if (anchor.valid)
+        std::printf("  satellite fixes on %s: %d used, %d without a fix, %d weighed the particles; map anchor (%s): "
+                    "latitude %.9f, longitude %.9f, heading of x %.3f deg from east, sigma %.2f m\n",
+                    gps_topic.c_str(), pipeline.gnssFixesUsed(), gps_outages, pipeline.gnssFixesWeighed(),
+                    saved.anchor.valid ? "the saved map's, refined by the fixes" : "fitted to the fixes", anchor.latitude, anchor.longitude,
+                    anchor.yaw * 180.0 / M_PI, anchor.sigma);
+      else
+        std::printf("  satellite fixes on %s: %d used, %d without a fix; no anchor (the fixes spread less than %.1f m "
+                    "or number fewer than %d)\n", gps_topic.c_str(), pipeline.gnssFixesUsed(), gps_outages,
+                    fc.gnss.anchor_min_spread,
+                    fc.gnss.anchor_min_fixes);
+    }
     if (!o.changes_prefix.empty())
     {
       int n[3] = { 0, 0, 0 };
@@ -818,6 +878,8 @@ int main(int argc, char** argv)
         o.odometry_only = true;
       else if (a == "--every-scan")
         o.every_scan = true;
+      else if (a == "--no-gps")
+        o.no_gps = true;
       else if (a.compare(0, 2, "--") == 0 && !has)
         throw std::invalid_argument(a + " needs a value");
       else if (a == "--filter")
@@ -863,6 +925,11 @@ int main(int argc, char** argv)
         o.out_dir = argv[++i];
       else if (a == "--map")
         o.map_path = argv[++i];
+      else if (a == "--gps")
+      {
+        o.gps_topic = argv[++i];
+        o.gps_given = true;
+      }
       else if (a == "--save-map")
         o.save_map_path = argv[++i];
       else if (a == "--changes")
@@ -891,6 +958,10 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--map and --save-map go with --filter fastslam (a grid map is map.yaml + map.pgm)");
     if (!o.changes_prefix.empty() && o.map_path.empty())
       throw std::invalid_argument("--changes goes with --map FILE (the changes since that map)");
+    if ((o.gps_given || o.no_gps) && o.filter != "fastslam")
+      throw std::invalid_argument("--gps and --no-gps go with --filter fastslam");
+    if (o.gps_given && o.no_gps)
+      throw std::invalid_argument("--gps TOPIC and --no-gps exclude each other");
     if (o.initial_given && o.map_path.empty())
       throw std::invalid_argument("--initial-pose goes with --map FILE");
     if (o.filter == "fastslam" && o.every_scan)

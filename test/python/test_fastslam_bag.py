@@ -308,3 +308,45 @@ def test_the_start_is_found_in_a_saved_map_and_an_unknown_stand_is_refused(tmp_p
     assert r.returncode == 1
     assert 'not relocalized in the saved map' in r.stderr and 'nothing written' in r.stderr, r.stderr
     assert not os.path.exists(refused)
+
+
+def test_satellite_fixes_anchor_a_new_map_on_the_earth(tmp_path):
+    """A drive with the simulator's receiver (world heading 30 deg from east): the saved map gains an anchor fitted to
+    the fixes, within three of its stated sigmas of the truth, and a GeoJSON beside it; --no-gps leaves the map local;
+    a --gps topic the bag lacks is a clear error."""
+    sim = tmp_path / 'sim.yaml'
+    sim.write_text('gps: {enabled: true, world_yaw_deg: 30.0, origin: {latitude: 61.5, longitude: 24.25, '
+                   'altitude: 100.0}}\n')
+    bag = str(tmp_path / 'gps.bag')
+    subprocess.run([_tool('record_scenario'), '--world', WORLD, '--drive', 'loop', '--seed', '4', '--config', str(sim),
+                    '--out', bag, '--quiet'], check=True, stdout=subprocess.DEVNULL)
+    saved = str(tmp_path / 'map.csv')
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--seed', '4', '--save-map', saved],
+                       stdout=subprocess.PIPE, universal_newlines=True, check=True)
+    assert 'fitted to the fixes' in r.stdout, r.stdout
+    anchor = ev.read_landmarks_csv(saved)['anchor']
+    assert anchor is not None
+    # The map frame is the start (0, 15, 0) of the world: its origin lies 15 m along the world's y axis, which
+    # points 120 deg from east; its x axis points 30 deg from east.
+    lat0 = np.radians(61.5)
+    e2 = (1.0 / 298.257223563) * (2.0 - 1.0 / 298.257223563)
+    w = np.sqrt(1.0 - e2 * np.sin(lat0) ** 2)
+    meridian, parallel = 6378137.0 * (1.0 - e2) / w ** 3 + 100.0, (6378137.0 / w + 100.0) * np.cos(lat0)
+    east = np.radians(anchor['longitude'] - 24.25) * parallel
+    north = np.radians(anchor['latitude'] - 61.5) * meridian
+    true_east, true_north = 15.0 * np.cos(np.radians(120.0)), 15.0 * np.sin(np.radians(120.0))
+    error = np.hypot(east - true_east, north - true_north)
+    assert 0.0 < anchor['sigma'] < 5.0
+    assert error < 3.0 * anchor['sigma'] + 0.5, 'origin %.2f m off, stated sigma %.2f m' % (error, anchor['sigma'])
+    assert abs(np.degrees(anchor['yaw']) - 30.0) < 10.0, np.degrees(anchor['yaw'])
+    doc = json.load(open(str(tmp_path / 'map.geojson')))
+    assert doc['type'] == 'FeatureCollection' and len(doc['features']) >= 10
+
+    local = str(tmp_path / 'local.csv')
+    subprocess.run([_tool('slam_bag'), '--bag', bag, '--seed', '4', '--save-map', local, '--no-gps', '--quiet'],
+                   check=True)
+    assert ev.read_landmarks_csv(local)['anchor'] is None and not os.path.exists(str(tmp_path / 'local.geojson'))
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--gps', '/fix', '--save-map', str(tmp_path / 'x.csv')],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    assert r.returncode != 0 and '--gps' in r.stderr and '/fix' in r.stderr, r.stderr
+    assert not os.path.exists(str(tmp_path / 'x.csv'))

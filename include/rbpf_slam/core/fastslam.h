@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "rbpf_slam/core/data_association.h"
+#include "rbpf_slam/core/gnss.h"
 #include "rbpf_slam/core/history_chain.h"
 #include "rbpf_slam/core/landmark_evidence.h"
 #include "rbpf_slam/core/landmark_map.h"
@@ -94,6 +95,8 @@ struct FastSlamConfig
   /// covariance treats the sweeps of one tree as independent and ends far too sure; 0: as saved)
   double prior_sigma_floor = 0.0;
   double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
+  /// Satellite fixes (TrunkSlamPipeline::addFix): the map's anchor fitted to them, and a weak prior on the particles.
+  GnssFusionConfig gnss;
 
   // Landmark existence (log odds): + evidence_hit per match, - evidence_miss per expected miss (inside the
   // scope, not hidden behind a nearer landmark); removed below delete_evidence; provisional until seen
@@ -240,6 +243,14 @@ public:
    */
   FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
                              const SensorScope& sensor_scope = SensorScope());
+
+  /**
+   * @brief Weighs the particles by a measurement of a point @p lever on base_link (e.g. a satellite antenna) at
+   * @p position in the map with @p covariance (a Gaussian likelihood); the weights are normalised, the next update()
+   * resamples when Neff has fallen. Returns Neff / N after. Non-finite input changes nothing (returns -1).
+   */
+  double weighPosition(const Eigen::Vector2d& position, const Eigen::Matrix2d& covariance,
+                       const Eigen::Vector2d& lever = Eigen::Vector2d::Zero());
 
   /** @brief [s] The time of the observations of the next update(): a landmark's first_seen and last_seen. */
   void setClock(double stamp) { clock_ = stamp; }

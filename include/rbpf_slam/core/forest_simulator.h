@@ -11,6 +11,7 @@
 
 #include "rbpf_slam/core/diff_drive.h"
 #include "rbpf_slam/core/forest_world.h"
+#include "rbpf_slam/core/gnss.h"
 #include "rbpf_slam/core/pose2.h"
 #include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/ray_caster.h"
@@ -136,6 +137,7 @@ struct SimulatorConfig
   Lidar3DConfig lidar3d;
   Lidar2DConfig lidar2d;
   ImuConfig imu;
+  GnssConfig gnss;  ///< the satellite receiver (off by default)
 
   bool validate(std::string* error) const;
 };
@@ -148,6 +150,7 @@ struct SimulatorOutput
   std::vector<LaserScan2D> scans;
   std::vector<ImuSample> imu;
   std::vector<TruthSample> truth;
+  std::vector<GnssSample> gnss;  ///< the receiver's fixes with their truth
 
   void clear();
   bool empty() const;
@@ -190,6 +193,9 @@ public:
   /** @brief True planar pose at time @p t (interpolated; within the last second). */
   Pose2 poseAt(double t) const;
 
+  /** @brief The canopy cover over @p x, @p y (GnssConfig: crowns in the circle of canopy_radius), 0..1. */
+  double canopyAt(double x, double y) const;
+
   /** @brief Casts one full sweep starting at @p stamp (history must cover it). Public for benchmarks. */
   void castSweep(double stamp, LidarSweep* sweep);
   void castScan(double stamp, LaserScan2D* scan);
@@ -217,6 +223,8 @@ private:
   Eigen::Isometry3d last_imu_body_ = Eigen::Isometry3d::Identity();
   Eigen::Vector3d last_imu_velocity_ = Eigen::Vector3d::Zero();
   std::vector<double> ring_sin_, ring_cos_;
+  std::unique_ptr<GnssReceiver> gnss_;
+  std::int64_t gnss_period_ = 1;
 };
 
 }  // namespace core

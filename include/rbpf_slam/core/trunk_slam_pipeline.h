@@ -13,6 +13,7 @@
 #include "rbpf_slam/core/constellation.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/filter_health.h"
+#include "rbpf_slam/core/gnss.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/sensor_pipeline.h"
 #include "rbpf_slam/core/trunk_detector.h"
@@ -183,6 +184,28 @@ public:
    */
   void setPriorMap(const std::vector<Landmark>& trees, const RelocalizationConfig& relocalization);
   bool hasPriorMap() const { return has_prior_; }
+
+  /**
+   * @brief Where the map frame lies on the earth, when known (a saved map's anchor): fixes then weigh the particles
+   * from the start, and this visit's own fit refines it (combineAnchors; an anchor of sigma 0 is kept as it is).
+   * Not valid (the default): the anchor is fitted to the fixes.
+   */
+  void setMapAnchor(const GeoAnchor& anchor);
+  /**
+   * @brief A satellite fix of the antenna (used as the filter configuration's gnss says; without fixes everything
+   * works in the map frame alone) at @p antenna (x, y on base_link). Used at the next filter update whose
+   * instant is at or after the fix's: the antenna's map position from the estimate there (carried back to the
+   * fix's instant by the odometry) goes to the anchor's fit, and, once the anchor is known well enough
+   * (weigh_max_anchor_sigma), at most one fix per correlation_time weighs the particles. Returns why the fix was
+   * refused ("" when taken): no fix, a bad value, a stamp before the last update.
+   */
+  std::string addFix(const GnssFix& fix, const Eigen::Vector2d& antenna);
+  /** @brief The map frame's anchor: the saved map's combined with the one fitted to this visit's fixes (either
+   * alone when the other is not there; not valid: none yet). */
+  GeoAnchor anchor() const;
+  /** @brief Fixes that went into the anchor's fit, and fixes that weighed the particles. */
+  int gnssFixesUsed() const { return gnss_used_; }
+  int gnssFixesWeighed() const { return gnss_weighed_; }
   /** @brief Localized in the map: always true without a saved map, or with a known start. */
   bool localized() const { return initialized_; }
 
@@ -225,6 +248,19 @@ private:
   Pose2 search_last_odometry_;
   /** @brief One sweep of the search; true when the robot was found (the filter is then initialised). */
   bool relocalize(const TrunkSweep& sweep, const Pose2& odom_mid, RelocalizationStatus* status);
+  GnssFusionConfig gnss_config_;
+  GeoAnchor map_anchor_;
+  GeoAnchorEstimator anchor_estimator_;
+  struct PendingFix
+  {
+    GnssFix fix;
+    Eigen::Vector2d antenna;
+  };
+  std::deque<PendingFix> pending_fixes_;
+  double last_weigh_stamp_ = -1e300;
+  int gnss_used_ = 0, gnss_weighed_ = 0;
+  /** @brief Uses the fixes up to the filter update at @p t_mid (odometry @p odom_mid). */
+  void useFixes(double t_mid, const Pose2& odom_mid);
   Pose2 last_odometry_;
   Pose2 last_estimate_;
   double last_stamp_ = 0.0;

@@ -5,25 +5,15 @@
 #include <vector>
 
 #include "rbpf_slam/core/forest_changes.h"
+#include "rbpf_slam/core/geodesy.h"
 #include "rbpf_slam/core/landmark_map.h"
 
 namespace rbpf_slam
 {
 namespace io
 {
-/**
- * @brief Where the map frame lies on the earth: its origin in WGS84 and the heading of its x axis
- * (counter-clockwise from east, as REP-103's ENU). Not valid: the map is in a local frame only.
- */
-struct MapAnchor
-{
-  bool valid = false;
-  double latitude = 0.0;   ///< [deg] of the map frame's origin
-  double longitude = 0.0;  ///< [deg]
-  double altitude = 0.0;   ///< [m] above the ellipsoid
-  double yaw = 0.0;        ///< [rad] of the map's x axis from east, counter-clockwise
-  double sigma = 0.0;      ///< [m] standard deviation of the origin's position (0: not known)
-};
+/** @brief Where the map frame lies on the earth (core::GeoAnchor; not valid: a local frame only). */
+using MapAnchor = core::GeoAnchor;
 
 /** @brief A saved tree map: the trees of the best particle and the anchor of their frame. */
 struct ForestMap

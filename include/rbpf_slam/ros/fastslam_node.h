@@ -10,6 +10,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <sensor_msgs/NavSatFix.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -90,9 +91,15 @@ private:
   void onOdometry(const nav_msgs::Odometry::ConstPtr& msg);
   void onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg);
   void onTimer(const ros::WallTimerEvent& event);
-  bool onSaveInventory(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  /** @brief A satellite fix (gps/fix): to the pipeline with the antenna's position on base_link from TF. */
+  void onFix(const sensor_msgs::NavSatFix::ConstPtr& msg);
   bool onSaveRun(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
-  bool onSaveMap(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  /**
+   * @brief save_map and save_inventory: the tree map to the path of the parameter @p key (read again: it may have
+   * changed since the start; @p fallback otherwise); save_map (@p with_report) also writes its GeoJSON and the change
+   * report beside it.
+   */
+  bool onSave(const std::string& key, const std::string& fallback, bool with_report, std_srvs::Trigger::Response& res);
   /** @brief Writes the run folder (~run_folder) atomically; false with @p message saying why. Lock held. */
   bool writeRunFolder(std::string* message);
 
@@ -131,7 +138,9 @@ private:
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 
-  ros::Subscriber odom_sub_, trunks_sub_;
+  ros::Subscriber odom_sub_, trunks_sub_, gps_sub_;
+  std::string gps_frame_;           ///< frame of the last fix whose antenna position is cached
+  Eigen::Vector2d gps_antenna_ = Eigen::Vector2d::Zero();  ///< [m] on base_link
   ros::Publisher pose_pub_, particles_pub_, landmarks_pub_, landmark_array_pub_, path_pub_, odom_path_pub_, scope_pub_;
   ros::Publisher diagnostics_pub_;  ///< /diagnostics: the filter's health (diagnostic_msgs, for rqt_robot_monitor)
   double last_diagnostics_ = -1.0;  ///< [s] stamp of the last diagnostics message
@@ -139,7 +148,6 @@ private:
   /** @brief Publishes the filter's health at 1 Hz of data time and at every change of level; warns on a change. */
   void publishHealth(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
-  io::MapAnchor anchor_;  ///< of the map it started from (kept when the map is saved)
   std::vector<core::Landmark> saved_trees_;  ///< the trees of the map it started from (for the change report)
   ros::Publisher change_markers_pub_;
   io::FastSlamRunRecord record_;  ///< the run folder's content

@@ -53,7 +53,7 @@ private:
   bool publish_clock_ = true;
 
   ros::Publisher clock_pub_, cloud_pub_, scan_pub_, odom_pub_, imu_pub_, truth_pub_, truth_path_pub_, trees_pub_,
-      tree_markers_pub_, truth_map_pub_, done_pub_;
+      tree_markers_pub_, truth_map_pub_, done_pub_, gps_pub_, gps_truth_pub_;
   ros::Subscriber cmd_sub_;
   std::vector<ros::Subscriber> ack_subs_;
   tf2_ros::TransformBroadcaster tf_;

@@ -30,6 +30,7 @@ struct SimFrames
   std::string truth_base = "base_link_truth";
   std::string lidar3d = "velodyne";
   std::string lidar2d = "laser";
+  std::string gps = "gps";
 };
 
 /**
@@ -59,6 +60,16 @@ nav_msgs::OccupancyGrid::Ptr toTruthMap(const core::OccupancyImage& image, const
                                         const SimFrames& frames, double stamp, double base);
 visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& trees, const std::string& ns,
                                                    float r, float g, float b);
+/** @brief The receiver's antenna on base_link as a mount (no rotation). */
+inline core::Mount gpsMount(const core::GnssConfig& gnss)
+{
+  core::Mount m;
+  m.x = gnss.antenna.x();
+  m.y = gnss.antenna.y();
+  m.z = gnss.antenna.z();
+  return m;
+}
+
 geometry_msgs::TransformStamped toStaticTf(const core::Mount& mount, const std::string& parent,
                                            const std::string& child, double stamp, double base);
 
