@@ -401,6 +401,9 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
         stats->innovation_nis += v.dot(s_inv * v);
         if (confirmed)
           ++stats->matched_confirmed;
+        const Landmark& matched = p->map[cd.index];
+        if (matched.observations > matched.visit_observations)  // seen before this run: a saved map's tree
+          ++stats->matched_prior;
       }
       continue;
     }

@@ -35,10 +35,12 @@ void TrunkSlamPipeline::resetFilter()
   // Filter and detector start over with their seeds, so that each timeline is reproducible on its own.
   detector_.reset(new TrunkDetector(detector_config_));
   filter_.reset(new FastSlam(filter_config_));
-  gathered_.clear();
-  search_travel_ = 0.0;
-  search_started_ = false;
-  health_ = FilterHealth();
+  restartSearch();
+  lost_search_ = false;
+  lost_search_end_ = -1e300;
+  travel_ = 0.0;
+  last_level_ = HealthLevel::kOk;
+  health_ = FilterHealth(healthConfig());
   anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
   pending_fixes_.clear();
   last_weigh_stamp_ = -1e300;
@@ -47,7 +49,8 @@ void TrunkSlamPipeline::resetFilter()
   last_estimate_ = Pose2();
 }
 
-void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start)
+void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
+                                    const RelocalizationConfig& relocalization)
 {
   prior_ = LandmarkMap();
   for (Landmark l : trees)
@@ -64,16 +67,34 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Po
   }
   prior_start_ = start;
   has_prior_ = true;
+  health_ = FilterHealth(healthConfig());
   relocalize_ = false;
-  matcher_.reset();
+  relocalization_config_ = relocalization;
+  matcher_.reset(filter_config_.relocalize_when_lost ? new ConstellationMatcher(trees, relocalization.constellation) :
+                                                     nullptr);
 }
 
 void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const RelocalizationConfig& relocalization)
 {
-  setPriorMap(trees, Pose2());
+  setPriorMap(trees, Pose2(), relocalization);
+  if (!matcher_)  // needed for the start
+    matcher_.reset(new ConstellationMatcher(trees, relocalization.constellation));
   relocalize_ = true;
-  relocalization_config_ = relocalization;
-  matcher_.reset(new ConstellationMatcher(trees, relocalization.constellation));
+}
+
+HealthConfig TrunkSlamPipeline::healthConfig() const
+{
+  HealthConfig h;
+  if (has_prior_)
+    h.matched_prior_warn = 0.3;
+  return h;
+}
+
+void TrunkSlamPipeline::restartSearch()
+{
+  gathered_.clear();
+  search_travel_ = 0.0;
+  search_started_ = false;
 }
 
 void TrunkSlamPipeline::setMapAnchor(const GeoAnchor& anchor)
@@ -140,7 +161,8 @@ void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
   }
 }
 
-bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, RelocalizationStatus* st)
+bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, RelocalizationStatus* st,
+                                   std::vector<Pose2>* starts)
 {
   const auto t0 = std::chrono::steady_clock::now();
   const RelocalizationConfig& rc = relocalization_config_;
@@ -218,13 +240,11 @@ bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, 
     st->reason = r.reason;
     if (r.accepted)
     {
-      std::vector<Pose2> starts;
+      starts->clear();
       for (const PoseHypothesis& h : r.hypotheses)
         if (h.inliers >= rc.hypothesis_share * r.hypotheses.front().inliers)
-          starts.push_back(h.transform * odom_mid);
-      filter_->initialize(starts, prior_, rc.spread_xy, rc.spread_theta);
-      st->found = true;
-      st->hypotheses = static_cast<int>(starts.size());
+          starts->push_back(h.transform * odom_mid);
+      st->hypotheses = static_cast<int>(starts->size());
       gathered_.clear();
       found = true;
     }
@@ -377,6 +397,57 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
   return obs;
 }
 
+void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_mid, PipelineUpdate* u)
+{
+  const RelocalizationConfig& rc = relocalization_config_;
+  const HealthLevel level = u->health.level;
+  const HealthLevel before = last_level_;
+  last_level_ = level;
+  if (!has_prior_ || !matcher_ || !filter_config_.relocalize_when_lost)
+    return;
+  // A search begins when the health turns to a warning, or while it stays one, a window of travel after the last
+  // search ended (the estimate it confirmed may have been lost since).
+  if (!lost_search_ && level == HealthLevel::kWarn &&
+      (before != HealthLevel::kWarn || travel_ - lost_search_end_ > rc.window))
+  {
+    lost_search_ = true;
+    restartSearch();
+  }
+  if (!lost_search_)
+    return;
+  RelocalizationStatus st;
+  st.lost = true;
+  std::vector<Pose2> starts;
+  if (relocalize(sw, odom_mid, &st, &starts))
+  {
+    const Pose2 estimate = filter_->estimate();
+    const Pose2 d = between(estimate, starts.front());
+    if (std::hypot(d.x, d.y) > rc.recover_distance || std::abs(d.theta) > rc.recover_angle)
+    {
+      // Found elsewhere: the particles start again on the saved map, over the hypotheses and the estimate (should
+      // the search be the one that is wrong, the next sweeps say so).
+      starts.push_back(estimate);
+      filter_->setClock(u->stamp);
+      filter_->initialize(starts, prior_, rc.spread_xy, rc.spread_theta);
+      health_ = FilterHealth(healthConfig());
+      last_level_ = HealthLevel::kOk;
+      st.recovered = true;
+      st.found = true;
+    }
+    else
+      st.confirmed = true;
+    lost_search_ = false;
+    lost_search_end_ = travel_;
+  }
+  else if (search_travel_ > rc.window)
+  {
+    // Nothing found within a window of travel: this search ends; the next warning starts another.
+    lost_search_ = false;
+    lost_search_end_ = travel_;
+  }
+  u->relocalization = st;
+}
+
 PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
 {
   const auto t0 = std::chrono::steady_clock::now();
@@ -387,7 +458,13 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   RelocalizationStatus search;
   if (!initialized_ && has_prior_ && relocalize_)
   {
-    if (!relocalize(sw, odom_mid, &search))
+    std::vector<Pose2> starts;
+    if (relocalize(sw, odom_mid, &search, &starts))
+    {
+      filter_->initialize(starts, prior_, relocalization_config_.spread_xy, relocalization_config_.spread_theta);
+      search.found = true;
+    }
+    else
     {
       // Still searching: no estimate, nothing given to the filter.
       PipelineUpdate u;
@@ -444,6 +521,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
       return u;
     }
   }
+  const Pose2 from_odometry = last_odometry_;
   Pose2 from = last_odometry_;
   odometry_.forEachBetween(last_stamp_, t_mid, [&](double, const Pose2& pose) {
     const OdometryIncrement u = decomposeOdometry(from, pose);
@@ -466,7 +544,10 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   useFixes(t_mid, odom_mid);
   u.relocalization = search;
   u.health = health_.add(u.stats, filter_->config().particles);
+  if (!first)
+    travel_ += std::hypot(between(from_odometry, odom_mid).x, between(from_odometry, odom_mid).y);
   u.stamp = t_mid;
+  searchWhenLost(sw, odom_mid, &u);
   u.odometry = odom_mid;
   u.estimate = filter_->estimate();
   last_estimate_ = u.estimate;

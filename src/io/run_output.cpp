@@ -76,7 +76,18 @@ FastSlamRunRecord::FastSlamRunRecord()
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
 {
-  if (u.relocalization.active)
+  if (u.relocalization.lost)
+  {
+    // A search while tracking (the health warned): counted apart from the search for the start.
+    if (!lost_searching_)
+      ++lost_searches_;
+    lost_searching_ = !(u.relocalization.recovered || u.relocalization.confirmed);
+    if (u.relocalization.recovered)
+      recoveries_.push_back(u.stamp);
+    if (u.relocalization.confirmed)
+      ++confirmations_;
+  }
+  else if (u.relocalization.active)
   {
     search_seconds_ += u.relocalization.seconds;
     max_search_seconds_ = std::max(max_search_seconds_, u.relocalization.seconds);
@@ -97,6 +108,24 @@ void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
     return;
   }
   addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health);
+}
+
+std::string FastSlamRunRecord::lostSummary() const
+{
+  if (lost_searches_ == 0)
+    return "";
+  std::string out = "the health warned and the saved map was searched again " + std::to_string(lost_searches_) +
+                    " times while tracking: " + std::to_string(recoveries_.size()) +
+                    " found the robot elsewhere and moved the particles there";
+  char buf[64];
+  for (std::size_t i = 0; i < recoveries_.size() && i < 5; ++i)
+  {
+    std::snprintf(buf, sizeof(buf), "%s%.3f s", i == 0 ? " (at " : ", ", recoveries_[i]);
+    out += buf;
+  }
+  if (!recoveries_.empty())
+    out += recoveries_.size() > 5 ? ", ...)" : ")";
+  return out + ", " + std::to_string(confirmations_) + " found it where the estimate was";
 }
 
 std::string FastSlamRunRecord::relocalizationSummary() const

@@ -356,7 +356,13 @@ void FastSlamRos::processPending()
       ROS_WARN_THROTTLE(5.0, "%s: no odometry up to the trunks at %.3f within %.2f s (newest %.3f); used the newest",
                         name_.c_str(), u.stamp, config_.odom_timeout, pipeline_->odometry().latest());
     record_.addUpdate(u);
-    if (u.relocalization.found)
+    if (u.relocalization.recovered)
+      ROS_WARN("%s: tracking was lost (the health warned); the saved map searched again found the robot elsewhere: "
+               "the particles moved there", name_.c_str());
+    else if (u.relocalization.confirmed)
+      ROS_INFO("%s: the saved map searched again (the health warned) found the robot where the estimate is",
+               name_.c_str());
+    else if (u.relocalization.found)
       ROS_INFO("%s: %s", name_.c_str(), record_.relocalizationSummary().c_str());
     if (!u.localized)
     {

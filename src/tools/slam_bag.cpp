@@ -593,6 +593,8 @@ int runFastSlam(const Options& o)
     std::printf("  %s\n", record.healthSummary().c_str());
     if (!record.relocalizationSummary().empty())
       std::printf("  %s\n", record.relocalizationSummary().c_str());
+    if (!record.lostSummary().empty())
+      std::printf("  %s\n", record.lostSummary().c_str());
     if (!gps_topic.empty())
     {
       if (anchor.valid)

@@ -7,6 +7,7 @@
 
 #include "grid_test_world.h"
 #include "rbpf_slam/core/grid_slam_pipeline.h"
+#include "rbpf_slam/core/random.h"
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
@@ -195,4 +196,100 @@ TEST(TrunkSlamPipeline, StartsFromASavedMapInItsFrameAndStampsTheTrees)
     EXPECT_NEAR(map[j].last_seen, 1000.9, 1e-9) << "the last sweep's time";
     EXPECT_EQ(map[j].observations, 40);
   }
+}
+
+namespace
+{
+/**
+ * @brief A drive through a random stand (150 trees, radii 0.1-0.4 m, 60 x 60 m) in its saved map: 50 m straight at
+ * 1 m/s, trunks 1-12 m away seen at 10 Hz with 2 cm noise; at 10 s the wheel odometry jumps (3 m forward and 0.4 rad
+ * that did not happen: a slip, or a reset). Returns the final position error in the map.
+ */
+double driveThroughAnOdometryJump(bool when_lost, std::string* summary)
+{
+  Random rng(11);
+  std::vector<Landmark> saved;
+  while (saved.size() < 150)
+  {
+    const Eigen::Vector2d c(rng.uniform(0.0, 60.0), rng.uniform(0.0, 60.0));
+    bool clear = true;
+    for (const Landmark& l : saved)
+      clear = clear && (l.mean - c).norm() > 2.0;
+    if (!clear || std::abs(c.y() - 30.0) < 1.5)  // the track along y = 30 stays clear of trunks
+      continue;
+    Landmark l;
+    l.id = static_cast<int>(saved.size());
+    l.mean = c;
+    l.covariance = 1e-4 * Eigen::Matrix2d::Identity();
+    l.radius = rng.uniform(0.1, 0.4);
+    l.radius_variance = 1e-4;
+    l.observations = 30;
+    l.provisional = false;
+    saved.push_back(l);
+  }
+  FastSlamConfig fc;
+  fc.particles = 30;
+  fc.seed = 3;
+  fc.relocalize_when_lost = when_lost;
+  TrunkSlamPipeline p(TrunkDetectorConfig(), fc);
+  const Pose2 start(5.0, 30.0, 0.0);
+  p.setPriorMap(saved, start);
+  const Pose2 jump(3.0, 0.0, 0.4);
+  auto truthAt = [&](double t) { return start * Pose2(t, 0.0, 0.0); };
+  auto odomAt = [&](double t) {
+    return t < 10.0 ? truthAt(t) : truthAt(10.0) * jump * between(truthAt(10.0), truthAt(t));
+  };
+  int recoveries = 0, warned = 0, searching = 0, updates = 0;
+  std::string reason;
+  Pose2 last;
+  for (int k = 0; k < 500; ++k)
+  {
+    const double t = 0.1 * k;
+    for (int j = 0; j < 2; ++j)
+      p.addOdometry(1000.0 + t + 0.05 * j, odomAt(t + 0.05 * j));
+    p.addOdometry(1000.0 + t + 0.1, odomAt(t + 0.1));
+    TrunkSweep sweep;
+    sweep.stamp = 1000.0 + t;
+    const Pose2 inv = truthAt(t).inverse();
+    for (const Landmark& l : saved)
+    {
+      TrunkObservation o;
+      inv.transformPoint(l.mean.x(), l.mean.y(), &o.center.x(), &o.center.y());
+      if (o.center.norm() < 1.0 || o.center.norm() > 12.0)
+        continue;
+      o.center += Eigen::Vector2d(rng.gaussian(0.02), rng.gaussian(0.02));
+      o.radius = l.radius + rng.gaussian(0.01);
+      o.radius_variance = 1e-4;
+      o.range = o.center.norm();
+      o.bearing = std::atan2(o.center.y(), o.center.x());
+      o.covariance = 4e-4 * Eigen::Matrix2d::Identity();
+      sweep.trunks.push_back(o);
+    }
+    p.addTrunks(sweep);
+    for (const PipelineUpdate& u : p.process())
+    {
+      recoveries += u.relocalization.recovered ? 1 : 0;
+      warned += u.health.level == HealthLevel::kWarn ? 1 : 0;
+      searching += u.relocalization.lost ? 1 : 0;
+      ++updates;
+      if (u.relocalization.lost)
+        reason = u.relocalization.reason;
+      last = u.estimate;
+    }
+  }
+  *summary = "recoveries " + std::to_string(recoveries) + " (" + std::to_string(updates) + " updates, " +
+             std::to_string(warned) + " warned, " + std::to_string(searching) + " searching: " + reason + ")";
+  const Pose2 truth = truthAt(49.9);
+  return std::hypot(last.x - truth.x, last.y - truth.y);
+}
+}  // namespace
+
+TEST(TrunkSlamPipeline, FindsTheRobotAgainInItsSavedMapWhenTheHealthSaysItIsLost)
+{
+  std::string with, without;
+  const double lost = driveThroughAnOdometryJump(false, &without);
+  const double found = driveThroughAnOdometryJump(true, &with);
+  EXPECT_GT(lost, 1.0) << "without the search the jump stays in the estimate; " << without;
+  EXPECT_LT(found, 0.3) << with;
+  EXPECT_EQ(with.substr(0, 13), "recoveries 1 ") << with;
 }

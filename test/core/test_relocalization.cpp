@@ -201,3 +201,30 @@ TEST(FilterHealth, FewMatchesToConfirmedLandmarksWithManyNewOnesWarn)
   EXPECT_EQ(h.status().level, HealthLevel::kWarn);
   EXPECT_DOUBLE_EQ(h.status().matched_confirmed_share, 0.0);
 }
+
+TEST(FilterHealth, InASavedMapFewMatchesToItsTreesWarnAfterAShortWindow)
+{
+  rbpf_slam::core::HealthConfig c;
+  c.matched_prior_warn = 0.3;
+  FilterHealth h(c);
+  FastSlamUpdateStats s;
+  s.neff = 80;
+  s.observations = 10;
+  s.matched = s.matched_confirmed = 7;
+  s.matched_prior = 6;  // a second visit: two thirds matched to the saved trees, the rest new, clutter
+  for (int i = 0; i < 200; ++i)
+    EXPECT_EQ(h.add(s, 100).level, HealthLevel::kOk) << h.status().message;
+  // Lost: the observations match the filter's own new landmarks (consistently), none of the saved map's.
+  s.matched_prior = 0;
+  int updates = 0;
+  while (h.add(s, 100).level == HealthLevel::kOk && updates < 100)
+    ++updates;
+  EXPECT_EQ(h.status().level, HealthLevel::kWarn);
+  EXPECT_NE(h.status().message.find("saved map not re-observed"), std::string::npos) << h.status().message;
+  EXPECT_LE(updates, c.prior_window) << "warned after a short window, not the long one";
+  EXPECT_GE(updates, 15) << "not on a few sweeps' dip";
+  // Without a saved map the same figures are a healthy new map.
+  FilterHealth fresh;
+  for (int i = 0; i < 200; ++i)
+    EXPECT_EQ(fresh.add(s, 100).level, HealthLevel::kOk);
+}

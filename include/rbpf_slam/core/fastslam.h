@@ -95,6 +95,9 @@ struct FastSlamConfig
   /// covariance treats the sweeps of one tree as independent and ends far too sure; 0: as saved)
   double prior_sigma_floor = 0.0;
   double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
+  /// Tracking in a saved map (TrunkSlamPipeline::setPriorMap): search the map again by constellation when the health
+  /// warns that its trees are not re-observed (a lost pose), and move the particles where it finds the robot.
+  bool relocalize_when_lost = true;
   /// Satellite fixes (TrunkSlamPipeline::addFix): the map's anchor fitted to them, and a weak prior on the particles.
   GnssFusionConfig gnss;
 
@@ -183,6 +186,7 @@ struct FastSlamUpdateStats
   double pose_spread = 0.0;  ///< [m] the particles' position spread before the update (widest axis, 1 sigma)
   bool relocalizing = false; ///< the update gated with the cloud's covariance (relocalization_spread)
   int matched_confirmed = 0; ///< observations matched to confirmed landmarks (best particle)
+  int matched_prior = 0;     ///< ... to landmarks of a saved map (seen before this run)
   int recreated = 0;         ///< new landmarks within a gate's reach of one deleted before (best particle)
   /// Sum over the best particle's matches of the squared Mahalanobis distance of the innovation: a filter whose
   /// pose error stays within its uncertainty averages 2 per match (chi-square, 2 dof).

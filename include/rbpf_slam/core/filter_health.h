@@ -27,6 +27,12 @@ struct HealthConfig
   /// landmarks are confirmed after a few looks).
   double matched_confirmed_warn = 0.3;
   int min_observations = 30;   ///< no verdict on the share from fewer observations
+  /// Tracking in a saved map: warn when fewer than this share of the observations of the last prior_window updates
+  /// (at least min_observations) matched the saved map's trees (the robot is lost, or outside the saved map; a
+  /// healthy second visit matches about two thirds, the rest being clutter, new and unmapped trees). Negative: no
+  /// saved map (the rule is off).
+  double matched_prior_warn = -1.0;
+  int prior_window = 30;
 };
 
 /** @brief The figures of the window and the verdict. */
@@ -38,6 +44,7 @@ struct HealthStatus
   double neff_ratio = 1.0;         ///< mean Neff / N over the window
   double resampled_share = 0.0;    ///< share of the window's updates that resampled
   double matched_confirmed_share = 0.0;  ///< observations matched to confirmed landmarks / observations
+  double matched_prior_share = 0.0;      ///< observations matched to a saved map's trees / observations
   int observations = 0;
   int created = 0;
   int recreated = 0;               ///< new landmarks where confirmed ones were deleted
@@ -70,7 +77,7 @@ private:
   {
     double neff_ratio;
     bool resampled, relocalizing;
-    int observations, matched, matched_confirmed, created, recreated, deleted;
+    int observations, matched, matched_confirmed, matched_prior, created, recreated, deleted;
     double nis;
   };
   HealthConfig config_;

@@ -88,6 +88,12 @@ struct RelocalizationStatus
   double travel = 0.0;      ///< [m] odometry travel since the search began
   double seconds = 0.0;     ///< [s] CPU time of the search on this update
   std::string reason;       ///< why not found yet
+  /// a search after tracking was lost (the health warned); the filter tracks on meanwhile
+  bool lost = false;
+  /// that search ended on this update: it found a pose distinct from the estimate and the particles were moved there
+  bool recovered = false;
+  /// that search ended on this update: it found the estimate's own pose (tracking was not lost)
+  bool confirmed = false;
 };
 
 /** @brief Parameters of the search for the start pose in a saved map. */
@@ -100,6 +106,12 @@ struct RelocalizationConfig
   double hypothesis_share = 0.5;  ///< particles go to every hypothesis with this share of the best's inliers
   double spread_xy = 0.1;       ///< [m] the particles' spread around each hypothesis
   double spread_theta = 0.02;   ///< [rad]
+  /// With a saved map and FastSlamConfig::relocalize_when_lost: the map is searched again when the filter's health
+  /// warns (its trees not re-observed: a lost pose), while the filter tracks on; a pose found farther than
+  /// recover_distance or recover_angle from the estimate replaces it (the particles spread over it and the
+  /// estimate, on the saved map).
+  double recover_distance = 1.0;  ///< [m]
+  double recover_angle = 0.2;     ///< [rad]
 };
 
 /** @brief One sweep after extraction and the filter update. */
@@ -174,7 +186,8 @@ public:
    * none; ids, covariances, radii, counts and times are kept. An empty list and the identity are the default:
    * a new map whose frame is the odometry frame at the first update.
    */
-  void setPriorMap(const std::vector<Landmark>& trees, const Pose2& start);
+  void setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
+                   const RelocalizationConfig& relocalization = RelocalizationConfig());
   /**
    * @brief The same with the start pose unknown: the pipeline gathers the trunks of the first sweeps in the
    * odometry frame (merged, each seen at least min_sightings times) and searches the saved map for them by
@@ -246,8 +259,20 @@ private:
   double search_travel_ = 0.0;
   bool search_started_ = false;
   Pose2 search_last_odometry_;
-  /** @brief One sweep of the search; true when the robot was found (the filter is then initialised). */
-  bool relocalize(const TrunkSweep& sweep, const Pose2& odom_mid, RelocalizationStatus* status);
+  /** @brief One sweep of the search; true when it was accepted, with the poses to start from in @p starts. */
+  bool relocalize(const TrunkSweep& sweep, const Pose2& odom_mid, RelocalizationStatus* status,
+                  std::vector<Pose2>* starts);
+  /** @brief With a saved map: the search while tracking, begun when the health warns (relocalize_when_lost);
+   * moves the particles when it finds the robot elsewhere. Sets @p u's relocalization while it runs. */
+  void searchWhenLost(const TrunkSweep& sweep, const Pose2& odom_mid, PipelineUpdate* u);
+  /** @brief The health monitor's rules: with a saved map, also whether its trees are re-observed. */
+  HealthConfig healthConfig() const;
+  /** @brief Starts a new search (the trunks gathered so far forgotten). */
+  void restartSearch();
+  bool lost_search_ = false;      ///< a search after lost tracking is running
+  double lost_search_end_ = -1e300;  ///< [m] odometry travel when the last one ended
+  double travel_ = 0.0;           ///< [m] odometry travel of the timeline at the last update
+  HealthLevel last_level_ = HealthLevel::kOk;
   GnssFusionConfig gnss_config_;
   GeoAnchor map_anchor_;
   GeoAnchorEstimator anchor_estimator_;

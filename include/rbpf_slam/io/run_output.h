@@ -56,12 +56,15 @@ public:
   /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
                  const core::FastSlamUpdateStats& stats, const core::HealthStatus& health);
-  /** @brief One pipeline update (as above). */
   /** @brief One pipeline update (as above); while the pipeline searches a saved map (not localized) only the search
    * is recorded (relocalizationSummary), no pose. */
   void addUpdate(const core::PipelineUpdate& u);
   /** @brief How the search for the start in a saved map went (empty when there was none). */
   std::string relocalizationSummary() const;
+  /** @brief How the searches while tracking went (FastSlamConfig::relocalize_when_lost; empty when there was none). */
+  std::string lostSummary() const;
+  /** @brief [s] the updates where a search while tracking moved the particles. */
+  const std::vector<double>& recoveries() const { return recoveries_; }
   /** @brief Updates whose health was a warning. */
   std::size_t warnings() const { return warnings_; }
   /** @brief The health summary of health.txt (one paragraph). */
@@ -83,6 +86,9 @@ private:
   double found_stamp_ = 0.0, found_travel_ = 0.0, search_seconds_ = 0.0, max_search_seconds_ = 0.0;
   int found_hypotheses_ = 0, found_inliers_ = 0, found_trunks_ = 0;
   std::string last_reason_;
+  int lost_searches_ = 0, confirmations_ = 0;
+  bool lost_searching_ = false;
+  std::vector<double> recoveries_;
 };
 
 }  // namespace io
