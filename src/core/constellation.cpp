@@ -96,16 +96,17 @@ bool ConstellationMatcher::radiiAgree(const TrunkPoint& s, int tree) const
   return std::abs(s.radius - t.radius) <= config_.radius_sigmas * sigma + config_.radius_floor;
 }
 
-int ConstellationMatcher::score(const std::vector<TrunkPoint>& seen, const Pose2& t,
+int ConstellationMatcher::score(const std::vector<TrunkPoint>& all, std::size_t count, const Pose2& t,
                                 std::vector<std::pair<int, int>>* matches) const
 {
+  const std::size_t n_seen = std::min(count, all.size());
   // Each seen trunk takes the nearest free map tree within the gate whose radius agrees (greedy, in seen order:
   // the seen trunks are apart by more than a gate, so conflicts are rare and resolved by distance).
   std::vector<std::pair<double, std::pair<int, int>>> cand;
   const double gate2 = config_.inlier_gate * config_.inlier_gate;
-  for (std::size_t i = 0; i < seen.size(); ++i)
+  for (std::size_t i = 0; i < n_seen; ++i)
   {
-    const Eigen::Vector2d p = apply(t, seen[i].center);
+    const Eigen::Vector2d p = apply(t, all[i].center);
     long cx = 0, cy = 0;
     cellOf(p, &cx, &cy);
     double best = gate2;
@@ -118,7 +119,7 @@ int ConstellationMatcher::score(const std::vector<TrunkPoint>& seen, const Pose2
         for (; it != grid_.end() && it->first == k; ++it)
         {
           const double d2 = (trees_[static_cast<std::size_t>(it->second)].center - p).squaredNorm();
-          if (d2 <= best && radiiAgree(seen[i], it->second))
+          if (d2 <= best && radiiAgree(all[i], it->second))
           {
             best = d2;
             best_tree = it->second;
@@ -160,13 +161,12 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
     int inliers;
   };
   std::vector<Scored> scored;
-  const std::vector<TrunkPoint> head(
-      seen.begin(), seen.begin() + std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(seen.size()),
-                                                            std::max(2, config_.max_pair_trunks)));
-  for (std::size_t i = 0; i < head.size(); ++i)
-    for (std::size_t j = i + 1; j < head.size(); ++j)
+  // The pairs and the first scores come from the first max_pair_trunks seen trunks (the nearest).
+  const std::size_t head = std::min(seen.size(), static_cast<std::size_t>(std::max(2, config_.max_pair_trunks)));
+  for (std::size_t i = 0; i < head; ++i)
+    for (std::size_t j = i + 1; j < head; ++j)
     {
-      const Eigen::Vector2d dij = head[j].center - head[i].center;
+      const Eigen::Vector2d dij = seen[j].center - seen[i].center;
       const double d = dij.norm();
       if (d < config_.min_pair_length || d > config_.max_pair_length)
         continue;
@@ -177,20 +177,20 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
         for (int flip = 0; flip < 2; ++flip)
         {
           const int a = flip ? it->b : it->a, b = flip ? it->a : it->b;
-          if (!radiiAgree(head[i], a) || !radiiAgree(head[j], b))
+          if (!radiiAgree(seen[i], a) || !radiiAgree(seen[j], b))
             continue;
           const Eigen::Vector2d& ma = trees_[static_cast<std::size_t>(a)].center;
           const Eigen::Vector2d dab = trees_[static_cast<std::size_t>(b)].center - ma;
           const double th = wrap(std::atan2(dab.y(), dab.x()) - std::atan2(dij.y(), dij.x()));
           const double c = std::cos(th), s = std::sin(th);
           // The pair's midpoints coincide: the least-squares transform of the two correspondences.
-          const Eigen::Vector2d mid_seen = 0.5 * (head[i].center + head[j].center);
+          const Eigen::Vector2d mid_seen = 0.5 * (seen[i].center + seen[j].center);
           const Eigen::Vector2d mid_map = ma + 0.5 * dab;
           const Eigen::Vector2d tr =
               mid_map - Eigen::Vector2d(c * mid_seen.x() - s * mid_seen.y(), s * mid_seen.x() + c * mid_seen.y());
           const Pose2 t(tr.x(), tr.y(), th);
           ++result.candidates;
-          const int n = score(head, t, nullptr);
+          const int n = score(seen, head, t, nullptr);
           if (n >= 3)
             scored.push_back({ t, n });
         }
@@ -210,7 +210,7 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
     if (std::any_of(result.hypotheses.begin(), result.hypotheses.end(), near))
       continue;
     Pose2 t = s.t;
-    int n = score(seen, t, &m);
+    int n = score(seen, seen.size(), t, &m);
     for (int iter = 0; iter < 3 && n >= 2; ++iter)
     {
       std::vector<Eigen::Vector2d> from, to;
@@ -220,7 +220,7 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
         to.push_back(trees_[static_cast<std::size_t>(k.second)].center);
       }
       t = fitRigid(from, to);
-      n = score(seen, t, &m);
+      n = score(seen, seen.size(), t, &m);
     }
     PoseHypothesis h;
     h.transform = t;

@@ -31,21 +31,26 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
     then[l.id] = &l;
   std::vector<TreeChange> changes;
   char buf[256];
+  // A change of @p kind at the tree @p l: its id, centre, covariance and first sighting.
+  const auto changeAt = [](ChangeKind kind, const Landmark& l) {
+    TreeChange c;
+    c.kind = kind;
+    c.id = l.id;
+    c.center = l.mean;
+    c.covariance = l.covariance;
+    c.first_seen = l.first_seen;
+    return c;
+  };
   for (const Landmark& b : before)
   {
     const auto it = now.find(b.id);
-    TreeChange c;
-    c.id = b.id;
-    c.center = b.mean;
-    c.covariance = b.covariance;
+    TreeChange c = changeAt(ChangeKind::kFelled, b);
     c.dbh_before = 2.0 * b.radius;
     c.sigma_dbh_before = 2.0 * std::sqrt(std::max(0.0, b.radius_variance));
-    c.first_seen = b.first_seen;
     if (it == now.end())
     {
       if (b.provisional)
         continue;  // a glimpse of the last visit, not a tree of the map
-      c.kind = ChangeKind::kFelled;
       c.last_seen = b.last_seen;
       c.evidence = "expected inside the sensor's scope and not hidden, not seen on this visit until removed";
       changes.push_back(c);
@@ -74,15 +79,10 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
   {
     if (then.count(a.id) || a.provisional || a.visit_observations < config.min_observations)
       continue;
-    TreeChange c;
-    c.kind = ChangeKind::kNew;
-    c.id = a.id;
-    c.center = a.mean;
-    c.covariance = a.covariance;
+    TreeChange c = changeAt(ChangeKind::kNew, a);
     c.dbh_after = 2.0 * a.radius;
     c.sigma_dbh_after = 2.0 * std::sqrt(std::max(0.0, a.radius_variance));
     c.observations = a.visit_observations;
-    c.first_seen = a.first_seen;
     c.last_seen = a.last_seen;
     std::snprintf(buf, sizeof(buf), "seen in %d matches of this visit where the saved map has no tree",
                   a.visit_observations);

@@ -9,17 +9,12 @@ import csv
 import math
 import os
 import tempfile
-import threading
-import time
 import unittest
 
 import rospy
 import rostest
-import tf2_ros
-from nav_msgs.msg import Odometry
-from rbpf_slam.msg import TrunkArray
-from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
+from sim_run import SimRun
 
 SAVED_START = (0.0, 15.0, 0.0)
 THIS_START = (25.0, 20.0, math.radians(200.0))
@@ -38,36 +33,11 @@ def inverse(a):
 class FastSlamLocalizeCheck(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.lock = threading.Lock()
-        cls.truth = []
-        cls.landmarks = None
-        cls.done = False
-        cls.tf_buffer = tf2_ros.Buffer(rospy.Duration(60.0))
-        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
-
-        def on_truth(msg):
-            p = msg.pose.pose
-            yaw = 2.0 * math.atan2(p.orientation.z, p.orientation.w)
-            with cls.lock:
-                cls.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, yaw))
-
-        def on_landmarks(msg):
-            with cls.lock:
-                cls.landmarks = msg
-
-        def on_done(msg):
-            cls.done = cls.done or msg.data
-
-        cls.subs = [rospy.Subscriber('ground_truth/odom', Odometry, on_truth, queue_size=200),
-                    rospy.Subscriber('landmark_array', TrunkArray, on_landmarks, queue_size=2),
-                    rospy.Subscriber('sim_done', Bool, on_done)]
-        t0 = time.time()
-        while not rospy.is_shutdown() and not cls.done and time.time() - t0 < 80.0:
-            time.sleep(0.1)
-        time.sleep(1.0)
+        cls.sim = SimRun(limit=80.0)
+        cls.lock, cls.truth, cls.odom, cls.tf_buffer = cls.sim.lock, cls.sim.truth, cls.sim.odom, cls.sim.tf_buffer
 
     def test_1_found_in_the_saved_map(self):
-        self.assertTrue(self.done, 'no sim_done within 80 s wall time')
+        self.assertTrue(self.sim.done, 'no sim_done within 80 s wall time')
         t = self.tf_buffer.lookup_transform('map', 'base_link', rospy.Time(0), rospy.Duration(2.0))
         stamp = t.header.stamp.to_sec()
         with self.lock:
@@ -83,7 +53,7 @@ class FastSlamLocalizeCheck(unittest.TestCase):
 
     def test_2_the_saved_trees_are_kept(self):
         with self.lock:
-            lm = self.landmarks
+            lm = self.sim.landmarks
         self.assertIsNotNone(lm, 'no landmark_array')
         ids = set(t.id for t in lm.trunks)
         self.assertGreaterEqual(len(ids & set(range(16))), 14, 'the saved trees (ids 0..15) are gone: %s' % sorted(ids))

@@ -7,18 +7,13 @@ import bisect
 import math
 import os
 import tempfile
-import threading
-import time
 import unittest
 
 import rospy
 import rostest
-import tf2_ros
-from nav_msgs.msg import Odometry
 from rbpf_slam import evaluate
-from rbpf_slam.msg import TrunkArray
-from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
+from sim_run import SimRun
 
 
 def yaw_of(q):
@@ -28,45 +23,11 @@ def yaw_of(q):
 class FastSlamPipelineCheck(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.lock = threading.Lock()
-        cls.truth = []  # (stamp seconds, x, y)
-        cls.odom = []  # the same, of the wheel odometry (its frame starts at the truth's map frame)
-        cls.landmarks = None
-        cls.done = False
-        cls.tf_buffer = tf2_ros.Buffer(rospy.Duration(60.0))
-        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
-
-        def on_truth(msg):
-            p = msg.pose.pose.position
-            with cls.lock:
-                cls.truth.append((msg.header.stamp.to_sec(), p.x, p.y))
-
-        def on_odom(msg):
-            p = msg.pose.pose.position
-            with cls.lock:
-                cls.odom.append((msg.header.stamp.to_sec(), p.x, p.y))
-
-        def on_landmarks(msg):
-            with cls.lock:
-                cls.landmarks = msg
-
-        def on_done(msg):
-            cls.done = cls.done or msg.data
-
-        cls.subs = [
-            rospy.Subscriber('ground_truth/odom', Odometry, on_truth, queue_size=200),
-            rospy.Subscriber('odom', Odometry, on_odom, queue_size=200),
-            rospy.Subscriber('landmark_array', TrunkArray, on_landmarks, queue_size=2),
-            rospy.Subscriber('sim_done', Bool, on_done),
-        ]
-        t0 = time.time()
-        while not rospy.is_shutdown() and not cls.done and time.time() - t0 < 80.0:
-            time.sleep(0.1)
-        cls.wall = time.time() - t0
-        time.sleep(1.0)  # the last arrays (their odometry waits up to odom_timeout)
+        cls.sim = SimRun(limit=80.0)
+        cls.lock, cls.truth, cls.odom, cls.tf_buffer = cls.sim.lock, cls.sim.truth, cls.sim.odom, cls.sim.tf_buffer
 
     def test_1_sim_finished(self):
-        self.assertTrue(self.done, 'no sim_done within 80 s wall time')
+        self.assertTrue(self.sim.done, 'no sim_done within 80 s wall time')
 
     def test_2_map_to_odom_exists(self):
         self.assertTrue(self.tf_buffer.can_transform('map', 'odom', rospy.Time(0), rospy.Duration(2.0)),
@@ -74,7 +35,7 @@ class FastSlamPipelineCheck(unittest.TestCase):
 
     def test_3_landmarks_created(self):
         with self.lock:
-            lm = self.landmarks
+            lm = self.sim.landmarks
         self.assertIsNotNone(lm, 'no landmark_array')
         self.assertEqual(lm.header.frame_id, 'map')
         self.assertGreaterEqual(len(lm.trunks), 3)
@@ -83,9 +44,9 @@ class FastSlamPipelineCheck(unittest.TestCase):
 
     @staticmethod
     def position_at(samples, stamp):
-        stamps = [s for s, _, _ in samples]
+        stamps = [s[0] for s in samples]
         i = min(max(bisect.bisect_left(stamps, stamp), 1), len(samples) - 1)
-        (s0, x0, y0), (s1, x1, y1) = samples[i - 1], samples[i]
+        (s0, x0, y0), (s1, x1, y1) = samples[i - 1][:3], samples[i][:3]
         a = 0.0 if s1 <= s0 else min(1.0, max(0.0, (stamp - s0) / (s1 - s0)))
         return x0 + a * (x1 - x0), y0 + a * (y1 - y0)
 
@@ -103,7 +64,7 @@ class FastSlamPipelineCheck(unittest.TestCase):
         error = math.hypot(ex - tx, ey - ty)
         rospy.loginfo('fastslam_pipeline: final position error %.3f m (odometry alone %.3f m) at t=%.2f (estimate '
                       '%.2f %.2f, truth %.2f %.2f, travelled %.1f m, %.1f s wall)', error, math.hypot(ox - tx, oy - ty),
-                      stamp, ex, ey, tx, ty, math.hypot(tx, ty), self.wall)
+                      stamp, ex, ey, tx, ty, math.hypot(tx, ty), self.sim.wall)
         self.assertGreater(math.hypot(tx, ty), 5.0, 'the robot did not drive')
         self.assertLess(error, 0.5)
         # Odometry drifts about 0.4 m over this drive: the map must have done better.

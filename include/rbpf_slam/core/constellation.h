@@ -86,8 +86,9 @@ private:
     int a, b;
   };
   bool radiiAgree(const TrunkPoint& s, int tree) const;
-  /** @brief Inliers of @p t (one to one), their seen and map indices. */
-  int score(const std::vector<TrunkPoint>& seen, const Pose2& t, std::vector<std::pair<int, int>>* matches) const;
+  /** @brief Inliers of @p t (one to one) among the first @p count of @p seen, their seen and map indices. */
+  int score(const std::vector<TrunkPoint>& seen, std::size_t count, const Pose2& t,
+            std::vector<std::pair<int, int>>* matches) const;
   void cellOf(const Eigen::Vector2d& p, long* cx, long* cy) const;
 
   ConstellationConfig config_;
