@@ -56,6 +56,9 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
   h.matched_confirmed_share = h.observations > 0 ? static_cast<double>(matched_confirmed) / h.observations : 0.0;
   h.matched_prior_share = h.observations > 0 ? static_cast<double>(matched_prior) / h.observations : 0.0;
   char why[256];
+  h.saved_map_unobserved = config_.matched_prior_warn >= 0.0 && recent_updates >= config_.prior_window &&
+                           recent_observations >= config_.min_observations &&
+                           recent_prior < config_.matched_prior_warn * recent_observations;
   if (h.recreated >= config_.recreated_warn)
   {
     h.level = HealthLevel::kWarn;
@@ -74,9 +77,7 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
                   "last %d updates",
                   100.0 * h.matched_confirmed_share, h.observations, h.created, h.updates);
   }
-  else if (config_.matched_prior_warn >= 0.0 && recent_updates >= config_.prior_window &&
-           recent_observations >= config_.min_observations &&
-           recent_prior < config_.matched_prior_warn * recent_observations)
+  else if (h.saved_map_unobserved)
   {
     h.level = HealthLevel::kWarn;
     std::snprintf(why, sizeof(why),

@@ -39,7 +39,7 @@ void TrunkSlamPipeline::resetFilter()
   lost_search_ = false;
   lost_search_end_ = -1e300;
   travel_ = 0.0;
-  last_level_ = HealthLevel::kOk;
+  last_unobserved_ = false;
   health_ = FilterHealth(healthConfig());
   anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
   pending_fixes_.clear();
@@ -223,6 +223,7 @@ bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, 
     return (a.center - Eigen::Vector2d(sensor.x, sensor.y)).squaredNorm() <
            (b.center - Eigen::Vector2d(sensor.x, sensor.y)).squaredNorm();
   });
+  last_seen_ = seen;
   st->active = true;
   st->trunks = static_cast<int>(seen.size());
   st->travel = search_travel_;
@@ -400,15 +401,14 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
 void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_mid, PipelineUpdate* u)
 {
   const RelocalizationConfig& rc = relocalization_config_;
-  const HealthLevel level = u->health.level;
-  const HealthLevel before = last_level_;
-  last_level_ = level;
+  const bool unobserved = u->health.saved_map_unobserved;
+  const bool before = last_unobserved_;
+  last_unobserved_ = unobserved;
   if (!has_prior_ || !matcher_ || !filter_config_.relocalize_when_lost)
     return;
-  // A search begins when the health turns to a warning, or while it stays one, a window of travel after the last
-  // search ended (the estimate it confirmed may have been lost since).
-  if (!lost_search_ && level == HealthLevel::kWarn &&
-      (before != HealthLevel::kWarn || travel_ - lost_search_end_ > rc.window))
+  // A search begins when the saved map's trees stop being re-observed, or while they stay so, a window of travel
+  // after the last search ended (the estimate it confirmed may have been lost since).
+  if (!lost_search_ && unobserved && (!before || travel_ - lost_search_end_ > rc.window))
   {
     lost_search_ = true;
     restartSearch();
@@ -422,7 +422,13 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
   {
     const Pose2 estimate = filter_->estimate();
     const Pose2 d = between(estimate, starts.front());
-    if (std::hypot(d.x, d.y) > rc.recover_distance || std::abs(d.theta) > rc.recover_angle)
+    // The estimate's own support among the trunks the search gathered (odometry frame -> map by the estimate).
+    const int estimate_inliers = matcher_->inliers(last_seen_, estimate * odom_mid.inverse());
+    const bool distinct = std::hypot(d.x, d.y) > rc.recover_distance || std::abs(d.theta) > rc.recover_angle;
+    if (!distinct)
+      st.confirmed = true;
+    else if (st.best_inliers >= std::max(rc.recover_min_inliers, rc.constellation.min_inliers) &&
+             st.best_inliers >= estimate_inliers + rc.recover_margin)
     {
       // Found elsewhere: the particles start again on the saved map, over the hypotheses and the estimate (should
       // the search be the one that is wrong, the next sweeps say so).
@@ -430,12 +436,17 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
       filter_->setClock(u->stamp);
       filter_->initialize(starts, prior_, rc.spread_xy, rc.spread_theta);
       health_ = FilterHealth(healthConfig());
-      last_level_ = HealthLevel::kOk;
+      last_unobserved_ = false;
       st.recovered = true;
       st.found = true;
     }
     else
-      st.confirmed = true;
+    {
+      st.reason = "found elsewhere with " + std::to_string(st.best_inliers) + " trunks, the estimate explains " +
+                  std::to_string(estimate_inliers) + ": not enough to move the particles";
+      u->relocalization = st;
+      return;  // go on gathering
+    }
     lost_search_ = false;
     lost_search_end_ = travel_;
   }

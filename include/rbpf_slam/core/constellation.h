@@ -77,6 +77,10 @@ public:
   /** @brief The hypotheses for the trunks @p seen (a local frame: e.g. the odometry frame). */
   ConstellationResult match(const std::vector<TrunkPoint>& seen) const;
 
+  /** @brief How many of @p seen the transform @p t (seen frame -> map) puts on a map tree (one to one, the gate and
+   * the radii as in the search): e.g. to weigh a pose known otherwise against the search's. */
+  int inliers(const std::vector<TrunkPoint>& seen, const Pose2& t) const { return score(seen, seen.size(), t, nullptr); }
+
   std::size_t mapPairs() const { return pairs_.size(); }
 
 private:

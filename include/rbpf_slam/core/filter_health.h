@@ -45,6 +45,8 @@ struct HealthStatus
   double resampled_share = 0.0;    ///< share of the window's updates that resampled
   double matched_confirmed_share = 0.0;  ///< observations matched to confirmed landmarks / observations
   double matched_prior_share = 0.0;      ///< observations matched to a saved map's trees / observations
+  /// the saved map's rule alone (matched_prior_warn): its trees are not being re-observed
+  bool saved_map_unobserved = false;
   int observations = 0;
   int created = 0;
   int recreated = 0;               ///< new landmarks where confirmed ones were deleted

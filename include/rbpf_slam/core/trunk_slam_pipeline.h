@@ -111,6 +111,11 @@ struct RelocalizationConfig
   /// recover_distance or recover_angle from the estimate replaces it (the particles spread over it and the
   /// estimate, on the saved map).
   double recover_distance = 1.0;  ///< [m]
+  /// ... and only when the found pose explains at least this many of the trunks gathered since the search began and
+  /// recover_margin more than the estimate does (the estimate is the alternative: a chance match in a dense map
+  /// must not replace it)
+  int recover_min_inliers = 8;
+  int recover_margin = 3;
   double recover_angle = 0.2;     ///< [rad]
 };
 
@@ -272,7 +277,8 @@ private:
   bool lost_search_ = false;      ///< a search after lost tracking is running
   double lost_search_end_ = -1e300;  ///< [m] odometry travel when the last one ended
   double travel_ = 0.0;           ///< [m] odometry travel of the timeline at the last update
-  HealthLevel last_level_ = HealthLevel::kOk;
+  bool last_unobserved_ = false;
+  std::vector<TrunkPoint> last_seen_;  ///< the trunks of the last search step (odometry frame)
   GnssFusionConfig gnss_config_;
   GeoAnchor map_anchor_;
   GeoAnchorEstimator anchor_estimator_;
