@@ -128,6 +128,8 @@ std::string TrunkSlamPipeline::addFix(const GnssFix& fix, const Eigen::Vector2d&
 
 void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
 {
+  if (pending_fixes_.empty() || pending_fixes_.front().fix.stamp > t_mid)
+    return;  // no fix is due: the estimate (a mean over the particles) is not needed
   const Pose2 estimate = filter_->estimate();
   const Pose2 odom_mid_inv = odom_mid.inverse();
   while (!pending_fixes_.empty() && pending_fixes_.front().fix.stamp <= t_mid)
@@ -556,7 +558,10 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.relocalization = search;
   u.health = health_.add(u.stats, filter_->config().particles);
   if (!first)
-    travel_ += std::hypot(between(from_odometry, odom_mid).x, between(from_odometry, odom_mid).y);
+  {
+    const Pose2 moved = between(from_odometry, odom_mid);
+    travel_ += std::hypot(moved.x, moved.y);
+  }
   u.stamp = t_mid;
   searchWhenLost(sw, odom_mid, &u);
   u.odometry = odom_mid;
