@@ -21,8 +21,61 @@ const char* toString(ChangeKind kind)
   }
 }
 
+int timesInView(const std::vector<Viewpoint>& viewpoints, const std::vector<Landmark>& trees, const Eigen::Vector2d& p,
+                double radius, double range_margin, int enough)
+{
+  int views = 0;
+  for (const Viewpoint& v : viewpoints)
+  {
+    const Eigen::Vector2d d = p - Eigen::Vector2d(v.sensor.x, v.sensor.y);
+    const double range = d.norm();
+    const double bearing = wrapAngle(std::atan2(d.y(), d.x()) - v.sensor.theta);
+    if (!v.scope.contains(Eigen::Vector2d(range, bearing), range_margin))
+      continue;
+    bool hidden = false;
+    for (const Landmark& t : trees)
+    {
+      if (t.provisional)
+        continue;
+      const Eigen::Vector2d e = t.mean - Eigen::Vector2d(v.sensor.x, v.sensor.y);
+      const double front = e.norm();
+      if (front < range && front > 1e-6 &&
+          occludedBy(range, bearing, radius, front, wrapAngle(std::atan2(e.y(), e.x()) - v.sensor.theta), t.radius))
+      {
+        hidden = true;
+        break;
+      }
+    }
+    if (!hidden && ++views >= enough)
+      break;
+  }
+  return views;
+}
+
+void ViewpointLog::reset(const std::vector<Viewpoint>& saved)
+{
+  viewpoints_.clear();
+  cells_.clear();
+  for (const Viewpoint& v : saved)
+    add(v.sensor, v.scope);
+}
+
+bool ViewpointLog::add(const Pose2& sensor, const VisibilityScope& scope)
+{
+  if (!std::isfinite(sensor.x) || !std::isfinite(sensor.y) || !std::isfinite(sensor.theta))
+    return false;
+  const int heading =
+      scope.fullTurn() ? 0 : static_cast<int>(std::floor((wrapAngle(sensor.theta) + M_PI) / (0.25 * M_PI))) % 8;
+  const auto cell = std::make_tuple(static_cast<long>(std::floor(sensor.x / kViewpointCell)),
+                                    static_cast<long>(std::floor(sensor.y / kViewpointCell)), heading);
+  if (!cells_.insert(cell).second)
+    return false;
+  viewpoints_.push_back(Viewpoint{ sensor, scope });
+  return true;
+}
+
 std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const std::vector<Landmark>& after,
-                                      const ChangeConfig& config)
+                                      const ChangeConfig& config, const std::vector<Viewpoint>& viewpoints)
 {
   std::map<int, const Landmark*> now, then;
   for (const Landmark& l : after)
@@ -79,13 +132,26 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
   {
     if (then.count(a.id) || a.provisional || a.visit_observations < config.min_observations)
       continue;
+    int views = -1;  // not known: the saved map says nothing of where it looked
+    if (!viewpoints.empty())
+    {
+      views = timesInView(viewpoints, before, a.mean, a.radius, config.view_range_margin, config.min_views);
+      if (views < config.min_views)
+        continue;  // a place the saved map had not seen: the tree is new to the map, not known to be new
+    }
     TreeChange c = changeAt(ChangeKind::kNew, a);
     c.dbh_after = 2.0 * a.radius;
     c.sigma_dbh_after = 2.0 * std::sqrt(std::max(0.0, a.radius_variance));
     c.observations = a.visit_observations;
     c.last_seen = a.last_seen;
-    std::snprintf(buf, sizeof(buf), "seen in %d matches of this visit where the saved map has no tree",
-                  a.visit_observations);
+    if (views >= 0)
+      std::snprintf(buf, sizeof(buf),
+                    "seen in %d matches of this visit where the saved map has no tree and had it in view from at "
+                    "least %d viewpoints",
+                    a.visit_observations, views);
+    else
+      std::snprintf(buf, sizeof(buf), "seen in %d matches of this visit where the saved map has no tree",
+                    a.visit_observations);
     c.evidence = buf;
     changes.push_back(c);
   }

@@ -42,8 +42,10 @@ void TrunkSlamPipeline::resetFilter()
   last_unobserved_ = false;
   health_ = FilterHealth(healthConfig());
   anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
+  viewpoints_.reset(prior_viewpoints_);
   pending_fixes_.clear();
   last_weigh_stamp_ = -1e300;
+  next_anchor_check_ = -1e300;
   initialized_ = false;
   last_odometry_ = Pose2();
   last_estimate_ = Pose2();
@@ -102,6 +104,12 @@ void TrunkSlamPipeline::setMapAnchor(const GeoAnchor& anchor)
   map_anchor_ = anchor;
 }
 
+void TrunkSlamPipeline::setMapViewpoints(const std::vector<Viewpoint>& viewpoints)
+{
+  prior_viewpoints_ = viewpoints;
+  viewpoints_.reset(prior_viewpoints_);
+}
+
 GeoAnchor TrunkSlamPipeline::anchor() const
 {
   return combineAnchors(map_anchor_, anchor_estimator_.anchor());
@@ -146,19 +154,22 @@ void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
     estimate.transformPoint(lever.x(), lever.y(), &antenna_map.x(), &antenna_map.y());
     anchor_estimator_.add(f.fix, antenna_map);
     ++gnss_used_;
+    // A fix weighs the particles at most once per correlation time; the anchor (a fit over every fix so far) is
+    // refitted for it only when one is due, and at most ten times per correlation time while it is not yet known.
+    if (gnss_config_.weigh_max_anchor_sigma <= 0.0 ||
+        f.fix.stamp - last_weigh_stamp_ < gnss_config_.correlation_time || f.fix.stamp < next_anchor_check_)
+      continue;
+    next_anchor_check_ = f.fix.stamp + 0.1 * gnss_config_.correlation_time;
     const GeoAnchor a = anchor();
-    const bool known = a.valid && (a.sigma <= gnss_config_.weigh_max_anchor_sigma || map_anchor_.valid);
-    if (known && gnss_config_.weigh_max_anchor_sigma > 0.0 &&
-        f.fix.stamp - last_weigh_stamp_ >= gnss_config_.correlation_time)
+    if (!a.valid || (a.sigma > gnss_config_.weigh_max_anchor_sigma && !map_anchor_.valid))
+      continue;
+    Eigen::Vector2d z;
+    Eigen::Matrix2d cov;
+    gnssInFrame(f.fix, a, gnss_config_.sigma_floor, &z, &cov);
+    if (filter_->weighPosition(z, cov, lever) >= 0.0)
     {
-      Eigen::Vector2d z;
-      Eigen::Matrix2d cov;
-      gnssInFrame(f.fix, a, gnss_config_.sigma_floor, &z, &cov);
-      if (filter_->weighPosition(z, cov, lever) >= 0.0)
-      {
-        last_weigh_stamp_ = f.fix.stamp;
-        ++gnss_weighed_;
-      }
+      last_weigh_stamp_ = f.fix.stamp;
+      ++gnss_weighed_;
     }
   }
 }
@@ -457,6 +468,7 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
     // Nothing found within a window of travel: this search ends; the next warning starts another.
     lost_search_ = false;
     lost_search_end_ = travel_;
+    st.gave_up = true;
   }
   u->relocalization = st;
 }
@@ -567,6 +579,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.odometry = odom_mid;
   u.estimate = filter_->estimate();
   last_estimate_ = u.estimate;
+  viewpoints_.add(u.estimate * u.mount, filter_->scope());
   u.odometry_covered = covered;
   u.trunks = std::move(sweep.trunks);
   seconds_filter_ += since(t0);

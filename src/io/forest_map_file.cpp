@@ -104,6 +104,40 @@ void parseAnchor(const std::string& rest, MapAnchor* anchor, const std::string& 
     fail(name, line, "expected latitude in [-90, 90] and longitude in [-180, 180], got '" + trim(rest) + "'");
   anchor->valid = true;
 }
+
+void parseViewpoint(const std::string& rest, std::vector<core::Viewpoint>* viewpoints, const std::string& name,
+                    int line)
+{
+  static const char* const kKeys[] = { "x", "y", "yaw", "min_range", "max_range", "fov_min", "fov_max" };
+  std::map<std::string, double> v;
+  std::istringstream in(rest);
+  std::string item;
+  while (in >> item)
+  {
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos)
+      fail(name, line, "expected key=value in the viewpoint, got '" + item + "'");
+    const std::string key = item.substr(0, eq);
+    if (std::find(std::begin(kKeys), std::end(kKeys), key) == std::end(kKeys))
+      fail(name, line, "expected x, y, yaw, min_range, max_range, fov_min or fov_max in the viewpoint, got '" + key +
+                           "'");
+    v[key] = number(item.substr(eq + 1), "viewpoint " + key, name, line);
+  }
+  for (const char* key : kKeys)
+    if (!v.count(key))
+      fail(name, line, std::string("expected the viewpoint's ") + key + ", got '" + trim(rest) + "'");
+  if (v["min_range"] < 0.0 || v["max_range"] <= v["min_range"] || v["fov_max"] <= v["fov_min"] ||
+      v["fov_max"] - v["fov_min"] > 2.0 * M_PI + 1e-3)
+    fail(name, line, "expected 0 <= min_range < max_range and fov_min < fov_max within a turn, got '" + trim(rest) +
+                         "'");
+  core::Viewpoint p;
+  p.sensor = core::Pose2(v["x"], v["y"], v["yaw"]);
+  p.scope.min_range = v["min_range"];
+  p.scope.max_range = v["max_range"];
+  p.scope.fov_min = v["fov_min"];
+  p.scope.fov_max = v["fov_max"];
+  viewpoints->push_back(p);
+}
 }  // namespace
 
 std::string forestMapCsv(const ForestMap& map)
@@ -114,6 +148,14 @@ std::string forestMapCsv(const ForestMap& map)
   {
     std::snprintf(line, sizeof(line), "# anchor: latitude=%.9f longitude=%.9f altitude=%.3f yaw=%.6f sigma=%.3f\n",
                   map.anchor.latitude, map.anchor.longitude, map.anchor.altitude, map.anchor.yaw, map.anchor.sigma);
+    csv += line;
+  }
+  for (const core::Viewpoint& v : map.viewpoints)
+  {
+    std::snprintf(line, sizeof(line),
+                  "# viewpoint: x=%.2f y=%.2f yaw=%.3f min_range=%.2f max_range=%.2f fov_min=%.4f fov_max=%.4f\n",
+                  v.sensor.x, v.sensor.y, v.sensor.theta, v.scope.min_range, v.scope.max_range, v.scope.fov_min,
+                  v.scope.fov_max);
     csv += line;
   }
   csv += std::string(kForestMapHeader) + "\n";
@@ -154,6 +196,8 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
       const std::string body = trim(line.substr(1));
       if (body.compare(0, 7, "anchor:") == 0)
         parseAnchor(body.substr(7), &map.anchor, name, n);
+      else if (body.compare(0, 10, "viewpoint:") == 0)
+        parseViewpoint(body.substr(10), &map.viewpoints, name, n);
       continue;
     }
     const std::vector<std::string> fields = splitCommas(line);

@@ -81,7 +81,9 @@ void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
     // A search while tracking (the health warned): counted apart from the search for the start.
     if (!lost_searching_)
       ++lost_searches_;
-    lost_searching_ = !(u.relocalization.recovered || u.relocalization.confirmed);
+    lost_searching_ = !(u.relocalization.recovered || u.relocalization.confirmed || u.relocalization.gave_up);
+    if (u.relocalization.gave_up)
+      ++lost_gave_up_;
     if (u.relocalization.recovered)
       recoveries_.push_back(u.stamp);
     if (u.relocalization.confirmed)
@@ -125,7 +127,8 @@ std::string FastSlamRunRecord::lostSummary() const
   }
   if (!recoveries_.empty())
     out += recoveries_.size() > 5 ? ", ...)" : ")";
-  return out + ", " + std::to_string(confirmations_) + " found it where the estimate was";
+  return out + ", " + std::to_string(confirmations_) + " found it where the estimate was, " +
+         std::to_string(lost_gave_up_) + " found nothing within a window of travel";
 }
 
 std::string FastSlamRunRecord::relocalizationSummary() const

@@ -167,7 +167,9 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
       throw invalidParameter(pnh_, "map_file", e.what());
     }
     pipeline_->setMapAnchor(saved.anchor);
+    pipeline_->setMapViewpoints(saved.viewpoints);
     saved_trees_ = saved.trees;
+    saved_viewpoints_ = saved.viewpoints;
     if (config_.relocalize)
     {
       pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
@@ -565,7 +567,7 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
     clear.header.frame_id = config_.map_frame;
     clear.action = visualization_msgs::Marker::DELETEALL;
     markers->markers.push_back(clear);
-    for (const core::TreeChange& c : core::detectChanges(saved_trees_, now))
+    for (const core::TreeChange& c : core::detectChanges(saved_trees_, now, core::ChangeConfig(), saved_viewpoints_))
     {
       if (c.kind == core::ChangeKind::kChanged)
         continue;
@@ -720,6 +722,7 @@ bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message
     return true;
   io::ForestMap map;
   map.anchor = pipeline_->anchor();
+  map.viewpoints = pipeline_->viewpoints();
   const core::Particle& best = pipeline_->filter().best();
   for (std::size_t i = 0; i < best.map.size(); ++i)
     map.trees.push_back(best.map[i]);
@@ -730,7 +733,7 @@ bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message
       files.emplace_back(stem + ".geojson", io::treesGeoJson(map));
     if (!saved_trees_.empty())
     {
-      const std::vector<core::TreeChange> changes = core::detectChanges(saved_trees_, map.trees);
+      const std::vector<core::TreeChange> changes = core::detectChanges(saved_trees_, map.trees, core::ChangeConfig(), saved_viewpoints_);
       files.emplace_back(stem + "_changes.csv", io::changesCsv(changes));
       if (map.anchor.valid)
         files.emplace_back(stem + "_changes.geojson", io::changesGeoJson(map.anchor, changes));
@@ -762,6 +765,7 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
   }
   io::ForestMap map;
   map.anchor = pipeline_->anchor();
+  map.viewpoints = pipeline_->viewpoints();
   if (pipeline_->initialized())
   {
     const core::Particle& best = pipeline_->filter().best();

@@ -427,6 +427,7 @@ int runFastSlam(const Options& o)
     saved = io::readForestMap(o.map_path);
     anchor = saved.anchor;
     pipeline.setMapAnchor(saved.anchor);
+    pipeline.setMapViewpoints(saved.viewpoints);
     if (o.initial_given)
       pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
     else
@@ -549,6 +550,7 @@ int runFastSlam(const Options& o)
   {
     io::ForestMap map;
     map.anchor = anchor;
+    map.viewpoints = pipeline.viewpoints();
     for (std::size_t i = 0; i < best.map.size(); ++i)
       map.trees.push_back(best.map[i]);
     out.add(o.save_map_path, io::forestMapCsv(map));
@@ -567,7 +569,7 @@ int runFastSlam(const Options& o)
     std::vector<core::Landmark> now;
     for (std::size_t i = 0; i < best.map.size(); ++i)
       now.push_back(best.map[i]);
-    changes = core::detectChanges(saved.trees, now);
+    changes = core::detectChanges(saved.trees, now, core::ChangeConfig(), saved.viewpoints);
     out.add(o.changes_prefix + ".csv", io::changesCsv(changes));
     if (anchor.valid)
       out.add(o.changes_prefix + ".geojson", io::changesGeoJson(anchor, changes));

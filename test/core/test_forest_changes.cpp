@@ -87,3 +87,55 @@ TEST(ForestChanges, ATreeRemovedAndMadeAgainBesideItselfIsNoChange)
   sapling.visit_observations = 40;
   EXPECT_EQ(detectChanges({ saved }, { sapling }).size(), 2u);
 }
+
+TEST(ForestChanges, ATreeIsNewOnlyWhereTheSavedMapHadItsPlaceInView)
+{
+  // The saved map was made driving along y = 0 from x = 0 to 10 with a 360-degree lidar of 1-12 m.
+  std::vector<Viewpoint> viewpoints;
+  ViewpointLog log;
+  for (double x = 0.0; x <= 10.0; x += 0.25)
+    log.add(Pose2(x, 0.0, 0.0), VisibilityScope(1.0, 12.0, 2.0 * M_PI));
+  viewpoints = log.viewpoints();
+  EXPECT_EQ(viewpoints.size(), 11u) << "one viewpoint per metre of ground";
+  Landmark screen = tree(1, 5.0, 0.6);  // a thick saved trunk at (5, 4): what stands behind it was hidden
+  screen.mean = Eigen::Vector2d(5.0, 4.0);
+  Landmark aside = tree(0, 3.0, 0.2);
+  aside.mean.y() = 15.0;
+  const std::vector<Landmark> before = { aside, screen };
+  auto planted = [](int id, double x, double y) {
+    Landmark l = tree(id, x, 0.06);
+    l.mean = Eigen::Vector2d(x, y);
+    l.visit_observations = 30;
+    return l;
+  };
+  // In view from the path, 6 m off it: new. 20 m off the path: the saved map never saw it, not reported.
+  // Right behind the thick trunk: counted only from where it was in the clear.
+  const Landmark seen = planted(10, 6.0, -6.0), far = planted(11, 6.0, 20.0), hidden = planted(12, 5.0, 8.0);
+  EXPECT_GE(timesInView(viewpoints, before, seen.mean, 0.06, 0.5), 10);
+  EXPECT_EQ(timesInView(viewpoints, before, far.mean, 0.06, 0.5), 0);
+  const int behind = timesInView(viewpoints, before, hidden.mean, 0.06, 0.5);
+  EXPECT_LT(behind, timesInView(viewpoints, { aside }, hidden.mean, 0.06, 0.5))
+      << "the saved trunk hides the spot behind it from some viewpoints";
+  EXPECT_EQ(timesInView(viewpoints, before, seen.mean, 0.06, 0.5, 3), 3) << "stops at enough";
+
+  const std::vector<TreeChange> with = detectChanges(before, { before[0], screen, seen, far }, ChangeConfig(),
+                                                     viewpoints);
+  ASSERT_EQ(with.size(), 1u);
+  EXPECT_EQ(with[0].id, 10);
+  EXPECT_NE(with[0].evidence.find("in view from at least 3 viewpoints"), std::string::npos) << with[0].evidence;
+  // Without viewpoints (a surveyed map) every place counts as looked at.
+  EXPECT_EQ(detectChanges(before, { before[0], screen, seen, far }).size(), 2u);
+}
+
+TEST(ForestChanges, APartialViewKeepsAViewpointPerHeading)
+{
+  ViewpointLog log;
+  const VisibilityScope front(0.5, 30.0, M_PI);
+  EXPECT_TRUE(log.add(Pose2(0.2, 0.2, 0.0), front));
+  EXPECT_FALSE(log.add(Pose2(0.7, 0.4, 0.1), front)) << "the same cell and heading";
+  EXPECT_TRUE(log.add(Pose2(0.7, 0.4, M_PI), front)) << "the same cell looking back sees other ground";
+  EXPECT_FALSE(log.add(Pose2(NAN, 0.0, 0.0), front));
+  log.reset(std::vector<Viewpoint>(1, log.viewpoints()[0]));
+  EXPECT_EQ(log.viewpoints().size(), 1u);
+  EXPECT_TRUE(log.add(Pose2(0.7, 0.4, M_PI), front));
+}

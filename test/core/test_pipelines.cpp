@@ -158,6 +158,9 @@ TEST(TrunkSlamPipeline, StartsFromASavedMapInItsFrameAndStampsTheTrees)
   TrunkSlamPipeline p(TrunkDetectorConfig(), fc);
   p.setPriorMap(saved, start);
   ASSERT_TRUE(p.hasPriorMap());
+  Viewpoint looked;  // where the saved map was looked at from
+  looked.sensor = Pose2(-20.0, 3.0, 0.0);
+  p.setMapViewpoints({ looked });
   const Pose2 odom0(5.0, -2.0, 0.3);
   for (int k = 0; k <= 40; ++k)
     p.addOdometry(1000.0 + 0.05 * k, odom0 * Pose2(0.05 * k, 0.0, 0.0));  // 1 m/s straight ahead
@@ -196,6 +199,12 @@ TEST(TrunkSlamPipeline, StartsFromASavedMapInItsFrameAndStampsTheTrees)
     EXPECT_NEAR(map[j].last_seen, 1000.9, 1e-9) << "the last sweep's time";
     EXPECT_EQ(map[j].observations, 40);
   }
+  // The saved map's viewpoint and this visit's own (0.9 m of travel inside one metre's cell: one, at its start).
+  ASSERT_EQ(p.viewpoints().size(), 2u);
+  EXPECT_DOUBLE_EQ(p.viewpoints()[0].sensor.x, -20.0);
+  EXPECT_NEAR(p.viewpoints()[1].sensor.x, done.front().estimate.x, 1e-9);
+  EXPECT_NEAR(p.viewpoints()[1].sensor.y, done.front().estimate.y, 1e-9);
+  EXPECT_DOUBLE_EQ(p.viewpoints()[1].scope.max_range, p.filter().scope().max_range);
 }
 
 namespace

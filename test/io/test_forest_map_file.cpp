@@ -12,6 +12,8 @@
 
 namespace io = rbpf_slam::io;
 using rbpf_slam::core::Landmark;
+using rbpf_slam::core::Pose2;
+using rbpf_slam::core::VisibilityScope;
 
 namespace
 {
@@ -84,6 +86,23 @@ TEST(ForestMapFile, WrittenMapReadsBackWithAnchorCovarianceAndTimes)
   EXPECT_NEAR(back.trees[0].first_seen, 1700000000.25, 1e-6);
   EXPECT_NEAR(back.trees[0].last_seen, 1700000100.5, 1e-6);
   EXPECT_TRUE(std::isnan(back.trees[1].first_seen)) << "not known stays not known";
+  // The viewpoints come back: a 360-degree lidar's and a front scanner's (its half turn kept).
+  m.viewpoints.resize(2);
+  m.viewpoints[0].sensor = Pose2(1.25, -2.5, 0.5);
+  m.viewpoints[1].sensor = Pose2(-3.0, 4.0, -1.25);
+  m.viewpoints[1].scope = VisibilityScope(0.5, 30.0, M_PI);
+  io::writeForestMap(path, m);
+  const io::ForestMap seen = io::readForestMap(path);
+  ASSERT_EQ(seen.viewpoints.size(), 2u);
+  EXPECT_NEAR(seen.viewpoints[0].sensor.x, 1.25, 0.005);
+  EXPECT_NEAR(seen.viewpoints[1].sensor.theta, -1.25, 1e-3);
+  EXPECT_TRUE(seen.viewpoints[0].scope.fullTurn()) << "a full turn stays one after rounding";
+  EXPECT_DOUBLE_EQ(seen.viewpoints[0].scope.max_range, 12.0);
+  EXPECT_FALSE(seen.viewpoints[1].scope.fullTurn());
+  EXPECT_NEAR(seen.viewpoints[1].scope.fov_max, 0.5 * M_PI, 1e-4);
+  EXPECT_DOUBLE_EQ(seen.viewpoints[1].scope.max_range, 30.0);
+  ASSERT_EQ(seen.trees.size(), 2u);
+  m.viewpoints.clear();
   // The file is the package's landmark CSV: no anchor, no comment line.
   m.anchor.valid = false;
   EXPECT_EQ(io::forestMapCsv(m).compare(0, 3, "id,"), 0);
@@ -118,6 +137,13 @@ TEST(ForestMapFile, MalformedFilesAreRefusedWithFileAndLine)
             std::string::npos);
   EXPECT_NE(errorOf("# anchor: latitude=60\nid,x,y,dbh\n").find("m.csv:1: expected the anchor's latitude and"),
             std::string::npos);
+  EXPECT_NE(errorOf("# viewpoint: x=1 y=2 yaw=0 min_range=1 max_range=12 fov_min=-3\nid,x,y,dbh\n")
+                .find("m.csv:1: expected the viewpoint's fov_max"),
+            std::string::npos);
+  EXPECT_NE(errorOf("id,x,y,dbh\n# viewpoint: x=1 y=2 yaw=0 min_range=5 max_range=2 fov_min=-3 fov_max=3\n")
+                .find("m.csv:2: expected 0 <= min_range < max_range"),
+            std::string::npos);
+  EXPECT_NE(errorOf("# viewpoint: x=1 y=2 z=0\nid,x,y,dbh\n").find("expected x, y, yaw"), std::string::npos);
   EXPECT_THROW(io::readForestMap("/nonexistent/forest_map.csv"), std::runtime_error);
 }
 

@@ -95,3 +95,33 @@ TEST(Tum, WrittenTrajectoryReadsBack)
   }
   EXPECT_THROW(io::readTum(dir + "/missing.tum", &t, &p), std::runtime_error);
 }
+
+TEST(FastSlamRunRecord, SearchesWhileTrackingAreCountedByHowEachEnded)
+{
+  io::FastSlamRunRecord record;
+  EXPECT_EQ(record.lostSummary(), "") << "no search, nothing to say";
+  double t = 10.0;
+  // Each search: two updates of gathering, then the update that ends it (one of three ways).
+  const auto search = [&](bool recovered, bool confirmed, bool gave_up) {
+    for (int k = 0; k < 3; ++k)
+    {
+      rbpf_slam::core::PipelineUpdate u;
+      u.stamp = (t += 0.1);
+      u.relocalization.lost = true;
+      u.relocalization.active = true;
+      const bool last = k == 2;
+      u.relocalization.recovered = last && recovered;
+      u.relocalization.confirmed = last && confirmed;
+      u.relocalization.gave_up = last && gave_up;
+      record.addUpdate(u);
+    }
+  };
+  search(false, false, true);  // nothing found within a window of travel; the next warning starts another
+  search(true, false, false);
+  search(false, true, false);
+  const std::string s = record.lostSummary();
+  EXPECT_NE(s.find("searched again 3 times while tracking: 1 found the robot elsewhere"), std::string::npos) << s;
+  EXPECT_NE(s.find("(at 10.600 s)"), std::string::npos) << s;
+  EXPECT_NE(s.find("1 found it where the estimate was, 1 found nothing within a window of travel"), std::string::npos)
+      << s;
+}

@@ -1,12 +1,17 @@
 #ifndef RBPF_SLAM_CORE_FOREST_CHANGES_H
 #define RBPF_SLAM_CORE_FOREST_CHANGES_H
 
+#include <limits>
+#include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/pose2.h"
+#include "rbpf_slam/core/visibility_scope.h"
 
 namespace rbpf_slam
 {
@@ -21,6 +26,47 @@ struct ChangeConfig
   /// [m] a felled tree and a new one closer than this with radii that agree are one tree that the filter removed
   /// and made again (its saved position was off): neither is reported
   double remade_distance = 1.0;
+  /// With the saved map's viewpoints: a tree of this visit where the saved map has none is new only where the
+  /// saved map had it in view (inside the scope, not hidden behind a saved trunk) from at least this many
+  /// viewpoints; elsewhere it is a tree the map had not reached, added to the map and not reported
+  int min_views = 3;
+  double view_range_margin = 0.5;  ///< [m] in view: this far inside the scope's ring
+};
+
+/** @brief Where a map was looked at from: the sensor's pose in the map frame and the scope it saw. */
+struct Viewpoint
+{
+  Pose2 sensor;
+  VisibilityScope scope;
+};
+
+/** @brief [m] Viewpoints are kept one per cell of this size (and per eighth of a turn for a partial view). */
+constexpr double kViewpointCell = 1.0;
+
+/**
+ * @brief How many of @p viewpoints had the point @p p (a trunk of radius @p radius) in view: inside the scope's
+ * ring by @p range_margin and its bearings, not hidden behind a confirmed tree of @p trees (occludedBy). Stops
+ * counting at @p enough.
+ */
+int timesInView(const std::vector<Viewpoint>& viewpoints, const std::vector<Landmark>& trees, const Eigen::Vector2d& p,
+                double radius, double range_margin, int enough = std::numeric_limits<int>::max());
+
+/**
+ * @brief The viewpoints of a map as it is driven: one per cell of kViewpointCell (per eighth of a turn as well
+ * when the scope is not all round), so that driving the same ground again does not grow them.
+ */
+class ViewpointLog
+{
+public:
+  /** @brief Starts from a saved map's viewpoints (or none). */
+  void reset(const std::vector<Viewpoint>& saved = std::vector<Viewpoint>());
+  /** @brief Adds the sensor at @p sensor (map frame) with @p scope unless its cell has one; true when added. */
+  bool add(const Pose2& sensor, const VisibilityScope& scope);
+  const std::vector<Viewpoint>& viewpoints() const { return viewpoints_; }
+
+private:
+  std::vector<Viewpoint> viewpoints_;
+  std::set<std::tuple<long, long, int>> cells_;
 };
 
 enum class ChangeKind
@@ -55,9 +101,12 @@ struct TreeChange
  * radius from this visit's observations alone differs from the saved one beyond growth_sigmas combined standard
  * deviations plus growth_floor). Saved trees this visit never came near stay as they were and are not reported. A
  * felled and a new tree within remade_distance whose radii agree are one tree removed and made again: not reported.
+ * With @p viewpoints (where the saved map was looked at from), a tree is new only where the saved map had it in
+ * view (min_views); without them (a survey, an older file) every place counts as looked at.
  */
 std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const std::vector<Landmark>& after,
-                                      const ChangeConfig& config = ChangeConfig());
+                                      const ChangeConfig& config = ChangeConfig(),
+                                      const std::vector<Viewpoint>& viewpoints = std::vector<Viewpoint>());
 
 }  // namespace core
 }  // namespace rbpf_slam

@@ -13,6 +13,7 @@
 #include "rbpf_slam/core/constellation.h"
 #include "rbpf_slam/core/fastslam.h"
 #include "rbpf_slam/core/filter_health.h"
+#include "rbpf_slam/core/forest_changes.h"
 #include "rbpf_slam/core/gnss.h"
 #include "rbpf_slam/core/odometry_buffer.h"
 #include "rbpf_slam/core/sensor_pipeline.h"
@@ -94,6 +95,8 @@ struct RelocalizationStatus
   bool recovered = false;
   /// that search ended on this update: it found the estimate's own pose (tracking was not lost)
   bool confirmed = false;
+  /// that search ended on this update without a result: nothing found within a window of travel
+  bool gave_up = false;
 };
 
 /** @brief Parameters of the search for the start pose in a saved map. */
@@ -210,6 +213,14 @@ public:
    */
   void setMapAnchor(const GeoAnchor& anchor);
   /**
+   * @brief Where the saved map was looked at from (its file's viewpoints; none: not known). This visit adds its
+   * own, from the estimate after each filter update (ViewpointLog: one per metre of new ground), for the map it
+   * saves and for telling new trees from trees the saved map had not reached (detectChanges).
+   */
+  void setMapViewpoints(const std::vector<Viewpoint>& viewpoints);
+  /** @brief The saved map's viewpoints and this visit's (this timeline's: a restart starts a new map). */
+  const std::vector<Viewpoint>& viewpoints() const { return viewpoints_.viewpoints(); }
+  /**
    * @brief A satellite fix of the antenna (used as the filter configuration's gnss says; without fixes everything
    * works in the map frame alone) at @p antenna (x, y on base_link). Used at the next filter update whose
    * instant is at or after the fix's: the antenna's map position from the estimate there (carried back to the
@@ -249,6 +260,8 @@ private:
   bool initialized_ = false;
   bool has_prior_ = false;
   LandmarkMap prior_;
+  std::vector<Viewpoint> prior_viewpoints_;
+  ViewpointLog viewpoints_;
   Pose2 prior_start_;
   bool relocalize_ = false;
   RelocalizationConfig relocalization_config_;
@@ -289,6 +302,7 @@ private:
   };
   std::deque<PendingFix> pending_fixes_;
   double last_weigh_stamp_ = -1e300;
+  double next_anchor_check_ = -1e300;  ///< [s] the anchor is not refitted for weighing before this fix stamp
   int gnss_used_ = 0, gnss_weighed_ = 0;
   /** @brief Uses the fixes up to the filter update at @p t_mid (odometry @p odom_mid). */
   void useFixes(double t_mid, const Pose2& odom_mid);

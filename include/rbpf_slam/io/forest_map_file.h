@@ -20,13 +20,16 @@ struct ForestMap
 {
   MapAnchor anchor;
   std::vector<core::Landmark> trees;
+  /// where the map was looked at from (core::ViewpointLog); empty: not known (e.g. a survey)
+  std::vector<core::Viewpoint> viewpoints;
 };
 
 /**
  * @brief The package's one tree map file (the FastSLAM node's save_map and save_inventory, slam_bag's map.csv and
  * --save-map, the benchmarks' maps; rbpf_slam.evaluate.read_landmarks_csv reads it in Python). A CSV file:
  * optional comment lines first ('#'; the anchor as "# anchor: latitude=.. longitude=.. altitude=.. yaw=..
- * sigma=.."), then the header kForestMapHeader and one line per tree: id; centre x, y [m]; dbh (the trunk's
+ * sigma=.."; each viewpoint as "# viewpoint: x=.. y=.. yaw=.. min_range=.. max_range=.. fov_min=.. fov_max=.."
+ * (the sensor's pose [m, rad] in the map frame and its scope [m, rad]), then the header kForestMapHeader and one line per tree: id; centre x, y [m]; dbh (the trunk's
  * diameter, 2 r) [m]; the standard deviations of x, y and dbh [m]; observations (matches so far); provisional (1
  * until the filter confirmed the tree); cov_xy [m^2] (the centre's covariance, with sigma_x^2 and sigma_y^2);
  * first_seen and last_seen [s] (the clock of the data: ROS time of the sensor messages; empty when not known).

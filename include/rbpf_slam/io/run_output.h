@@ -86,7 +86,7 @@ private:
   double found_stamp_ = 0.0, found_travel_ = 0.0, search_seconds_ = 0.0, max_search_seconds_ = 0.0;
   int found_hypotheses_ = 0, found_inliers_ = 0, found_trunks_ = 0;
   std::string last_reason_;
-  int lost_searches_ = 0, confirmations_ = 0;
+  int lost_searches_ = 0, confirmations_ = 0, lost_gave_up_ = 0;
   bool lost_searching_ = false;
   std::vector<double> recoveries_;
 };

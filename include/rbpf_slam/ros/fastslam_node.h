@@ -149,6 +149,7 @@ private:
   void publishHealth(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
   std::vector<core::Landmark> saved_trees_;  ///< the trees of the map it started from (for the change report)
+  std::vector<core::Viewpoint> saved_viewpoints_;  ///< where that map was looked at from (new trees need it)
   ros::Publisher change_markers_pub_;
   io::FastSlamRunRecord record_;  ///< the run folder's content
   ros::WallTimer timer_;
