@@ -128,17 +128,17 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
     c.evidence = buf;
     changes.push_back(c);
   }
+  // A new tree where the saved map had not looked is new to the map, not known to be new: it is not reported, but
+  // it still pairs with a felled tree beside it below (a saved tree made again is hidden behind its old self).
+  std::vector<bool> unseen_place(changes.size(), false);
   for (const Landmark& a : after)
   {
     if (then.count(a.id) || a.provisional || a.visit_observations < config.min_observations)
       continue;
     int views = -1;  // not known: the saved map says nothing of where it looked
     if (!viewpoints.empty())
-    {
       views = timesInView(viewpoints, before, a.mean, a.radius, config.view_range_margin, config.min_views);
-      if (views < config.min_views)
-        continue;  // a place the saved map had not seen: the tree is new to the map, not known to be new
-    }
+    unseen_place.push_back(views >= 0 && views < config.min_views);
     TreeChange c = changeAt(ChangeKind::kNew, a);
     c.dbh_after = 2.0 * a.radius;
     c.sigma_dbh_after = 2.0 * std::sqrt(std::max(0.0, a.radius_variance));
@@ -176,7 +176,7 @@ std::vector<TreeChange> detectChanges(const std::vector<Landmark>& before, const
   }
   std::vector<TreeChange> kept;
   for (std::size_t i = 0; i < changes.size(); ++i)
-    if (!drop[i])
+    if (!drop[i] && !unseen_place[i])
       kept.push_back(changes[i]);
   return kept;
 }

@@ -86,6 +86,13 @@ TEST(ForestChanges, ATreeRemovedAndMadeAgainBesideItselfIsNoChange)
   Landmark sapling = tree(12, 10.4, 0.05);  // a thin tree planted where a thick one was felled: both are reported
   sapling.visit_observations = 40;
   EXPECT_EQ(detectChanges({ saved }, { sapling }).size(), 2u);
+  // Made again where the saved map's viewpoints did not see (e.g. hidden behind its old self): still the same tree.
+  std::vector<Viewpoint> far_away(1);
+  far_away[0].sensor = Pose2(10.0, 40.0, 0.0);
+  EXPECT_TRUE(detectChanges({ saved }, { again }, ChangeConfig(), far_away).empty());
+  const std::vector<TreeChange> felled = detectChanges({ saved }, { sapling }, ChangeConfig(), far_away);
+  ASSERT_EQ(felled.size(), 1u) << "the sapling, where the map had not looked, is not reported new";
+  EXPECT_EQ(felled[0].kind, ChangeKind::kFelled);
 }
 
 TEST(ForestChanges, ATreeIsNewOnlyWhereTheSavedMapHadItsPlaceInView)
