@@ -66,10 +66,20 @@ bool ViewpointLog::add(const Pose2& sensor, const VisibilityScope& scope)
     return false;
   const int heading =
       scope.fullTurn() ? 0 : static_cast<int>(std::floor((wrapAngle(sensor.theta) + M_PI) / (0.25 * M_PI))) % 8;
-  const auto cell = std::make_tuple(static_cast<long>(std::floor(sensor.x / kViewpointCell)),
-                                    static_cast<long>(std::floor(sensor.y / kViewpointCell)), heading);
-  if (!cells_.insert(cell).second)
-    return false;
+  const long ix = static_cast<long>(std::floor(sensor.x / kViewpointCell));
+  const long iy = static_cast<long>(std::floor(sensor.y / kViewpointCell));
+  // A viewpoint of the same heading within a cell's size (in this cell or a neighbour) stands for this one.
+  for (long dx = -1; dx <= 1; ++dx)
+    for (long dy = -1; dy <= 1; ++dy)
+    {
+      const auto it = cells_.find(std::make_tuple(ix + dx, iy + dy, heading));
+      if (it == cells_.end())
+        continue;
+      for (const std::size_t k : it->second)
+        if (std::hypot(viewpoints_[k].sensor.x - sensor.x, viewpoints_[k].sensor.y - sensor.y) < kViewpointCell)
+          return false;
+    }
+  cells_[std::make_tuple(ix, iy, heading)].push_back(viewpoints_.size());
   viewpoints_.push_back(Viewpoint{ sensor, scope });
   return true;
 }

@@ -194,6 +194,16 @@ def test_landmark_detections_of_any_detector(tmp_path):
     assert r.returncode != 0 and '--landmarks goes with' in r.stderr
 
 
+def _viewpoints(path):
+    """The '# viewpoint:' lines of a tree map file as dicts of floats."""
+    out = []
+    with open(path) as f:
+        for line in f:
+            if line.startswith('# viewpoint:'):
+                out.append({k: float(v) for k, v in (item.split('=') for item in line.split(':', 1)[1].split())})
+    return out
+
+
 def test_a_saved_map_is_read_back_and_the_second_visit_keeps_its_trees(bags, tmp_path):
     """--save-map writes the tree map file (ids, covariance, first and last seen); --map starts a second run of the
     same drive from it: the trees are matched rather than made again, and the pose stays as good."""
@@ -206,6 +216,11 @@ def test_a_saved_map_is_read_back_and_the_second_visit_keeps_its_trees(bags, tmp
     assert confirmed.sum() >= 12
     assert np.isfinite(saved['first_seen']).all() and (saved['last_seen'] >= saved['first_seen']).all()
     assert (saved['cov_xy'] ** 2 <= (saved['sigma_x'] * saved['sigma_y']) ** 2 + 1e-12).all()
+    # Where the map was looked at from: one viewpoint per metre of ground, with the lidar's all-round scope.
+    viewpoints = _viewpoints(first)
+    assert 20 <= len(viewpoints) <= 40, len(viewpoints)  # the drive: 30 m straight
+    assert all(v['fov_max'] - v['fov_min'] > 6.28 and 0.0 < v['min_range'] < v['max_range'] for v in viewpoints)
+    assert max(v['x'] for v in viewpoints) > 20.0
 
     out = str(tmp_path / 'second')
     again = str(tmp_path / 'forest_map_2.csv')
@@ -218,6 +233,8 @@ def test_a_saved_map_is_read_back_and_the_second_visit_keeps_its_trees(bags, tmp
     assert kept <= set(second['id']), 'every confirmed tree of the first visit is still in the map'
     new = [i for i in second['id'] if i not in set(saved['id'])]
     assert len(new) <= 2, 'trees made again instead of matched: %s' % new
+    # The same ground driven again adds no viewpoint: the map does not grow with visits to the same place.
+    assert abs(len(_viewpoints(again)) - len(viewpoints)) <= 3
     back = {i: k for k, i in enumerate(second['id'])}
     for k, i in enumerate(saved['id']):
         if i in back and confirmed[k]:

@@ -2,7 +2,7 @@
 #define RBPF_SLAM_CORE_FOREST_CHANGES_H
 
 #include <limits>
-#include <set>
+#include <map>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -40,7 +40,7 @@ struct Viewpoint
   VisibilityScope scope;
 };
 
-/** @brief [m] Viewpoints are kept one per cell of this size (and per eighth of a turn for a partial view). */
+/** @brief [m] Viewpoints are kept this far apart at least (per eighth of a turn for a partial view). */
 constexpr double kViewpointCell = 1.0;
 
 /**
@@ -52,8 +52,8 @@ int timesInView(const std::vector<Viewpoint>& viewpoints, const std::vector<Land
                 double radius, double range_margin, int enough = std::numeric_limits<int>::max());
 
 /**
- * @brief The viewpoints of a map as it is driven: one per cell of kViewpointCell (per eighth of a turn as well
- * when the scope is not all round), so that driving the same ground again does not grow them.
+ * @brief The viewpoints of a map as it is driven: a new one only kViewpointCell from every other (of the same eighth
+ * of a turn when the scope is not all round), so that driving the same ground again does not grow them.
  */
 class ViewpointLog
 {
@@ -66,7 +66,7 @@ public:
 
 private:
   std::vector<Viewpoint> viewpoints_;
-  std::set<std::tuple<long, long, int>> cells_;
+  std::map<std::tuple<long, long, int>, std::vector<std::size_t>> cells_;  ///< viewpoints by cell and heading
 };
 
 enum class ChangeKind
