@@ -765,7 +765,6 @@ bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
   }
   io::ForestMap map;
   map.anchor = pipeline_->anchor();
-  map.viewpoints = pipeline_->viewpoints();
   if (pipeline_->initialized())
   {
     const core::Particle& best = pipeline_->filter().best();
