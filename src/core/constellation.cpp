@@ -1,6 +1,7 @@
 #include "rbpf_slam/core/constellation.h"
 
 #include <algorithm>
+#include <unordered_map>
 #include <cmath>
 #include <limits>
 
@@ -67,16 +68,44 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
     t.radius_sigma = std::sqrt(std::max(0.0, l.radius_variance));
     trees_.push_back(t);
   }
+  // The pairs through a grid of the pairs' reach: linear in the trees (times their neighbours), not quadratic.
+  const double reach = config_.max_pair_length + config_.pair_tolerance;
+  const double pair_cell = std::max(1.0, reach);
+  std::unordered_map<long long, std::vector<int>> coarse;
+  const auto coarseOf = [&](const Eigen::Vector2d& p, long* cx, long* cy) {
+    *cx = static_cast<long>(std::floor(p.x() / pair_cell));
+    *cy = static_cast<long>(std::floor(p.y() / pair_cell));
+  };
+  for (std::size_t a = 0; a < trees_.size(); ++a)
+  {
+    long cx = 0, cy = 0;
+    coarseOf(trees_[a].center, &cx, &cy);
+    coarse[key(cx, cy)].push_back(static_cast<int>(a));
+  }
+  std::vector<int> near;
   for (std::size_t a = 0; a < trees_.size(); ++a)
   {
     long cx = 0, cy = 0;
     cellOf(trees_[a].center, &cx, &cy);
     grid_.emplace_back(key(cx, cy), static_cast<int>(a));
-    for (std::size_t b = a + 1; b < trees_.size(); ++b)
+    coarseOf(trees_[a].center, &cx, &cy);
+    near.clear();
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+      {
+        const auto it = coarse.find(key(cx + dx, cy + dy));
+        if (it == coarse.end())
+          continue;
+        for (const int b : it->second)
+          if (b > static_cast<int>(a))
+            near.push_back(b);
+      }
+    std::sort(near.begin(), near.end());  // the pairs in the order of the trees, whatever the cells
+    for (const int b : near)
     {
-      const double d = (trees_[a].center - trees_[b].center).norm();
-      if (d >= config_.min_pair_length - config_.pair_tolerance && d <= config_.max_pair_length + config_.pair_tolerance)
-        pairs_.push_back({ d, static_cast<int>(a), static_cast<int>(b) });
+      const double d = (trees_[a].center - trees_[static_cast<std::size_t>(b)].center).norm();
+      if (d >= config_.min_pair_length - config_.pair_tolerance && d <= reach)
+        pairs_.push_back({ d, static_cast<int>(a), b });
     }
   }
   std::sort(grid_.begin(), grid_.end());
@@ -174,6 +203,11 @@ ConstellationResult ConstellationMatcher::match(const std::vector<TrunkPoint>& s
                                        [](const Pair& p, double v) { return p.length < v; });
       for (auto it = lo; it != pairs_.end() && it->length <= d + config_.pair_tolerance; ++it)
       {
+        if (result.candidates >= config_.max_candidates)
+        {
+          result.bounded = true;  // the work bound: the search ends here with what it scored
+          break;
+        }
         for (int flip = 0; flip < 2; ++flip)
         {
           const int a = flip ? it->b : it->a, b = flip ? it->a : it->b;

@@ -174,6 +174,8 @@ std::string FastSlamConfig::validate() const
 {
   if (particles < 1 || particles > kMaxParticles)
     return "particles must be in 1.." + std::to_string(kMaxParticles) + ", not " + std::to_string(particles);
+  if (max_trunks_per_sweep < 1 || max_landmarks < 1)
+    return "max_trunks_per_sweep and max_landmarks must be >= 1";
   const std::string m = motion.validate();
   if (!m.empty())
     return "motion: " + m;
@@ -212,7 +214,7 @@ std::string FastSlamConfig::validate() const
     return "mixture_fraction must be in [0, 1)";
   if (!(relocalization_spread >= 0.0))
     return "relocalization_spread must be >= 0 (0: off)";
-  return "";
+  return gnss.validate();
 }
 
 FastSlam::FastSlam(const FastSlamConfig& config)
@@ -343,7 +345,7 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
   updateMap(p, obs, p->pose * sensor_in_base, &log_w, stats);
   // No landmark is missed while the pose is too uncertain to say where it should have been seen.
   const std::size_t deleted =
-      relocalizing_ ? 0 : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr);
+      relocalizing_ || !sweep_complete_ ? 0 : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr);
   if (stats && deleted_positions_.size() > kDeletedMemory)
     deleted_positions_.erase(deleted_positions_.begin(),
                              deleted_positions_.begin() + static_cast<std::ptrdiff_t>(deleted_positions_.size() - kDeletedMemory));
@@ -424,6 +426,14 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       *log_w += scratch_.log_new[i];
       if (stats)
         ++stats->ignored;
+      continue;
+    }
+    if (p->map.size() >= static_cast<std::size_t>(config_.max_landmarks))
+    {
+      // The map is full: the observation explains nothing here (as one that made no landmark).
+      *log_w += scratch_.log_new[i];
+      if (stats)
+        ++stats->map_full;
       continue;
     }
     Landmark l = landmarkFromObservation(obs[i], s, scratch_.R[i]);
@@ -548,6 +558,7 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
                                      const SensorScope& sensor_scope)
 {
   scope_ = effectiveScope(config_.configuredScope(), sensor_scope, FastSlamConfig::fallbackScope());
+  sweep_complete_ = sensor_scope.complete;
   FastSlamUpdateStats stats;
   stats.observations = static_cast<int>(observations.size());
   const std::size_t best_before = bestIndex();
@@ -626,8 +637,9 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
       p.pose.theta = wrapAngle(p.pose.theta + random_.gaussian(config_.roughening_sigma_theta));
     }
   }
-  for (Particle& p : particles_)
-    p.history = std::make_shared<const HistoryNode<Pose2>>(p.pose, std::move(p.history));
+  if (config_.keep_history)
+    for (Particle& p : particles_)
+      p.history = std::make_shared<const HistoryNode<Pose2>>(p.pose, std::move(p.history));
   stats.landmarks = static_cast<int>(particles_[best_].map.size());
   return stats;
 }

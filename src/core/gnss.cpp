@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 
@@ -28,6 +29,25 @@ std::string gnssFixProblem(const GnssFix& fix, double max_sigma)
   if (std::sqrt(eig.eigenvalues().maxCoeff()) > max_sigma)
     return "sigma " + std::to_string(std::sqrt(eig.eigenvalues().maxCoeff())) + " m beyond " +
            std::to_string(max_sigma) + " m";
+  return "";
+}
+
+std::string GnssFusionConfig::validate() const
+{
+  if (!enabled)
+    return "";
+  if (!(max_sigma > 0.0) || !std::isfinite(max_sigma))
+    return "gps/max_sigma must be a finite number > 0 [m]";
+  if (!(sigma_floor > 0.0) || !std::isfinite(sigma_floor))
+    return "gps/sigma_floor must be a finite number > 0 [m]";
+  if (!(correlation_time > 0.0) || !std::isfinite(correlation_time))
+    return "gps/correlation_time must be a finite number > 0 [s]";
+  if (!(anchor_min_spread >= 0.0) || !std::isfinite(anchor_min_spread))
+    return "gps/anchor_min_spread must be a finite number >= 0 [m]";
+  if (anchor_min_fixes < 3)
+    return "gps/anchor_min_fixes must be >= 3";
+  if (!(weigh_max_anchor_sigma >= 0.0) || !std::isfinite(weigh_max_anchor_sigma))
+    return "gps/weigh_max_anchor_sigma must be a finite number >= 0 [m] (0: fixes never weigh the particles)";
   return "";
 }
 
@@ -137,21 +157,109 @@ void GeoAnchorEstimator::add(const GnssFix& fix, const Eigen::Vector2d& antenna_
   altitude_.push_back(fix.altitude);
 }
 
-GeoAnchor GeoAnchorEstimator::anchor() const
+namespace
+{
+/** @brief The median of @p v (reordered); NaN when empty. */
+double median(std::vector<double>* v)
+{
+  if (v->empty())
+    return NAN;
+  const auto mid = v->begin() + static_cast<std::ptrdiff_t>(v->size() / 2);
+  std::nth_element(v->begin(), mid, v->end());
+  return *mid;
+}
+}  // namespace
+
+bool GeoAnchorEstimator::robustStart(double* yaw, Eigen::Vector2d* origin) const
+{
+  // The heading from pairs of fixes far apart in the map (each pair its own estimate), the one most others agree
+  // with; then the origin as the per-axis median: neither moves while fewer than half the fixes are wild.
+  const std::size_t n = map_.size();
+  const std::size_t step = std::max<std::size_t>(1, n / 100);  // at most ~100 pairs: bounded work
+  std::vector<double> headings;
+  for (std::size_t i = 0; i < n; i += step)
+  {
+    const std::size_t j = (i + n / 2) % n;
+    const Eigen::Vector2d dm = map_[j] - map_[i], de = east_north_[j] - east_north_[i];
+    if (dm.norm() < config_.anchor_min_spread || !(de.norm() > 0.0))
+      continue;
+    headings.push_back(std::atan2(de.y(), de.x()) - std::atan2(dm.y(), dm.x()));
+  }
+  if (headings.empty())
+    return false;
+  std::size_t best = 0, best_count = 0;
+  for (std::size_t a = 0; a < headings.size(); ++a)
+  {
+    std::size_t count = 0;
+    for (const double h : headings)
+      count += std::abs(std::remainder(h - headings[a], 2.0 * M_PI)) < 0.1 ? 1 : 0;
+    if (count > best_count)
+    {
+      best = a;
+      best_count = count;
+    }
+  }
+  *yaw = headings[best];
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(*yaw).toRotationMatrix();
+  std::vector<double> ox, oy;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector2d o = east_north_[i] - R * map_[i];
+    ox.push_back(o.x());
+    oy.push_back(o.y());
+  }
+  *origin = Eigen::Vector2d(median(&ox), median(&oy));
+  return true;
+}
+
+GeoAnchor GeoAnchorEstimator::anchor(int* outliers) const
 {
   GeoAnchor a;
+  if (outliers)
+    *outliers = 0;
   const std::size_t n = map_.size();
   if (static_cast<int>(n) < std::max(3, config_.anchor_min_fixes))
     return a;
+  // Fixes that disagree with a robust first fit (beyond the gate of their own sigma, and beyond three robust
+  // standard deviations of all the residuals) are left out of the least-squares fit.
+  double yaw0 = 0.0;
+  Eigen::Vector2d origin0;
+  std::vector<double> w = weight_;
+  if (robustStart(&yaw0, &origin0))
+  {
+    const Eigen::Matrix2d R0 = Eigen::Rotation2Dd(yaw0).toRotationMatrix();
+    std::vector<double> residuals(n);
+    for (std::size_t i = 0; i < n; ++i)
+      residuals[i] = (R0 * map_[i] + origin0 - east_north_[i]).norm();
+    std::vector<double> sorted = residuals;
+    const double robust_sigma = 1.4826 * median(&sorted);
+    for (std::size_t i = 0; i < n; ++i)
+      if (residuals[i] > std::max(kGnssGate * std::sqrt(1.0 / weight_[i]), 3.0 * robust_sigma))
+      {
+        w[i] = 0.0;
+        if (outliers)
+          ++*outliers;
+      }
+  }
   double wsum = 0.0, alt = 0.0;
   Eigen::Vector2d cm = Eigen::Vector2d::Zero(), ce = Eigen::Vector2d::Zero();
+  std::size_t used = 0;
+  double first = NAN, last = NAN;
   for (std::size_t i = 0; i < n; ++i)
   {
-    wsum += weight_[i];
-    cm += weight_[i] * map_[i];
-    ce += weight_[i] * east_north_[i];
-    alt += weight_[i] * altitude_[i];
+    if (!(w[i] > 0.0))
+      continue;
+    ++used;
+    if (std::isnan(first))
+      first = stamp_[i];
+    last = stamp_[i];
+    wsum += w[i];
+    cm += w[i] * map_[i];
+    ce += w[i] * east_north_[i];
+    alt += w[i] * altitude_[i];
   }
+  if (static_cast<int>(used) < std::max(3, config_.anchor_min_fixes))
+    return a;
   cm /= wsum;
   ce /= wsum;
   alt /= wsum;
@@ -159,8 +267,8 @@ GeoAnchor GeoAnchorEstimator::anchor() const
   for (std::size_t i = 0; i < n; ++i)
   {
     const Eigen::Vector2d dm = map_[i] - cm, de = east_north_[i] - ce;
-    spread += weight_[i] * dm * dm.transpose();
-    H += weight_[i] * dm * de.transpose();
+    spread += w[i] * dm * dm.transpose();
+    H += w[i] * dm * de.transpose();
   }
   spread /= wsum;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(spread);
@@ -173,11 +281,12 @@ GeoAnchor GeoAnchorEstimator::anchor() const
   const Eigen::Vector2d origin = ce - R * cm;  // the map origin in east-north
   double sse = 0.0;
   for (std::size_t i = 0; i < n; ++i)
-    sse += weight_[i] * (R * map_[i] + origin - east_north_[i]).squaredNorm();
+    sse += w[i] * (R * map_[i] + origin - east_north_[i]).squaredNorm();
   // Per-axis residual sigma (two axes, three parameters fitted), and the number of independent stretches.
-  const double residual = std::sqrt(sse / wsum / 2.0 * static_cast<double>(n) / std::max(1.0, n - 1.5));
-  const double span = stamp_.back() - stamp_.front();
-  const double independent = std::max(1.0, std::min(static_cast<double>(n), span / config_.correlation_time));
+  const double m = static_cast<double>(used);
+  const double residual = std::sqrt(sse / wsum / 2.0 * m / std::max(1.0, m - 1.5));
+  const double span = last - first;
+  const double independent = std::max(1.0, std::min(m, span / config_.correlation_time));
   const double sigma_centre = residual / std::sqrt(independent);
   const double sigma_yaw = residual / (strongest * std::sqrt(independent));
   a.valid = true;
@@ -188,6 +297,19 @@ GeoAnchor GeoAnchorEstimator::anchor() const
   a.yaw = std::atan2(std::sin(yaw), std::cos(yaw));
   a.sigma = std::hypot(sigma_centre, cm.norm() * sigma_yaw);
   return a;
+}
+
+double gnssInnovation(const GnssFix& fix, const GeoAnchor& anchor, double sigma_floor,
+                      const Eigen::Vector2d& predicted, const Eigen::Matrix2d& predicted_covariance)
+{
+  Eigen::Vector2d z;
+  Eigen::Matrix2d cov;
+  gnssInFrame(fix, anchor, sigma_floor, &z, &cov);
+  const Eigen::Matrix2d S = cov + predicted_covariance;
+  const Eigen::Vector2d e = z - predicted;
+  if (!e.allFinite() || !S.allFinite() || !(S.determinant() > 0.0))
+    return std::numeric_limits<double>::infinity();
+  return e.dot(S.ldlt().solve(e));
 }
 
 GeoAnchor combineAnchors(const GeoAnchor& a, const GeoAnchor& b)

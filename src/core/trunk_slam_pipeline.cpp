@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace rbpf_slam
 {
@@ -32,6 +33,22 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
 
 void TrunkSlamPipeline::resetFilter()
 {
+  // The map that ends here is kept for the caller to save (takeEndedMaps); only the latest few, so that a looped
+  // bag's restarts do not grow the memory.
+  if (initialized_ && filter_)
+  {
+    TimelineMap ended;
+    ended.timeline = restarts() - 1;
+    ended.anchor = anchor();
+    ended.viewpoints = viewpoints_.viewpoints();
+    const LandmarkMap& map = filter_->best().map;
+    ended.trees.reserve(map.size());
+    for (std::size_t i = 0; i < map.size(); ++i)
+      ended.trees.push_back(map[i]);
+    ended_.push_back(std::move(ended));
+    while (ended_.size() > kKeptEndedMaps)
+      ended_.erase(ended_.begin());
+  }
   // Filter and detector start over with their seeds, so that each timeline is reproducible on its own.
   detector_.reset(new TrunkDetector(detector_config_));
   filter_.reset(new FastSlam(filter_config_));
@@ -44,6 +61,7 @@ void TrunkSlamPipeline::resetFilter()
   anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
   viewpoints_.reset(prior_viewpoints_);
   pending_fixes_.clear();
+  gate_anchor_ = GeoAnchor();
   last_weigh_stamp_ = -1e300;
   next_anchor_check_ = -1e300;
   initialized_ = false;
@@ -54,6 +72,9 @@ void TrunkSlamPipeline::resetFilter()
 void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
                                     const RelocalizationConfig& relocalization)
 {
+  if (trees.size() > static_cast<std::size_t>(filter_config_.max_landmarks))
+    throw std::invalid_argument("the saved map holds " + std::to_string(trees.size()) + " trees, more than max_landmarks (" +
+                                std::to_string(filter_config_.max_landmarks) + ")");
   prior_ = LandmarkMap();
   for (Landmark l : trees)
   {
@@ -139,7 +160,10 @@ void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
   if (pending_fixes_.empty() || pending_fixes_.front().fix.stamp > t_mid)
     return;  // no fix is due: the estimate (a mean over the particles) is not needed
   const Pose2 estimate = filter_->estimate();
+  const Eigen::Matrix2d pose_covariance = filter_->poseCovariance().topLeftCorner<2, 2>();
   const Pose2 odom_mid_inv = odom_mid.inverse();
+  if (!gate_anchor_.valid && map_anchor_.valid)
+    gate_anchor_ = map_anchor_;
   while (!pending_fixes_.empty() && pending_fixes_.front().fix.stamp <= t_mid)
   {
     const PendingFix f = pending_fixes_.front();
@@ -152,6 +176,14 @@ void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
     back.transformPoint(f.antenna.x(), f.antenna.y(), &lever.x(), &lever.y());
     Eigen::Vector2d antenna_map;
     estimate.transformPoint(lever.x(), lever.y(), &antenna_map.x(), &antenna_map.y());
+    // The innovation gate: once an anchor is known, a fix far from where it and the filter put the antenna (a
+    // receiver's jump) goes neither into the anchor's fit nor onto the particles.
+    if (gate_anchor_.valid &&
+        gnssInnovation(f.fix, gate_anchor_, gnss_config_.sigma_floor, antenna_map, pose_covariance) > kGnssGate2)
+    {
+      ++gnss_rejected_;
+      continue;
+    }
     anchor_estimator_.add(f.fix, antenna_map);
     ++gnss_used_;
     // A fix weighs the particles at most once per correlation time; the anchor (a fit over every fix so far) is
@@ -161,6 +193,8 @@ void TrunkSlamPipeline::useFixes(double t_mid, const Pose2& odom_mid)
       continue;
     next_anchor_check_ = f.fix.stamp + 0.1 * gnss_config_.correlation_time;
     const GeoAnchor a = anchor();
+    if (a.valid)
+      gate_anchor_ = a;
     if (!a.valid || (a.sigma > gnss_config_.weigh_max_anchor_sigma && !map_anchor_.valid))
       continue;
     Eigen::Vector2d z;
@@ -267,14 +301,26 @@ bool TrunkSlamPipeline::relocalize(const TrunkSweep& sw, const Pose2& odom_mid, 
   return found;
 }
 
-void TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
+std::vector<TimelineMap> TrunkSlamPipeline::takeEndedMaps()
 {
+  std::vector<TimelineMap> ended;
+  ended.swap(ended_);
+  return ended;
+}
+
+bool TrunkSlamPipeline::enqueueSweep(TrunkSweep sweep, double arrival)
+{
+  if (sweep.trunks.size() > static_cast<std::size_t>(filter_config_.max_trunks_per_sweep))
+    return false;  // beyond what the sensor can see: not a look at the trees
   const double start = sweep.stamp, end = sweep.stamp + sweep.period;
   enqueue(std::move(sweep), start, end, arrival);
+  return true;
 }
 
 StampVerdict TrunkSlamPipeline::addTrunks(TrunkSweep sweep, double clock, double arrival)
 {
+  if (sweep.trunks.size() > static_cast<std::size_t>(filter_config_.max_trunks_per_sweep))
+    return StampVerdict::kOverLimit;  // before its stamp is taken: it does not move the timeline either
   const StampVerdict v = admitSensor(sweep.stamp, clock);
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
@@ -306,9 +352,9 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   sweep.scope = sweepScope(detector_->config(), stats.reach);
   sweep.tilt_roll = stats.tilt_roll;
   sweep.tilt_pitch = stats.tilt_pitch;
-  enqueueSweep(std::move(sweep), arrival);
+  const bool taken = enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
-  return v;
+  return taken ? v : StampVerdict::kOverLimit;
 }
 
 StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const PlanarScan& scan, const SensorMount& mount,
@@ -325,9 +371,9 @@ StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const Plana
   sweep.trunks = detector_->detectScan(scan);
   sweep.geometry = scanGeometry(scan);
   sweep.scope = scanScope(scan, detector_->config());
-  enqueueSweep(std::move(sweep), arrival);
+  const bool taken = enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
-  return v;
+  return taken ? v : StampVerdict::kOverLimit;
 }
 
 TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z)

@@ -35,6 +35,8 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("prior_sigma_floor", &c->prior_sigma_floor);
   p.get("min_trunk_gap", &c->min_trunk_gap);
   p.get("relocalize_when_lost", &c->relocalize_when_lost);
+  p.get("max_trunks_per_sweep", &c->max_trunks_per_sweep);
+  p.get("max_landmarks", &c->max_landmarks);
   p.get("gps/enabled", &c->gnss.enabled);
   p.get("gps/max_sigma", &c->gnss.max_sigma);
   p.get("gps/sigma_floor", &c->gnss.sigma_floor);

@@ -50,6 +50,8 @@ std::string stamp(double t)
   return buf;
 }
 
+std::string csvNumber(double v, const char* format);
+
 [[noreturn]] void fail(const std::string& name, int line, const std::string& what)
 {
   throw std::runtime_error(name + ":" + std::to_string(line) + ": " + what);
@@ -102,6 +104,10 @@ void parseAnchor(const std::string& rest, MapAnchor* anchor, const std::string& 
     fail(name, line, "expected the anchor's latitude and longitude, got '" + trim(rest) + "'");
   if (std::abs(anchor->latitude) > 90.0 || std::abs(anchor->longitude) > 180.0)
     fail(name, line, "expected latitude in [-90, 90] and longitude in [-180, 180], got '" + trim(rest) + "'");
+  if (anchor->altitude < kMinAltitude || anchor->altitude > kMaxAltitude || anchor->sigma < 0.0 ||
+      anchor->sigma > kMaxAnchorSigma)
+    fail(name, line, "expected altitude in [" + csvNumber(kMinAltitude, "%g") + ", " + csvNumber(kMaxAltitude, "%g") +
+                         "] m and sigma in [0, " + csvNumber(kMaxAnchorSigma, "%g") + "] m, got '" + trim(rest) + "'");
   anchor->valid = true;
 }
 
@@ -130,6 +136,10 @@ void parseViewpoint(const std::string& rest, std::vector<core::Viewpoint>* viewp
       v["fov_max"] - v["fov_min"] > 2.0 * M_PI + 1e-3)
     fail(name, line, "expected 0 <= min_range < max_range and fov_min < fov_max within a turn, got '" + trim(rest) +
                          "'");
+  if (std::abs(v["x"]) > kMaxMapCoordinate || std::abs(v["y"]) > kMaxMapCoordinate ||
+      v["max_range"] > kMaxViewpointRange || std::abs(v["fov_min"]) > 4.0 * M_PI || std::abs(v["fov_max"]) > 4.0 * M_PI)
+    fail(name, line, "expected |x|, |y| <= " + csvNumber(kMaxMapCoordinate, "%g") + " m and max_range <= " +
+                         csvNumber(kMaxViewpointRange, "%g") + " m in the viewpoint, got '" + trim(rest) + "'");
   core::Viewpoint p;
   p.sensor = core::Pose2(v["x"], v["y"], v["yaw"]);
   p.scope.min_range = v["min_range"];
@@ -176,10 +186,15 @@ void writeForestMap(const std::string& path, const ForestMap& map)
   writeFileAtomic(path, forestMapCsv(map));
 }
 
-ForestMap parseForestMap(const std::string& text, const std::string& name)
+ForestMap parseForestMap(const std::string& text, const std::string& name, const ForestMapReadOptions& options)
+{
+  std::istringstream in(text);
+  return parseForestMap(in, name, options);
+}
+
+ForestMap parseForestMap(std::istream& in, const std::string& name, const ForestMapReadOptions& options)
 {
   ForestMap map;
-  std::istringstream in(text);
   std::string raw;
   int n = 0;
   std::map<std::string, std::size_t> col;
@@ -188,6 +203,10 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
   while (std::getline(in, raw))
   {
     ++n;
+    if (n % 4096 == 0 && options.cancelled && options.cancelled())
+      throw std::runtime_error(name + ":" + std::to_string(n) + ": interrupted");
+    if (raw.find('\0') != std::string::npos)
+      fail(name, n, "expected a text file (a tree map CSV), got binary data");
     const std::string line = trim(raw);
     if (line.empty())
       continue;
@@ -212,6 +231,8 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
       columns = fields.size();
       continue;
     }
+    if (options.max_trees > 0 && map.trees.size() >= options.max_trees)
+      fail(name, n, "more than " + std::to_string(options.max_trees) + " trees (max_landmarks): not loaded");
     if (fields.size() != columns)
       fail(name, n, "expected " + std::to_string(columns) + " fields, got " + std::to_string(fields.size()) + ": '" +
                         line + "'");
@@ -237,6 +258,12 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
     const double sd = value("sigma_dbh", 0.5 * dbh, false);
     if (dbh < 0.0 || sx < 0.0 || sy < 0.0 || sd < 0.0)
       fail(name, n, "expected dbh and sigmas >= 0, got '" + line + "'");
+    if (std::abs(l.mean.x()) > kMaxMapCoordinate || std::abs(l.mean.y()) > kMaxMapCoordinate)
+      fail(name, n, "expected |x|, |y| <= " + csvNumber(kMaxMapCoordinate, "%g") + " m (a local map frame), got '" +
+                        line + "'");
+    if (dbh > kMaxDbh || sd > kMaxDbh || sx > kMaxPositionSigma || sy > kMaxPositionSigma)
+      fail(name, n, "expected dbh and sigma_dbh <= " + csvNumber(kMaxDbh, "%g") + " m and sigma_x, sigma_y <= " +
+                        csvNumber(kMaxPositionSigma, "%g") + " m, got '" + line + "'");
     const double cxy = value("cov_xy", 0.0, true);
     if (cxy * cxy > sx * sx * sy * sy * (1.0 + 1e-6) + 1e-18)
       fail(name, n, "expected |cov_xy| <= sigma_x * sigma_y, got '" + line + "'");
@@ -253,6 +280,8 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
     l.provisional = prov != 0.0;
     l.first_seen = value("first_seen", NAN, true);
     l.last_seen = value("last_seen", NAN, true);
+    if (l.first_seen < 0.0 || l.last_seen < 0.0)
+      fail(name, n, "expected first_seen and last_seen >= 0 s (ROS time), got '" + line + "'");
     map.trees.push_back(l);
   }
   if (col.empty())
@@ -260,17 +289,12 @@ ForestMap parseForestMap(const std::string& text, const std::string& name)
   return map;
 }
 
-ForestMap readForestMap(const std::string& path)
+ForestMap readForestMap(const std::string& path, const ForestMapReadOptions& options)
 {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw std::runtime_error(path + ": cannot be read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::string s = text.str();
-  if (s.find('\0') != std::string::npos)
-    throw std::runtime_error(path + ": expected a text file (a tree map CSV), got binary data");
-  return parseForestMap(s, path);
+  return parseForestMap(in, path, options);
 }
 
 namespace

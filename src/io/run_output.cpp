@@ -66,7 +66,7 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
   writeFileAtomic(path, landmarksCsv(landmarks));
 }
 
-FastSlamRunRecord::FastSlamRunRecord()
+FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_tables)
 {
   for (std::ostringstream* s : { &estimate_, &odometry_, &table_ })
     s->precision(12);
@@ -157,14 +157,17 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
     stamps_.clear();
     timeline_ = timeline;
   }
-  stamps_.push_back(stamp);
   ++updates_;
-  writeTumLine(estimate_, stamp, estimate);
-  writeTumLine(odometry_, stamp, odometry);
-  table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ',' << st.observations
-         << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored << ','
-         << st.matched_confirmed << ',' << st.recreated << ',' << st.pose_spread << ',' << (st.relocalizing ? 1 : 0)
-         << ',' << core::toString(health.level) << '\n';
+  if (keep_tables_)
+  {
+    stamps_.push_back(stamp);
+    writeTumLine(estimate_, stamp, estimate);
+    writeTumLine(odometry_, stamp, odometry);
+    table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ','
+           << st.observations << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored
+           << ',' << st.matched_confirmed << ',' << st.recreated << ',' << st.pose_spread << ','
+           << (st.relocalizing ? 1 : 0) << ',' << core::toString(health.level) << '\n';
+  }
   if (health.level == core::HealthLevel::kWarn)
   {
     if (warnings_ == 0)

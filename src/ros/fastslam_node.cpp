@@ -114,6 +114,8 @@ std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& se
     }
     sweep->trunks.push_back(o);
   }
+  // What the array left out unreadable may have been a tree: no tree counts as missed in it.
+  sweep->scope.complete = bad == 0;
   return bad;
 }
 
@@ -149,7 +151,11 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
 {
   const RosParamSource params(pnh_);
   config_ = readRosConfig(params);
-  const core::FastSlamConfig filter_config = readCoreConfig<core::FastSlamConfig>(params, &io::readFastSlamConfig);
+  core::FastSlamConfig filter_config = readCoreConfig<core::FastSlamConfig>(params, &io::readFastSlamConfig);
+  // The run folder's tables and the best particle's history grow with every update: kept only when the node is to
+  // write a run folder, so that a node without one holds memory that grows with the map alone.
+  filter_config.keep_history = !config_.run_folder.empty();
+  record_ = io::FastSlamRunRecord(!config_.run_folder.empty());
   warnUnknownKeys(params);
   core::PipelineTiming timing;
   timing.time_jump_threshold = config_.time_jump_threshold;
@@ -160,7 +166,10 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
     io::ForestMap saved;
     try
     {
-      saved = io::readForestMap(io::expandHome(config_.map_file));
+      io::ForestMapReadOptions options;
+      options.max_trees = static_cast<std::size_t>(filter_config.max_landmarks);
+      options.cancelled = [] { return !ros::ok(); };
+      saved = io::readForestMap(io::expandHome(config_.map_file), options);
     }
     catch (const std::exception& e)
     {
@@ -168,17 +177,26 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
     }
     pipeline_->setMapAnchor(saved.anchor);
     pipeline_->setMapViewpoints(saved.viewpoints);
+    try
+    {
+      if (config_.relocalize)
+        pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
+      else
+        pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
+    }
+    catch (const std::exception& e)
+    {
+      throw invalidParameter(pnh_, "map_file", e.what());
+    }
     saved_trees_ = saved.trees;
     saved_viewpoints_ = saved.viewpoints;
     if (config_.relocalize)
     {
-      pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
       ROS_INFO("%s: starting from the map %s (%zu trees); searching it for the start pose", name_.c_str(),
                config_.map_file.c_str(), saved.trees.size());
     }
     else
     {
-      pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
       ROS_INFO("%s: starting from the map %s (%zu trees), base_link at (%.2f, %.2f, %.1f deg) in it", name_.c_str(),
                config_.map_file.c_str(), saved.trees.size(), config_.initial_x, config_.initial_y,
                config_.initial_yaw * 180.0 / M_PI);
@@ -208,6 +226,8 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
       "save_map", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
         return onSave("map_path", config_.map_path, true, res);
       });
+  if (config_.publish_tf)
+    tf_guard_.start(nh_, config_.map_frame, config_.odom_frame, name_);
   gps_sub_ = nh_.subscribe("gps/fix", 10, &FastSlamRos::onFix, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
   trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
@@ -234,6 +254,11 @@ FastSlamRos::~FastSlamRos()
 
 bool FastSlamRos::writeRunFolder(std::string* message)
 {
+  if (!record_.keepsTables())
+  {
+    *message = "no ~run_folder was set at the start (the node keeps the run's tables only then)";
+    return false;
+  }
   pnh_.getParam("run_folder", config_.run_folder);  // may have changed since the start
   if (config_.run_folder.empty())
   {
@@ -271,9 +296,18 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto& p = msg->pose.pose;
+  const std::string bad = quaternionProblem(p.orientation);
+  if (!bad.empty())
+  {
+    ++dropped_;
+    ROS_WARN_THROTTLE(5.0, "%s: odometry stamped %.3f: orientation %s; dropped (%zu messages dropped so far)",
+                      name_.c_str(), msg->header.stamp.toSec(), bad.c_str(), dropped_);
+    return;
+  }
   const core::StampVerdict v = pipeline_->addOdometry(
       msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)), clockForStamps());
   report(v, "odometry", msg->header.stamp);
+  saveEndedMaps();
   processPending();
 }
 
@@ -287,6 +321,7 @@ void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
   const core::StampVerdict v = pipeline_->addTrunks(std::move(sweep), clockForStamps(),
                                                     ros::WallTime::now().toSec());
   report(v, "trunks", msg->header.stamp);
+  saveEndedMaps();
   if (pipeline_->droppedPending() > dropped_before)  // no odometry at all: the waiting arrays do not grow without bound
     ROS_WARN_THROTTLE(5.0, "%s: %zu trunk arrays wait for odometry on %s; dropping the oldest", name_.c_str(),
                       pipeline_->pending(), odom_sub_.getTopic().c_str());
@@ -299,9 +334,18 @@ bool FastSlamRos::toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sw
   if (!sensorPose(msg.header.frame_id, &sensor))
     return false;
   const std::size_t bad = toTrunkSweep(msg, sensor, sensor_height_, sweep);
+  if (bad > 0 && sweep->trunks.empty())
+  {
+    ++dropped_;
+    ROS_WARN_THROTTLE(5.0, "%s: all %zu trunks of the array at %.3f have a non-finite centre, covariance or radius; "
+                      "the array is dropped (not a look that saw no tree)", name_.c_str(), bad,
+                      msg.header.stamp.toSec());
+    return false;
+  }
   if (bad > 0)
     ROS_WARN_THROTTLE(5.0, "%s: %zu trunks with a non-finite centre, covariance or radius in the array at %.3f; "
-                      "dropped", name_.c_str(), bad, msg.header.stamp.toSec());
+                      "dropped (the others are used; no tree counts as missed in this array)", name_.c_str(), bad,
+                      msg.header.stamp.toSec());
   return true;
 }
 
@@ -312,8 +356,9 @@ void FastSlamRos::report(core::StampVerdict verdict, const char* stream, const r
   if (verdict == core::StampVerdict::kReset)
   {
     ROS_WARN("%s: %s stamped %.3f, more than ~time_jump_threshold %.2f s before the previous one: time jumped back; "
-             "the filter restarts with a new map (reset %d, after %zu updates; the old map is gone unless saved)",
-             name_.c_str(), stream, stamp.toSec(), config_.time_jump_threshold, pipeline_->restarts(), updates_);
+             "the filter restarts with a new map (the clock went back, or %d messages agreed; restart %d, after %zu "
+             "updates)", name_.c_str(), stream, stamp.toSec(), config_.time_jump_threshold,
+             core::TimelineGate::kJumpConfirmations, pipeline_->restarts(), updates_);
     return;
   }
   ++dropped_;
@@ -373,6 +418,16 @@ void FastSlamRos::processPending()
       continue;  // no estimate yet: no map -> odom
     }
     ++updates_;
+    if (u.stats.map_full > 0)
+      ROS_WARN_THROTTLE(10.0, "%s: the map holds max_landmarks (%d) landmarks: %d observations made no new landmark",
+                        name_.c_str(), pipeline_->filter().config().max_landmarks, u.stats.map_full);
+    if (pipeline_->gnssFixesRejected() > gnss_rejected_said_)
+    {
+      ROS_WARN_THROTTLE(10.0, "%s: %d satellite fixes so far were inconsistent with the anchor and the filter's pose "
+                        "(beyond the innovation gate) and were not used", name_.c_str(),
+                        pipeline_->gnssFixesRejected());
+      gnss_rejected_said_ = pipeline_->gnssFixesRejected();
+    }
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publishHealth(u);
@@ -511,7 +566,7 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
   const core::Pose2 estimate = filter.estimate();
   publishScope(stamp);
 
-  if (config_.publish_tf)
+  if (config_.publish_tf && tf_guard_.owned())
     tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
                                                   config_.map_frame, config_.odom_frame,
                                                   estimate * odom_pose.inverse()));
@@ -708,6 +763,37 @@ void FastSlamRos::onFix(const sensor_msgs::NavSatFix::ConstPtr& msg)
   const std::string why = pipeline_->addFix(toGnssFix(*msg, kUnknownGpsSigma), gps_antenna_);
   if (!why.empty())
     ROS_WARN_THROTTLE(10.0, "%s: fix at %.3f dropped: %s", name_.c_str(), msg->header.stamp.toSec(), why.c_str());
+}
+
+void FastSlamRos::saveEndedMaps()
+{
+  for (core::TimelineMap& ended : pipeline_->takeEndedMaps())
+  {
+    std::string path = config_.map_path;
+    pnh_.getParam("map_path", path);
+    const std::string target = io::expandHome(path);
+    const std::size_t dot = target.rfind('.'), slash = target.rfind('/');
+    const std::string stem =
+        dot != std::string::npos && (slash == std::string::npos || dot > slash + 1) ? target.substr(0, dot) : target;
+    const std::string file = stem + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
+    io::ForestMap map;
+    map.trees = std::move(ended.trees);
+    map.viewpoints = std::move(ended.viewpoints);
+    map.anchor = ended.anchor;
+    try
+    {
+      if (slash != std::string::npos && !io::makeDirectories(target.substr(0, slash)))
+        throw std::runtime_error("cannot create the directory of " + target + ": " + std::strerror(errno));
+      io::writeForestMap(file, map);
+      ROS_WARN("%s: the map before restart %d (%zu trees) is saved to %s", name_.c_str(), ended.timeline + 1,
+               map.trees.size(), file.c_str());
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR("%s: the map before restart %d (%zu trees) could not be saved: %s", name_.c_str(), ended.timeline + 1,
+                map.trees.size(), e.what());
+    }
+  }
 }
 
 bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message)

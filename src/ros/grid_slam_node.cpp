@@ -91,6 +91,8 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   particles_pub_ = nh_.advertise<geometry_msgs::PoseArray>("particles", 2);
   path_pub_ = nh_.advertise<nav_msgs::Path>("path", 2);
   save_srv_ = pnh_.advertiseService("save_map", &GridSlamRos::onSaveMap, this);
+  if (config_.publish_tf)
+    tf_guard_.start(nh_, config_.map_frame, config_.odom_frame, name_);
   scan_sub_ = nh_.subscribe("scan", 50, &GridSlamRos::onScan, this);
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &GridSlamRos::onTimer, this);
 
@@ -283,7 +285,7 @@ void GridSlamRos::publishMap(const ros::Time& stamp)
 void GridSlamRos::publishPoses(const ros::Time& stamp, const core::GridPipelineUpdate& u)
 {
   const core::GridSlam& filter = pipeline_->filter();
-  if (config_.publish_tf)
+  if (config_.publish_tf && tf_guard_.owned())
     tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
                                                   config_.map_frame, config_.odom_frame, u.map_to_odom));
   // The particles carried by the odometry since the last processed scan (to this scan's odometry).

@@ -424,7 +424,10 @@ int runFastSlam(const Options& o)
   io::ForestMap saved;
   if (!o.map_path.empty())
   {
-    saved = io::readForestMap(o.map_path);
+    io::ForestMapReadOptions read_options;
+    read_options.max_trees = static_cast<std::size_t>(fc.max_landmarks);
+    read_options.cancelled = [] { return g_signal != 0; };
+    saved = io::readForestMap(o.map_path, read_options);
     anchor = saved.anchor;
     pipeline.setMapAnchor(saved.anchor);
     pipeline.setMapViewpoints(saved.viewpoints);
@@ -474,6 +477,9 @@ int runFastSlam(const Options& o)
   const auto feed = [&](const rosbag::MessageInstance& m, double clock) {
     if (const auto od = m.instantiate<nav_msgs::Odometry>())
     {
+      const std::string bad = quaternionProblem(od->pose.pose.orientation);
+      if (!bad.empty())
+        return drops.drop(m.getTopic(), od->header.stamp.toSec(), "orientation " + bad);
       admitted(pipeline.addOdometry(od->header.stamp.toSec(), odometryPose(*od), clock), m.getTopic(),
                od->header.stamp.toSec(), &drops);
     }
@@ -517,18 +523,53 @@ int runFastSlam(const Options& o)
                                                    lidar_frame + "'");
       core::TrunkSweep sweep;
       const std::size_t bad = toTrunkSweep(*array, core::Pose2(mount.x, mount.y, mount.yaw), mount.z, &sweep);
+      if (bad > 0 && sweep.trunks.empty())
+        return drops.drop(m.getTopic(), stamp, "all " + std::to_string(bad) +
+                                                   " detections with a non-finite value (not a look that saw no tree)");
       if (bad > 0)
-        drops.drop(m.getTopic(), stamp, std::to_string(bad) + " detections with a non-finite value (left out)");
+        drops.drop(m.getTopic(), stamp, std::to_string(bad) + " detections with a non-finite value (left out; no tree "
+                                        "counts as missed in this array)");
       if (admitted(pipeline.addTrunks(std::move(sweep), clock, clock), m.getTopic(), stamp, &drops))
         ++clouds;
     }
   };
+  // The map each restart ended, saved beside this run's (map.restartN.csv in the folder, or beside --save-map).
+  const auto keepEndedMaps = [&]() {
+    for (core::TimelineMap& ended : pipeline.takeEndedMaps())
+    {
+      const std::string name = "map.restart" + std::to_string(ended.timeline + 1) + ".csv";
+      std::string path;
+      if (out.enabled())
+        path = o.out_dir + "/" + name;
+      else if (!o.save_map_path.empty())
+      {
+        const std::size_t dot = o.save_map_path.rfind('.'), slash = o.save_map_path.rfind('/');
+        const bool has_extension = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
+        path = o.save_map_path.substr(0, has_extension ? dot : o.save_map_path.size()) + ".restart" +
+               std::to_string(ended.timeline + 1) + ".csv";
+      }
+      std::fprintf(stderr, "slam_bag: warning: the map before restart %d holds %zu trees%s%s\n", ended.timeline + 1,
+                   ended.trees.size(), path.empty() ? "; not saved (no --out or --save-map)" : "; saved to ",
+                   path.c_str());
+      if (path.empty())
+        continue;
+      io::ForestMap map;
+      map.trees = std::move(ended.trees);
+      map.viewpoints = std::move(ended.viewpoints);
+      map.anchor = ended.anchor;
+      out.add(path, io::forestMapCsv(map));
+    }
+  };
+  int map_full = 0;
   const auto process = [&](double clock, bool flush) {
+    keepEndedMaps();
     for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
     {
       ++updates;
+      map_full += u.stats.map_full;
       record.addUpdate(u);
     }
+    keepEndedMaps();
   };
   std::vector<std::string> replayed{ sensor_topic, o.odom_topic };
   if (!gps_topic.empty())
@@ -593,6 +634,9 @@ int runFastSlam(const Options& o)
                 core::toString(fc.estimate),
                 o.map_path.empty() ? "the odometry frame at the first update" : "the frame of the map it started from", estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
     std::printf("  %s\n", record.healthSummary().c_str());
+    if (map_full > 0)
+      std::printf("  the map reached max_landmarks (%d): %d observations made no new landmark\n", fc.max_landmarks,
+                  map_full);
     if (!record.relocalizationSummary().empty())
       std::printf("  %s\n", record.relocalizationSummary().c_str());
     if (!record.lostSummary().empty())
@@ -610,6 +654,9 @@ int runFastSlam(const Options& o)
                     "or number fewer than %d)\n", gps_topic.c_str(), pipeline.gnssFixesUsed(), gps_outages,
                     fc.gnss.anchor_min_spread,
                     fc.gnss.anchor_min_fixes);
+      if (pipeline.gnssFixesRejected() > 0)
+        std::printf("  %d satellite fixes were inconsistent with the anchor and the filter's pose (beyond the "
+                    "innovation gate) and were not used\n", pipeline.gnssFixesRejected());
     }
     if (!o.changes_prefix.empty())
     {
@@ -702,7 +749,12 @@ int runGrid(const Options& o)
       admitted(pipeline.addScan(t, std::move(scan), sensor, clock, clock), m.getTopic(), t, &drops);
     }
     else if (const auto od = m.instantiate<nav_msgs::Odometry>())
+    {
+      const std::string bad = quaternionProblem(od->pose.pose.orientation);
+      if (!bad.empty())
+        return drops.drop(m.getTopic(), od->header.stamp.toSec(), "orientation " + bad);
       addOdometry(od->header.stamp.toSec(), odometryPose(*od), m.getTopic(), clock);
+    }
     else if (const auto js = m.instantiate<sensor_msgs::JointState>())
     {
       // ESE 650 layout: FR FL RR RL cumulative wheel angles [rad]; left = mean(FL, RL), right = mean(FR, RR).

@@ -64,7 +64,7 @@ TEST(GridSlamPipeline, AJumpBackFlushesTheOldTimelineThenRestarts)
   ASSERT_EQ(p.process().size(), 1u);
   p.addScan(100.15, simulateScan(Pose2(0.03, 0.0, 0.0)), Pose2());  // waits: odometry ends at 100.1
   // The bag starts again: the waiting scan is processed with the old odometry, then the map starts over.
-  EXPECT_EQ(p.addOdometry(10.0, Pose2()), StampVerdict::kReset);
+  EXPECT_EQ(p.addOdometry(10.0, Pose2(), 10.0), StampVerdict::kReset);  // the clock went back with it
   EXPECT_EQ(p.restarts(), 1);
   EXPECT_FALSE(p.filter().initialised());
   EXPECT_EQ(p.addScan(10.05, simulateScan(Pose2()), Pose2()), StampVerdict::kAccept);  // no second jump

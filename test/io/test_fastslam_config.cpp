@@ -17,6 +17,9 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   core::FastSlamConfig read, defaults;
   io::readFastSlamConfig(params, &read);
   EXPECT_EQ(read.particles, defaults.particles);
+  EXPECT_EQ(read.max_trunks_per_sweep, defaults.max_trunks_per_sweep);
+  EXPECT_EQ(read.max_landmarks, defaults.max_landmarks);
+  EXPECT_EQ(read.gnss.max_sigma, defaults.gnss.max_sigma);
   EXPECT_EQ(read.motion.alpha1, defaults.motion.alpha1);
   EXPECT_EQ(read.motion.alpha2, defaults.motion.alpha2);
   EXPECT_EQ(read.motion.alpha3, defaults.motion.alpha3);

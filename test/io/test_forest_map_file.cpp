@@ -201,3 +201,53 @@ TEST(ForestMapFile, ChangeReportAndGeoJsonNeedAnAnchor)
   m.anchor = a;
   EXPECT_NE(io::treesGeoJson(m).find("\"coordinates\": [24.250000000, 61.500000000]"), std::string::npos);
 }
+
+TEST(ForestMapFile, ValuesOutsideTheirPhysicalRangeAreRefusedWithTheLine)
+{
+  const std::string header = "id,x,y,dbh,sigma_x,sigma_y\n";
+  EXPECT_NE(errorOf(header + "1,1.0,2.0,0.3,0.1,0.1\n2,1e308,2.0,0.3,0.1,0.1\n").find("m.csv:3: expected |x|, |y| <= 100000 m"),
+            std::string::npos);
+  EXPECT_NE(errorOf(header + "1,1.0,-2e5,0.3,0.1,0.1\n").find("m.csv:2: expected |x|, |y|"), std::string::npos);
+  EXPECT_NE(errorOf(header + "1,1.0,2.0,40,0.1,0.1\n").find("m.csv:2: expected dbh"), std::string::npos);
+  EXPECT_NE(errorOf(header + "1,1.0,2.0,0.3,1e9,0.1\n").find("m.csv:2: expected dbh"), std::string::npos);
+  EXPECT_NE(errorOf("# anchor: latitude=61 longitude=24 altitude=1e308 yaw=0 sigma=1\n" + header)
+                .find("m.csv:1: expected altitude"),
+            std::string::npos);
+  EXPECT_NE(errorOf("# viewpoint: x=1e300 y=0 yaw=0 min_range=1 max_range=12 fov_min=-3 fov_max=3\n" + header)
+                .find("m.csv:1: expected |x|, |y|"),
+            std::string::npos);
+  EXPECT_EQ(errorOf(header + "1,99999.0,-99999.0,11.5,999,0.1\n"), "") << "values inside the ranges";
+}
+
+TEST(ForestMapFile, AHugeFileStopsAtTheBoundAndReadingCanBeInterrupted)
+{
+  // 200000 trees with a bound of 1000: refused at the first tree too many, having parsed no more.
+  std::string text = "id,x,y,dbh\n";
+  for (int i = 0; i < 200000; ++i)
+    text += std::to_string(i) + "," + std::to_string(i % 1000) + "," + std::to_string(i / 1000) + ",0.3\n";
+  io::ForestMapReadOptions bounded;
+  bounded.max_trees = 1000;
+  try
+  {
+    io::parseForestMap(text, "big.csv", bounded);
+    ADD_FAILURE() << "a map beyond the bound was read";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("big.csv:1002: more than 1000 trees"), std::string::npos) << e.what();
+  }
+  // Without a bound it is read whole; a cancelled read stops with "interrupted" at the next check.
+  EXPECT_EQ(io::parseForestMap(text, "big.csv").trees.size(), 200000u);
+  io::ForestMapReadOptions cancel;
+  int asked = 0;
+  cancel.cancelled = [&asked] { return ++asked >= 2; };
+  try
+  {
+    io::parseForestMap(text, "big.csv", cancel);
+    ADD_FAILURE() << "the cancelled read went on";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("big.csv:8192: interrupted"), std::string::npos) << e.what();
+  }
+}

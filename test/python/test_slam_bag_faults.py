@@ -195,6 +195,114 @@ def test_a_looped_bag_restarts_the_filter(tmp_path):
     assert r.returncode == 0, r.stderr
     assert '1 restarts' in r.stdout, r.stdout
     assert '40 clouds' in r.stdout, r.stdout
+    # The map before the restart is kept beside the new one.
+    before = _trees(tmp_path / 'out' / 'map.restart1.csv')
+    assert before == _trees(tmp_path / 'out' / 'map.csv') == 1
+    assert 'the map before restart 1 holds 1 trees; saved to' in r.stderr, r.stderr
+
+
+def _trees(path):
+    with open(str(path)) as f:
+        return len([l for l in f.read().splitlines() if l and not l.startswith('#')]) - 1
+
+
+def _insert(src, dst, extra):
+    """Copies the bag src to dst with the messages extra (topic, msg, record time) among them."""
+    with rosbag.Bag(src) as a, rosbag.Bag(dst, 'w') as b:
+        for topic, msg, t in sorted(list(a.read_messages()) + list(extra), key=lambda m: m[2]):
+            b.write(topic, msg, t)
+    return dst
+
+
+def test_single_late_messages_keep_the_map(tmp_path):
+    """One odometry message 2 s late and one cloud 5 s late: both dropped, no restart, the same map."""
+    clean = _bag(str(tmp_path / 'clean.bag'), n=30)
+    late_odom = Odometry()
+    late_odom.header.stamp = rospy.Time(101.0)
+    late_odom.header.frame_id = 'odom'
+    late_odom.pose.pose.orientation.w = 1.0
+    late = _insert(clean, str(tmp_path / 'late.bag'), [('/odom', late_odom, rospy.Time(103.01)),
+                                                      ('/points', _cloud(rospy.Time(97.5)), rospy.Time(102.51))])
+    a = _run('--bag', clean, '--out', tmp_path / 'a')
+    b = _run('--bag', late, '--out', tmp_path / 'b')
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    assert '0 restarts' in b.stdout and '2 messages dropped' in b.stdout, b.stdout
+    assert 'before the previous stamp by more than the time jump threshold' in b.stderr, b.stderr
+    assert _trees(tmp_path / 'b' / 'map.csv') == _trees(tmp_path / 'a' / 'map.csv') == 1
+
+
+def test_odometry_without_an_orientation_is_dropped(tmp_path):
+    clean = _bag(str(tmp_path / 'clean.bag'), n=10)
+    zero = Odometry()
+    zero.header.stamp = rospy.Time(100.3001)
+    zero.header.frame_id = 'odom'
+    r = _run('--bag', _insert(clean, str(tmp_path / 'zero.bag'), [('/odom', zero, rospy.Time(100.3001))]),
+             '--out', tmp_path / 'out')
+    assert r.returncode == 0, r.stderr
+    assert '1 messages dropped' in r.stdout, r.stdout
+    assert 'orientation not a unit quaternion (length 0.000000)' in r.stderr, r.stderr
+
+
+def _trunk_bag(path, good=20, unreadable=12):
+    """TrunkArrays of three trunks on /landmarks at 10 Hz while driving 0.05 m per sweep: `good` readable ones, then
+    `unreadable` whose every trunk has a NaN centre."""
+    from rbpf_slam.msg import Trunk, TrunkArray
+    with rosbag.Bag(path, 'w') as bag:
+        t0 = rospy.Time(100)
+        tf = TFMessage()
+        t = TransformStamped()
+        t.header.stamp, t.header.frame_id, t.child_frame_id = t0, 'base_link', 'lidar'
+        t.transform.rotation.w = 1.0
+        tf.transforms.append(t)
+        bag.write('/tf_static', tf, t0)
+        n = good + unreadable
+        for k in range(2 * n + 2):
+            stamp = t0 + rospy.Duration(0.05 * k)
+            od = Odometry()
+            od.header.stamp, od.header.frame_id = stamp, 'odom'
+            od.pose.pose.position.x = 0.025 * k
+            od.pose.pose.orientation.w = 1.0
+            bag.write('/odom', od, stamp)
+            if k % 2 == 1 and k // 2 < n:
+                a = TrunkArray()
+                a.header.stamp, a.header.frame_id = stamp, 'lidar'
+                for (x, y) in ((4.0, 1.0), (6.0, -2.0), (3.0, -3.0)):
+                    tr = Trunk()
+                    tr.center.x = x - 0.025 * k
+                    tr.center.y = float('nan') if k // 2 >= good else y
+                    tr.radius, tr.radius_variance = 0.2, 1e-4
+                    tr.covariance = [1e-3, 0.0, 0.0, 1e-3]
+                    tr.method = Trunk.METHOD_CIRCLE
+                    a.trunks.append(tr)
+                bag.write('/landmarks', a, stamp)
+    return path
+
+
+def test_arrays_of_unreadable_trunks_are_not_looks(tmp_path):
+    """Twelve arrays whose trunks are all NaN after the map was made: dropped whole, the three trees stay."""
+    r = _run('--bag', _trunk_bag(str(tmp_path / 'nan.bag')), '--landmarks', '/landmarks', '--out', tmp_path / 'out')
+    assert r.returncode == 0, r.stderr
+    assert '20 clouds' in r.stdout, r.stdout
+    assert '12 messages dropped' in r.stdout and 'not a look that saw no tree' in r.stderr, r.stdout + r.stderr
+    assert _trees(tmp_path / 'out' / 'map.csv') == 3
+
+
+def test_maps_beyond_their_bounds_are_refused_with_the_line(tmp_path):
+    bag = _bag(str(tmp_path / 'b.bag'), n=3)
+    absurd = tmp_path / 'absurd.csv'
+    absurd.write_text('id,x,y,dbh\n1,2,3,0.3\n2,1e308,3,0.3\n')
+    r = _run('--bag', bag, '--map', absurd, '--out', tmp_path / 'out')
+    assert r.returncode == 1 and 'absurd.csv:3: expected |x|, |y| <= 100000 m' in _one_line(r.stderr), r.stderr
+    # A million trees: refused at the first tree beyond max_landmarks, at once (it once hung for minutes).
+    huge = tmp_path / 'huge.csv'
+    with open(str(huge), 'w') as f:
+        f.write('id,x,y,dbh\n')
+        f.writelines('%d,%d,%d,0.3\n' % (i, i % 1000, i // 1000) for i in range(1000000))
+    start = time.time()
+    r = _run('--bag', bag, '--map', huge, '--out', tmp_path / 'out', timeout=120)
+    assert r.returncode == 1 and 'huge.csv:20002: more than 20000 trees (max_landmarks)' in _one_line(r.stderr), r.stderr
+    assert not (tmp_path / 'out').exists()
+    print('a map of a million trees refused in %.2f s' % (time.time() - start))
 
 
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])

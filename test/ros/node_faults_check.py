@@ -5,8 +5,10 @@
   with the key named, rather than run on defaults it was not given; in a nodelet manager, the load fails and
   the manager stays up.
 - A misspelt key is warned by name.
-- Grid SLAM drops a late scan and a future-stamped one without restarting the map, and restarts (logged) when
-  time really jumps back (a looped bag); FastSLAM restarts on a loop instead of freezing.
+- Grid SLAM drops a late scan, one seconds back and a future-stamped one without restarting the map, and restarts
+  (logged) when time really jumps back (a looped bag: several messages agree); FastSLAM keeps its map through late,
+  unreadable, oversized and malformed messages, restarts on a loop instead of freezing and saves the map before it.
+- Two SLAM nodelets in one manager: the second names the first as the owner of map -> odom.
 """
 import math
 import os
@@ -55,6 +57,21 @@ def start(node, name, params, log):
 MALFORMED_MAP = os.path.join(tempfile.mkdtemp(), 'forest_map_bad.csv')
 with open(MALFORMED_MAP, 'w') as _f:
     _f.write('id,x,y,dbh\n1,2,nan,0.3\n')
+ABSURD_MAP = os.path.join(tempfile.mkdtemp(), 'forest_map_absurd.csv')
+with open(ABSURD_MAP, 'w') as _f:
+    _f.write('id,x,y,dbh\n1,2,3,0.3\n2,1e308,3,0.3\n')
+BIG_MAP = os.path.join(tempfile.mkdtemp(), 'forest_map_big.csv')
+with open(BIG_MAP, 'w') as _f:
+    _f.write('id,x,y,dbh\n' + ''.join('%d,%d,%d,0.3\n' % (i, i % 100, i // 100) for i in range(5)))
+
+
+def rss_mb(pid):
+    """Resident memory of a process [MB] (rosrun execs the node: its pid is the node's)."""
+    with open('/proc/%d/status' % pid) as f:
+        for line in f:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) / 1024.0
+    return float('nan')
 
 
 class ConfigFaults(object):
@@ -87,6 +104,10 @@ class ConfigFaults(object):
             ('fastslam', [('max_path_poses', '0')], 'max_path_poses'),
             ('fastslam', [('map_file', '/nonexistent/forest_map.csv')], 'map_file: /nonexistent/forest_map.csv'),
             ('fastslam', [('map_file', MALFORMED_MAP)], 'forest_map_bad.csv:2: expected a finite number for y'),
+            ('fastslam', [('map_file', ABSURD_MAP)], 'forest_map_absurd.csv:3: expected |x|, |y| <= 100000 m'),
+            ('fastslam', [('map_file', BIG_MAP), ('max_landmarks', '3')], 'forest_map_big.csv:5: more than 3 trees'),
+            ('fastslam', [('particles', '30.5')], 'particles must be an integer'),
+            ('fastslam', [('gps/max_sigma', '-5.0')], 'gps/max_sigma must be a finite number > 0'),
             ('trunk_extraction', [('min_height', 'abc')], 'min_height'),
             ('noise_relay', [('linear_sigma_abs', '-1.0')], 'linear_sigma_abs'),
             ('path_follower', [('speed', '0.0')], 'speed'),
@@ -201,7 +222,15 @@ class TimeFaults(object):
                 for _ in range(5):
                     x += 0.02
                     send(rospy.Time.now(), x)
-                scan_pub.publish(self.scan(rospy.Time.now() - rospy.Duration(30.0)))  # a loop: restart
+                scan_pub.publish(self.scan(rospy.Time.now() - rospy.Duration(30.0)))  # one scan alone: dropped
+                time.sleep(0.2)
+                for _ in range(3):
+                    x += 0.02
+                    send(rospy.Time.now(), x)
+                loop = rospy.Time.now() - rospy.Duration(30.0)
+                for k in range(4):  # a loop: several scans agree, restart
+                    scan_pub.publish(self.scan(loop + rospy.Duration(0.1 * k)))
+                    time.sleep(0.1)
                 time.sleep(0.5)
             finally:
                 proc.send_signal(signal.SIGINT)
@@ -210,6 +239,7 @@ class TimeFaults(object):
             out = log.read()
         self.assertIn('before the previous stamp; dropped', out, out)
         self.assertIn('ahead of the clock; dropped', out, out)
+        self.assertIn('before the previous stamp by more than the time jump threshold', out, out)
         self.assertEqual(out.count('time jumped back; the map is restarted'), 1, out)
         self.assertIn('reset 1', out)
 
@@ -281,7 +311,10 @@ class TimeFaults(object):
         self.assertIn('angle_increment', out, out)
         self.assertIn('no transform', out, out)
 
-    def test_fastslam_restarts_on_a_looped_bag(self):
+    def test_fastslam_keeps_its_map_through_bad_messages_and_saves_it_on_a_real_jump(self):
+        """Every 4th odometry message 2 s back, arrays of unreadable trunks, an array of 10000 trunks and odometry
+        with an all-zero quaternion: all dropped, the map kept. Then the bag loops: one restart, and the map before
+        it saved beside ~map_path."""
         poses = []
         lock = threading.Lock()
 
@@ -292,41 +325,47 @@ class TimeFaults(object):
         odom_pub = rospy.Publisher('/fault/odom', Odometry, queue_size=100)
         trunks_pub = rospy.Publisher('/fault/trunks', TrunkArray, queue_size=100)
         send_mount('fault_base', 'fault_lidar')
+        nan = float('nan')
 
-        def drive(t0, n):
+        def odometry(stamp, x, w=1.0):
+            od = Odometry()
+            od.header.stamp = stamp
+            od.header.frame_id = 'fault_odom'
+            od.pose.pose.position.x = x
+            od.pose.pose.orientation.w = w
+            return od
+
+        def trunks(stamp, x, bad=False, many=1):
+            a = TrunkArray()
+            a.header.stamp = stamp
+            a.header.frame_id = 'fault_lidar'
+            for (tx, ty) in ((4.0, 1.0), (6.0, -2.0), (3.0, -3.0)) * many:
+                t = Trunk()
+                t.center.x, t.center.y = tx - x, (nan if bad else ty)
+                t.radius, t.radius_variance = 0.2, 1e-4
+                t.range, t.bearing = math.hypot(t.center.x, ty), math.atan2(ty, t.center.x)
+                t.covariance = [1e-3, 0.0, 0.0, 1e-3]
+                t.method = Trunk.METHOD_CIRCLE
+                a.trunks.append(t)
+            return a
+
+        def drive(t0, n, late_every=0, bad_from=None):
+            odom_pub.publish(odometry(t0 - rospy.Duration(0.05), 0.0))
             for k in range(n):
                 stamp = t0 + rospy.Duration(0.1 * k)
-                od = Odometry()
-                od.header.stamp = stamp + rospy.Duration(0.05)
-                od.header.frame_id = 'fault_odom'
-                od.pose.pose.position.x = 0.05 * k
-                od.pose.pose.orientation.w = 1.0
-                if k == 0:
-                    first = Odometry()
-                    first.header.stamp = stamp - rospy.Duration(0.05)
-                    first.header.frame_id = 'fault_odom'
-                    first.pose.pose.orientation.w = 1.0
-                    odom_pub.publish(first)
-                odom_pub.publish(od)
-                a = TrunkArray()
-                a.header.stamp = stamp
-                a.header.frame_id = 'fault_lidar'
-                for (x, y) in ((4.0, 1.0), (6.0, -2.0), (3.0, -3.0)):
-                    t = Trunk()
-                    t.center.x, t.center.y = x - 0.05 * k, y
-                    t.radius, t.radius_variance = 0.2, 1e-4
-                    t.range, t.bearing = math.hypot(t.center.x, y), math.atan2(y, t.center.x)
-                    t.covariance = [1e-3, 0.0, 0.0, 1e-3]
-                    t.method = Trunk.METHOD_CIRCLE
-                    a.trunks.append(t)
-                trunks_pub.publish(a)
+                odom_pub.publish(odometry(stamp + rospy.Duration(0.05), 0.05 * k))
+                if late_every and k % late_every == late_every - 1:
+                    odom_pub.publish(odometry(stamp - rospy.Duration(2.0), 0.0))  # 2 s late
+                trunks_pub.publish(trunks(stamp, 0.05 * k, bad=bad_from is not None and k >= bad_from))
                 time.sleep(0.05)
 
+        folder = tempfile.mkdtemp()
         with tempfile.TemporaryFile('w+') as log:
             proc = subprocess.Popen(['rosrun', 'rbpf_slam', 'fastslam', '__name:=fault_fastslam',
                                      'odom:=/fault/odom', 'trunks:=/fault/trunks', 'pose:=/fault/pose',
                                      '_odom_frame:=fault_odom', '_base_frame:=fault_base', '_map_frame:=fault_map',
-                                     '_particles:=20'], stdout=log, stderr=subprocess.STDOUT, universal_newlines=True)
+                                     '_particles:=20', '_map_path:=%s/forest_map.csv' % folder],
+                                    stdout=log, stderr=subprocess.STDOUT, universal_newlines=True)
             try:
                 deadline = time.time() + TIMEOUT
                 while time.time() < deadline and (trunks_pub.get_num_connections() == 0 or
@@ -335,13 +374,23 @@ class TimeFaults(object):
                     time.sleep(0.1)
                 time.sleep(1.0)
                 first_start = rospy.Time.now()
-                drive(first_start, 20)
+                # 20 sweeps that map the three trunks, then 12 whose trunks are all unreadable (NaN).
+                drive(first_start, 32, late_every=4, bad_from=20)
+                end = first_start + rospy.Duration(3.3)
+                rss_before = rss_mb(proc.pid)
+                for k in range(3):  # three arrays of 10000 trunks each
+                    odom_pub.publish(odometry(end + rospy.Duration(0.1 * k), 1.6))
+                    trunks_pub.publish(trunks(end + rospy.Duration(0.1 * k), 1.6, many=3334))
+                    time.sleep(0.3)
+                odom_pub.publish(odometry(end + rospy.Duration(0.5), 1.6, w=0.0))  # all-zero quaternion
                 time.sleep(1.0)
+                rss_after = rss_mb(proc.pid)
                 with lock:
                     before = len(poses)
                 loop_start = first_start - rospy.Duration(60.0)  # the bag starts again
                 drive(loop_start, 20)
                 time.sleep(1.5)
+                self.assertIsNone(proc.poll(), 'the node died')
             finally:
                 proc.send_signal(signal.SIGINT)
                 proc.wait(10)
@@ -353,6 +402,41 @@ class TimeFaults(object):
             looped = [t for t in poses[before:] if t < first_start.to_sec()]
         self.assertGreater(len(looped), 10, 'after the loop the filter stayed frozen:\n' + out)
         self.assertEqual(out.count('time jumped back; the filter restarts'), 1, out)
+        self.assertIn('before the previous stamp by more than the time jump threshold', out)
+        self.assertIn('the array is dropped (not a look that saw no tree)', out)
+        self.assertIn('more detections than the sensor can see', out)
+        self.assertIn('orientation not a unit quaternion', out)
+        self.assertLess(rss_after - rss_before, 20.0, 'three arrays of 10000 trunks took %.1f MB' %
+                        (rss_after - rss_before))
+        # The map before the restart: the three trees, kept through the late and the unreadable messages.
+        saved = os.path.join(folder, 'forest_map.restart1.csv')
+        self.assertIn('is saved to %s' % saved, out)
+        with open(saved) as f:
+            rows = [l for l in f.read().splitlines() if l and not l.startswith('#')]
+        self.assertEqual(len(rows), 1 + 3, 'expected the header and 3 trees:\n' + '\n'.join(rows))
+
+    def test_two_fastslam_nodelets_in_one_manager_name_the_transforms_owner(self):
+        with tempfile.TemporaryFile('w+') as log:
+            manager = subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'manager', '__name:=tf_manager'],
+                                       stdout=log, stderr=subprocess.STDOUT, universal_newlines=True)
+            loads = []
+            try:
+                for name in ('fastslam_first', 'fastslam_second'):
+                    loads.append(subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'load', 'rbpf_slam/FastSlamNodelet',
+                                                   'tf_manager', '__name:=' + name, '_particles:=5',
+                                                   'odom:=/%s/odom' % name, 'trunks:=/%s/trunks' % name],
+                                                  stdout=log, stderr=subprocess.STDOUT, universal_newlines=True))
+                    time.sleep(3.0)
+                time.sleep(1.0)
+            finally:
+                for p in loads + [manager]:
+                    p.send_signal(signal.SIGINT)
+                for p in loads + [manager]:
+                    p.wait(10)
+            log.seek(0)
+            out = log.read()
+        self.assertIn('/fastslam_second: map -> odom is already published by /fastslam_first in this process', out, out)
+        self.assertNotIn('/fastslam_first: map -> odom is already', out, out)
 
 
 class NodeFaults(ConfigFaults, TimeFaults, unittest.TestCase):

@@ -42,3 +42,24 @@ TEST(FastSlamConversions, MethodsMap)
   m.method = rbpf_slam::Trunk::METHOD_GIVEN;  // given data: radius used like a fitted circle's
   EXPECT_EQ(fromMsg(m).method, rbpf_slam::core::TrunkMethod::kCircle);
 }
+
+TEST(FastSlamConversions, UnreadableTrunksAreLeftOutAndTheArrayIsNoEvidenceOfAbsence)
+{
+  rbpf_slam::TrunkArray msg;
+  msg.header.stamp = ros::Time(100.0);
+  rbpf_slam::Trunk good;
+  good.center.x = 4.0;
+  good.radius = 0.2;
+  good.covariance = { 1e-4, 0.0, 0.0, 1e-4 };
+  rbpf_slam::Trunk nan_centre = good, nan_covariance = good;
+  nan_centre.center.y = std::nan("");
+  nan_covariance.covariance[3] = std::nan("");
+  msg.trunks = { good, nan_centre, nan_covariance };
+  rbpf_slam::core::TrunkSweep sweep;
+  EXPECT_EQ(rbpf_slam::toTrunkSweep(msg, rbpf_slam::core::Pose2(), 0.0, &sweep), 2u);
+  EXPECT_EQ(sweep.trunks.size(), 1u);
+  EXPECT_FALSE(sweep.scope.complete) << "what was left out may have been a tree";
+  msg.trunks = { good };
+  EXPECT_EQ(rbpf_slam::toTrunkSweep(msg, rbpf_slam::core::Pose2(), 0.0, &sweep), 0u);
+  EXPECT_TRUE(sweep.scope.complete);
+}

@@ -41,6 +41,10 @@ struct ConstellationConfig
   /// Transforms are drawn from the pairs of the first this many seen trunks (the caller puts the nearest first) and
   /// scored on them; the best are then scored and refitted on all: the search's cost stays bounded in dense stands.
   int max_pair_trunks = 16;
+  /// The search's work bound: at most this many transforms are scored per search (about 0.1 s on one core of a
+  /// robot computer; a map of max_landmarks trees of similar spacing stays within it), so that no saved map,
+  /// however large or regular, can stall the filter. Deterministic, unlike a bound in seconds.
+  long max_candidates = 200000;
 };
 
 /** @brief One transform from the seen trunks' frame to the map, with its support. */
@@ -58,6 +62,7 @@ struct ConstellationResult
   bool accepted = false;                   ///< the best is supported enough and not ambiguous
   std::string reason;                      ///< why not accepted (or empty)
   long candidates = 0;                     ///< transforms scored
+  bool bounded = false;                    ///< the search stopped at max_candidates
 };
 
 /**

@@ -53,6 +53,16 @@ struct FastSlamConfig
   /// Upper bound of `particles`: 100000 particles hold ~100 MB per 1000 landmarks, beyond any robot's use.
   static constexpr int kMaxParticles = 100000;
   int particles = 100;
+  /// Bounds from the sensor's physics, so that no message can take the memory. A trunk needs at least two beams of
+  /// a scan ring: a lidar of 2048 columns sees at most 1024 trunks per sweep, and arrays with more are dropped.
+  int max_trunks_per_sweep = 1000;
+  /// Landmarks per particle's map: 20000 trees are 40 ha of a dense stand (500 stems/ha); beyond it no landmark is
+  /// made (the filter says so) and a saved map with more trees is refused. The filter's memory grows with the map
+  /// (about 1 MB per 1000 landmarks with 100 particles that share most of their maps).
+  int max_landmarks = 20000;
+  /// Keep each particle's pose history (bestHistory(): the run folder's estimate_best_history.tum); it grows by one
+  /// pose per update, so a node that writes no run folder does without it.
+  bool keep_history = true;
   OdometryMotionNoise motion;
   /// The motion noise is that of one odometry step of at most this length [m] and turn [rad]: the motion between
   /// two updates is predicted in steps of about this size along the odometry's own path, so that the noise grows
@@ -188,6 +198,7 @@ struct FastSlamUpdateStats
   int matched_confirmed = 0; ///< observations matched to confirmed landmarks (best particle)
   int matched_prior = 0;     ///< ... to landmarks of a saved map (seen before this run)
   int recreated = 0;         ///< new landmarks within a gate's reach of one deleted before (best particle)
+  int map_full = 0;          ///< observations that made no landmark because the map held max_landmarks (best particle)
   /// Sum over the best particle's matches of the squared Mahalanobis distance of the innovation: a filter whose
   /// pose error stays within its uncertainty averages 2 per match (chi-square, 2 dof).
   double innovation_nis = 0.0;
@@ -342,6 +353,7 @@ private:
   std::size_t best_ = 0;
   Scratch scratch_;
   VisibilityScope scope_;
+  bool sweep_complete_ = true;  ///< this update's sweep reported all it saw (SensorScope::complete)
   bool relocalizing_ = false;                              ///< this update gates with the cloud's covariance
   Eigen::Matrix3d cloud_covariance_ = Eigen::Matrix3d::Zero();  ///< of the particles, before this update
   Pose2 cloud_mean_;

@@ -103,7 +103,21 @@ struct GnssFusionConfig
   /// The particles are weighed by the fixes once the anchor's origin is known to this [m] (a saved map's anchor
   /// with sigma 0 counts as known); 0: fixes never weigh the particles (the anchor is still fitted).
   double weigh_max_anchor_sigma = 3.0;
+
+  /** @brief "" when every value is in range, else what is not. */
+  std::string validate() const;
 };
+
+/// The innovation gate of satellite fixes: a fix whose squared Mahalanobis distance from where the filter and the
+/// anchor put the antenna exceeds this (chi-square, 2 degrees of freedom, 99.9 %) is inconsistent and not used.
+constexpr double kGnssGate2 = 13.8;
+/// The same as a number of standard deviations (its square root).
+constexpr double kGnssGate = 3.7;
+
+/**
+ * @brief The squared Mahalanobis distance of @p fix (in the frame of @p anchor, gnssInFrame) from the antenna's
+ * position @p predicted there with @p predicted_covariance (the filter's); infinite when it cannot be computed.
+ */
 
 /**
  * @brief The anchor of a map frame from satellite fixes: each fix pairs the antenna's position in the map (from the
@@ -111,7 +125,10 @@ struct GnssFusionConfig
  * weighted least-squares rigid fit (rotation and translation, no scale) of the one onto the other gives the map
  * origin's WGS84 position and its x axis's heading. Its sigma: the fit's residual over the square root of the
  * number of correlation times the fixes cover (their errors wander together within one), for the origin and for the
- * heading's lever from the fixes' centre to the origin.
+ * heading's lever from the fixes' centre to the origin. Wild fixes (a receiver's jump) are left out: a first fit
+ * that fewer than half of them cannot move (the heading most pairs of fixes agree on, the median origin) gates
+ * every fix (kGnssGate of its own sigma, and three robust standard deviations of the residuals) before the
+ * least-squares fit; @p outliers says how many were left out.
  */
 class GeoAnchorEstimator
 {
@@ -120,11 +137,13 @@ public:
   /** @brief Adds a usable fix (see gnssFixProblem) with the antenna's map position @p antenna_map. */
   void add(const GnssFix& fix, const Eigen::Vector2d& antenna_map);
   /** @brief The fitted anchor; not valid until the fixes span anchor_min_spread and number anchor_min_fixes. */
-  GeoAnchor anchor() const;
+  GeoAnchor anchor(int* outliers = nullptr) const;
   int fixes() const { return static_cast<int>(map_.size()); }
   void clear();
 
 private:
+  /** @brief A first fit that fewer than half wild fixes cannot move (see anchor()). */
+  bool robustStart(double* yaw, Eigen::Vector2d* origin) const;
   GnssFusionConfig config_;
   LocalTangentPlane plane_;
   std::vector<Eigen::Vector2d> map_, east_north_;
@@ -144,6 +163,9 @@ GeoAnchor combineAnchors(const GeoAnchor& a, const GeoAnchor& b);
  */
 void gnssInFrame(const GnssFix& fix, const GeoAnchor& anchor, double sigma_floor, Eigen::Vector2d* position,
                  Eigen::Matrix2d* covariance);
+
+double gnssInnovation(const GnssFix& fix, const GeoAnchor& anchor, double sigma_floor,
+                      const Eigen::Vector2d& predicted, const Eigen::Matrix2d& predicted_covariance);
 
 }  // namespace core
 }  // namespace rbpf_slam

@@ -155,6 +155,15 @@ std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObserv
                                                    const SensorMount& mount, const OdometryBuffer& odometry,
                                                    double t_ref, const SweepGeometry& geometry = SweepGeometry());
 
+/** @brief The map of a timeline that a restart (time jumping back) ended: the best particle's trees then. */
+struct TimelineMap
+{
+  int timeline = 0;  ///< restarts before it (0: the first timeline)
+  std::vector<Landmark> trees;
+  std::vector<Viewpoint> viewpoints;
+  GeoAnchor anchor;
+};
+
 /**
  * @brief Trunk extraction and FastSLAM on stamped sweeps and wheel odometry, ROS-free: the one pipeline of the
  * FastSLAM nodelet (fed with TrunkArray messages: addTrunks) and of every offline runner (the bag runner and the
@@ -176,7 +185,9 @@ public:
   TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
                     const PipelineTiming& timing = PipelineTiming());
 
-  /** @brief Trunks a detector found (e.g. a TrunkArray); @p arrival on the caller's clock (see odometry_wait). */
+  /** @brief Trunks a detector found (e.g. a TrunkArray); @p arrival on the caller's clock (see odometry_wait).
+   * kOverLimit (dropped, its stamp not taken) for more than FastSlamConfig::max_trunks_per_sweep trunks; a sweep
+   * whose scope is not complete (unreadable detections dropped) updates the landmarks it saw and misses none. */
   StampVerdict addTrunks(TrunkSweep sweep, double clock = NAN, double arrival = NAN);
   /** @brief Extracts the trunks of a 3D sweep (points in the sensor frame, @p period from its per-point times);
    * where the detector's configuration leaves the sensor height unknown, the mount's height stands for it. */
@@ -196,6 +207,7 @@ public:
    */
   void setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
                    const RelocalizationConfig& relocalization = RelocalizationConfig());
+  /// (Both setPriorMap throw std::invalid_argument for more trees than FastSlamConfig::max_landmarks.)
   /**
    * @brief The same with the start pose unknown: the pipeline gathers the trunks of the first sweeps in the
    * odometry frame (merged, each seen at least min_sightings times) and searches the saved map for them by
@@ -205,6 +217,13 @@ public:
    */
   void setPriorMap(const std::vector<Landmark>& trees, const RelocalizationConfig& relocalization);
   bool hasPriorMap() const { return has_prior_; }
+
+  /**
+   * @brief The maps that restarts ended since the last call (oldest first; at most kKeptEndedMaps are kept when
+   * nobody takes them): a restart starts a new map, and the old one is the caller's to save.
+   */
+  std::vector<TimelineMap> takeEndedMaps();
+  static constexpr std::size_t kKeptEndedMaps = 2;
 
   /**
    * @brief Where the map frame lies on the earth, when known (a saved map's anchor): fixes then weigh the particles
@@ -235,6 +254,8 @@ public:
   /** @brief Fixes that went into the anchor's fit, and fixes that weighed the particles. */
   int gnssFixesUsed() const { return gnss_used_; }
   int gnssFixesWeighed() const { return gnss_weighed_; }
+  /** @brief Fixes the innovation gate refused (kGnssGate2: inconsistent with the anchor and the filter's pose). */
+  int gnssFixesRejected() const { return gnss_rejected_; }
   /** @brief Localized in the map: always true without a saved map, or with a known start. */
   bool localized() const { return initialized_; }
 
@@ -250,7 +271,9 @@ public:
 private:
   PipelineUpdate update(TrunkSweep&& sweep, bool covered) override;
   void resetFilter() override;
-  void enqueueSweep(TrunkSweep sweep, double arrival);
+  /** @brief Queues @p sweep; false (dropped) when it holds more trunks than max_trunks_per_sweep. */
+  bool enqueueSweep(TrunkSweep sweep, double arrival);
+  std::vector<TimelineMap> ended_;
 
   TrunkDetectorConfig detector_config_;
   FastSlamConfig filter_config_;
@@ -303,7 +326,8 @@ private:
   std::deque<PendingFix> pending_fixes_;
   double last_weigh_stamp_ = -1e300;
   double next_anchor_check_ = -1e300;  ///< [s] the anchor is not refitted for weighing before this fix stamp
-  int gnss_used_ = 0, gnss_weighed_ = 0;
+  int gnss_used_ = 0, gnss_weighed_ = 0, gnss_rejected_ = 0;
+  GeoAnchor gate_anchor_;  ///< the last anchor computed (or the saved map's): the fixes' innovation gate
   /** @brief Uses the fixes up to the filter update at @p t_mid (odometry @p odom_mid). */
   void useFixes(double t_mid, const Pose2& odom_mid);
   Pose2 last_odometry_;

@@ -23,6 +23,9 @@ struct SensorScope
   double fov_min = NAN;                ///< [rad] first bearing it looks at
   double fov_max = NAN;                ///< [rad] last bearing it looks at
   double detection_probability = NAN;  ///< share of the landmarks inside the scope it reports, in (0, 1]
+  /// false: some of the sweep's detections were unreadable and dropped; what it did not report is then no evidence
+  /// that a landmark is absent (no landmark counts as missed)
+  bool complete = true;
 };
 
 /**

@@ -1,6 +1,8 @@
 #ifndef RBPF_SLAM_IO_FOREST_MAP_FILE_H
 #define RBPF_SLAM_IO_FOREST_MAP_FILE_H
 
+#include <functional>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -46,11 +48,39 @@ void writeForestMap(const std::string& path, const ForestMap& map);
  * observations 1; provisional 0; cov_xy 0; first_seen, last_seen unknown). Trees come back confirmed unless marked
  * provisional, with their covariance and radius variance from the sigmas.
  * @throws std::runtime_error "name:line: expected ..., got ..." on a malformed line, a missing header or column,
- * a duplicate id, a value that is not finite, or a negative diameter or variance.
+ * a duplicate id, a value that is not finite, a negative diameter or variance, or a value outside its physical
+ * range (kMaxMapCoordinate and the other bounds below).
  */
-ForestMap parseForestMap(const std::string& text, const std::string& name);
-/** @brief Reads and parses a tree map file. @throws std::runtime_error naming the file. */
-ForestMap readForestMap(const std::string& path);
+/**
+ * The physical range of a tree map's values: a value outside is refused with its file and line. A map frame is a
+ * local tangent plane (kMaxMapCoordinate: at 100 km its flat-earth error passes a metre); the largest trunks
+ * measured are about 11 m across.
+ */
+constexpr double kMaxMapCoordinate = 1e5;   ///< [m] |x|, |y| of trees and viewpoints
+constexpr double kMaxDbh = 12.0;            ///< [m]
+constexpr double kMaxPositionSigma = 1e3;   ///< [m] sigma_x, sigma_y
+constexpr double kMaxViewpointRange = 1e3;  ///< [m] a viewpoint's max_range
+constexpr double kMinAltitude = -500.0, kMaxAltitude = 9000.0;  ///< [m] the anchor's altitude
+constexpr double kMaxAnchorSigma = 1e5;     ///< [m]
+
+/** @brief How a tree map is read. */
+struct ForestMapReadOptions
+{
+  /// More trees than this are refused at the line of the first one too many (0: no bound), so that a huge file
+  /// costs neither time nor memory beyond the bound.
+  std::size_t max_trees = 0;
+  /// Asked every few thousand lines: true stops the reading (std::runtime_error "interrupted").
+  std::function<bool()> cancelled;
+};
+
+ForestMap parseForestMap(const std::string& text, const std::string& name,
+                         const ForestMapReadOptions& options = ForestMapReadOptions());
+/** @brief The same from a stream, line by line (time and memory linear in the file's size, bounded by
+ * options.max_trees). */
+ForestMap parseForestMap(std::istream& in, const std::string& name,
+                         const ForestMapReadOptions& options = ForestMapReadOptions());
+/** @brief Reads and parses a tree map file, line by line. @throws std::runtime_error naming the file. */
+ForestMap readForestMap(const std::string& path, const ForestMapReadOptions& options = ForestMapReadOptions());
 
 /**
  * @brief [deg] WGS84 latitude and longitude of the map point (@p x, @p y) [m] of a valid @p anchor: the map frame

@@ -52,7 +52,10 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
 class FastSlamRunRecord
 {
 public:
-  FastSlamRunRecord();
+  /** @param keep_tables false: only the counts and summaries are kept (memory that does not grow with the drive);
+   * files() then has no trajectory or table to give. */
+  explicit FastSlamRunRecord(bool keep_tables = true);
+  bool keepsTables() const { return keep_tables_; }
   /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
                  const core::FastSlamUpdateStats& stats, const core::HealthStatus& health);
@@ -74,6 +77,7 @@ public:
   std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter) const;
 
 private:
+  bool keep_tables_ = true;
   std::ostringstream estimate_, odometry_, table_;
   std::vector<double> stamps_;  ///< of the current timeline
   int timeline_ = -1;

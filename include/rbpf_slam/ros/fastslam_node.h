@@ -22,6 +22,7 @@
 #include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
+#include "rbpf_slam/ros/transform_guard.h"
 
 namespace rbpf_slam
 {
@@ -151,7 +152,11 @@ private:
   std::vector<core::Landmark> saved_trees_;  ///< the trees of the map it started from (for the change report)
   std::vector<core::Viewpoint> saved_viewpoints_;  ///< where that map was looked at from (new trees need it)
   ros::Publisher change_markers_pub_;
-  io::FastSlamRunRecord record_;  ///< the run folder's content
+  io::FastSlamRunRecord record_;  ///< the run folder's content (its tables only with ~run_folder set at start)
+  TransformGuard tf_guard_;       ///< map -> odom: this node's to publish, or another's (named)
+  int gnss_rejected_said_ = 0;    ///< fixes refused by the innovation gate, said so far
+  /** @brief Saves the maps that restarts ended beside ~map_path (FILE.restartN.csv) and says where. */
+  void saveEndedMaps();
   ros::WallTimer timer_;
   nav_msgs::Path path_;
   nav_msgs::Path odom_path_;  ///< raw odometry; the map frame starts at the odometry pose, so no transform

@@ -16,6 +16,8 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "rbpf_slam/ros/transform_guard.h"
+
 #include "rbpf_slam/core/grid_slam_pipeline.h"
 #include "rbpf_slam/ros/params.h"
 
@@ -87,6 +89,7 @@ private:
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  TransformGuard tf_guard_;  ///< map -> odom: this node's to publish, or another's (named)
   ros::Subscriber scan_sub_;
   ros::Publisher map_pub_, metadata_pub_, pose_pub_, particles_pub_, path_pub_;
   ros::ServiceServer save_srv_;

@@ -25,6 +25,20 @@ inline double yawOf(const geometry_msgs::Quaternion& q)
   return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
+/**
+ * @brief Why @p q is no orientation ("" when it is one): not finite, or not of unit length within 10 % (a driver
+ * that fills nothing in sends all zeros, whose yaw would silently be 0).
+ */
+inline std::string quaternionProblem(const geometry_msgs::Quaternion& q)
+{
+  const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (!std::isfinite(n))
+    return "not finite";
+  if (std::abs(n - 1.0) > 0.1)
+    return "not a unit quaternion (length " + std::to_string(n) + ")";
+  return "";
+}
+
 /** @brief The rotation by @p yaw about z. */
 inline geometry_msgs::Quaternion quaternionOfYaw(double yaw)
 {

@@ -33,7 +33,18 @@ public:
       throw std::runtime_error(nh_.resolveName(key) + " must be a number");
     return true;
   }
-  bool get(const std::string& key, int* value) const override { return typed(key, value, "an integer"); }
+  bool get(const std::string& key, int* value) const override
+  {
+    // roscpp would round a number with a fraction (30.5 particles become 31): only a whole number is an integer.
+    asked_.insert(key);
+    XmlRpc::XmlRpcValue v;
+    if (!nh_.getParam(key, v))
+      return false;
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeInt)
+      throw std::runtime_error(nh_.resolveName(key) + " must be an integer");
+    *value = static_cast<int>(v);
+    return true;
+  }
   bool get(const std::string& key, bool* value) const override { return typed(key, value, "true or false"); }
   bool get(const std::string& key, std::string* value) const override { return typed(key, value, "a string"); }
   bool get(const std::string& key, std::vector<std::string>* value) const
