@@ -27,6 +27,12 @@ std::string expandHome(const std::string& path)
   return path;
 }
 
+std::string withoutExtension(const std::string& path)
+{
+  const std::size_t dot = path.rfind('.'), slash = path.rfind('/');
+  return dot != std::string::npos && (slash == std::string::npos || dot > slash + 1) ? path.substr(0, dot) : path;
+}
+
 bool makeDirectories(const std::string& dir)
 {
   std::size_t pos = 0;

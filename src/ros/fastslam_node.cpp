@@ -772,10 +772,8 @@ void FastSlamRos::saveEndedMaps()
     std::string path = config_.map_path;
     pnh_.getParam("map_path", path);
     const std::string target = io::expandHome(path);
-    const std::size_t dot = target.rfind('.'), slash = target.rfind('/');
-    const std::string stem =
-        dot != std::string::npos && (slash == std::string::npos || dot > slash + 1) ? target.substr(0, dot) : target;
-    const std::string file = stem + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
+    const std::size_t slash = target.rfind('/');
+    const std::string file = io::withoutExtension(target) + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
     io::ForestMap map;
     map.trees = std::move(ended.trees);
     map.viewpoints = std::move(ended.viewpoints);
@@ -800,10 +798,7 @@ bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message
 {
   // Beside a map file FILE.csv: FILE.geojson (anchored maps) and, started from a saved map, FILE_changes.csv (and
   // FILE_changes.geojson when anchored).
-  const std::string target = io::expandHome(map_path);
-  const std::size_t dot = target.rfind('.'), slash = target.rfind('/');
-  const std::string stem =
-      dot != std::string::npos && (slash == std::string::npos || dot > slash + 1) ? target.substr(0, dot) : target;
+  const std::string stem = io::withoutExtension(io::expandHome(map_path));
   if (!pipeline_->localized())
     return true;
   io::ForestMap map;

@@ -123,6 +123,7 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     pending_.clear();
     path_.poses.clear();
     last_map_stamp_ = ros::Time();
+    saveEndedMaps();
   }
   else if (verdict != core::StampVerdict::kAccept)
   {
@@ -306,6 +307,28 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::GridPipelineU
   appendToPath(&path_, stamp, config_.map_frame, u.estimate, config_.max_path_poses);
   if (path_pub_.getNumSubscribers() > 0)
     path_pub_.publish(boost::make_shared<nav_msgs::Path>(path_));
+}
+
+void GridSlamRos::saveEndedMaps()
+{
+  // Beside ~map_path (FILE.yaml): FILE.restartN.yaml + .pgm, the map that restart N ended.
+  for (const core::GridTimelineMap& ended : pipeline_->takeEndedMaps())
+  {
+    const std::string target = io::expandHome(config_.map_path);
+    const std::size_t slash = target.rfind('/');
+    const std::string file = io::withoutExtension(target) + ".restart" + std::to_string(ended.timeline + 1) + ".yaml";
+    try
+    {
+      if (slash != std::string::npos && slash > 0 && !io::makeDirectories(target.substr(0, slash)))
+        throw std::runtime_error("cannot create the directory of " + target + ": " + std::strerror(errno));
+      io::saveMapImage(ended.map, file);
+      ROS_WARN("%s: the map before restart %d is saved to %s", name_.c_str(), ended.timeline + 1, file.c_str());
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR("%s: the map before restart %d could not be saved: %s", name_.c_str(), ended.timeline + 1, e.what());
+    }
+  }
 }
 
 bool GridSlamRos::onSaveMap(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)

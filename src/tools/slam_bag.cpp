@@ -542,12 +542,7 @@ int runFastSlam(const Options& o)
       if (out.enabled())
         path = o.out_dir + "/" + name;
       else if (!o.save_map_path.empty())
-      {
-        const std::size_t dot = o.save_map_path.rfind('.'), slash = o.save_map_path.rfind('/');
-        const bool has_extension = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
-        path = o.save_map_path.substr(0, has_extension ? dot : o.save_map_path.size()) + ".restart" +
-               std::to_string(ended.timeline + 1) + ".csv";
-      }
+        path = io::withoutExtension(o.save_map_path) + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
       std::fprintf(stderr, "slam_bag: warning: the map before restart %d holds %zu trees%s%s\n", ended.timeline + 1,
                    ended.trees.size(), path.empty() ? "; not saved (no --out or --save-map)" : "; saved to ",
                    path.c_str());
@@ -596,13 +591,7 @@ int runFastSlam(const Options& o)
       map.trees.push_back(best.map[i]);
     out.add(o.save_map_path, io::forestMapCsv(map));
     if (anchor.valid)  // the inventory for GIS tools beside it: FILE.csv -> FILE.geojson
-    {
-      const std::size_t dot = o.save_map_path.rfind('.');
-      const std::size_t slash = o.save_map_path.rfind('/');
-      const bool has_extension = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
-      out.add(o.save_map_path.substr(0, has_extension ? dot : o.save_map_path.size()) + ".geojson",
-              io::treesGeoJson(map));
-    }
+      out.add(io::withoutExtension(o.save_map_path) + ".geojson", io::treesGeoJson(map));
   }
   std::vector<core::TreeChange> changes;
   if (!o.changes_prefix.empty())
@@ -777,6 +766,17 @@ int runGrid(const Options& o)
     }
   };
   const auto process = [&](double clock, bool flush) {
+    // The map each restart ended, saved beside this run's (map.restartN.yaml + .pgm in the folder).
+    for (const core::GridTimelineMap& ended : pipeline.takeEndedMaps())
+    {
+      const std::string name = "map.restart" + std::to_string(ended.timeline + 1) + ".yaml";
+      std::fprintf(stderr, "slam_bag: warning: the map before restart %d%s%s\n", ended.timeline + 1,
+                   out.enabled() ? " is saved to " : " is not saved (no --out)",
+                   out.enabled() ? (o.out_dir + "/" + name).c_str() : "");
+      if (out.enabled())
+        for (auto& f : io::encodeMapImage(ended.map, o.out_dir + "/" + name))
+          out.add(f.first, f.second);
+    }
     for (const core::GridPipelineUpdate& u : pipeline.process(clock, flush))
     {
       if (!u.error.empty())

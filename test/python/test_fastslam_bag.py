@@ -359,6 +359,28 @@ def test_satellite_fixes_anchor_a_new_map_on_the_earth(tmp_path):
     doc = json.load(open(str(tmp_path / 'map.geojson')))
     assert doc['type'] == 'FeatureCollection' and len(doc['features']) >= 10
 
+    # Ten fixes in a row 1000 km away (a receiver's fault): the gate and the robust fit leave them out, and the
+    # anchor stays where the good fixes put it.
+    wild = str(tmp_path / 'wild.bag')
+    with rosbag.Bag(bag) as src, rosbag.Bag(wild, 'w') as dst:
+        k = 0
+        for topic, msg, t in src.read_messages():
+            if topic == '/gps/fix' and msg.status.status >= 0:
+                if 40 <= k < 50:
+                    msg.latitude += 9.0  # ~1000 km north
+                k += 1
+            dst.write(topic, msg, t)
+    wild_map = str(tmp_path / 'wild.csv')
+    r = subprocess.run([_tool('slam_bag'), '--bag', wild, '--seed', '4', '--save-map', wild_map],
+                       stdout=subprocess.PIPE, universal_newlines=True, check=True)
+    a = ev.read_landmarks_csv(wild_map)['anchor']
+    east = np.radians(a['longitude'] - 24.25) * parallel
+    north = np.radians(a['latitude'] - 61.5) * meridian
+    error = np.hypot(east - true_east, north - true_north)
+    assert 0.0 < a['sigma'] < 5.0, a
+    assert error < 3.0 * a['sigma'] + 0.5, 'with wild fixes: origin %.2f m off, sigma %.2f m' % (error, a['sigma'])
+    assert abs(np.degrees(a['yaw']) - 30.0) < 10.0, np.degrees(a['yaw'])
+
     local = str(tmp_path / 'local.csv')
     subprocess.run([_tool('slam_bag'), '--bag', bag, '--seed', '4', '--save-map', local, '--no-gps', '--quiet'],
                    check=True)

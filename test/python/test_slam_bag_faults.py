@@ -201,6 +201,22 @@ def test_a_looped_bag_restarts_the_filter(tmp_path):
     assert 'the map before restart 1 holds 1 trees; saved to' in r.stderr, r.stderr
 
 
+def test_a_looped_bag_keeps_the_grid_map_before_the_restart(tmp_path):
+    first, second = str(tmp_path / 'a.bag'), str(tmp_path / 'looped.bag')
+    _bag(first, n=20, scans=True, clouds=False)
+    with rosbag.Bag(first) as a, rosbag.Bag(second, 'w') as b:
+        messages = list(a.read_messages())
+        for topic, msg, t in messages:
+            b.write(topic, msg, t)
+        for topic, msg, t in messages:
+            b.write(topic, msg, t + rospy.Duration(2.2))
+    r = _run('--filter', 'grid', '--bag', second, '--every-scan', '--out', tmp_path / 'out')
+    assert r.returncode == 0, r.stderr
+    assert '1 restarts' in r.stdout, r.stdout
+    assert 'the map before restart 1 is saved to' in r.stderr, r.stderr
+    assert (tmp_path / 'out' / 'map.restart1.yaml').is_file() and (tmp_path / 'out' / 'map.restart1.pgm').is_file()
+
+
 def _trees(path):
     with open(str(path)) as f:
         return len([l for l in f.read().splitlines() if l and not l.startswith('#')]) - 1

@@ -46,6 +46,13 @@ struct GridPipelineUpdate
  *   interpolated; a scan older than the first odometry is dropped.
  * - The map frame is the odometry frame at the first scan (map -> odom starts as the identity).
  */
+/** @brief The map of a timeline that a restart (time jumping back) ended. */
+struct GridTimelineMap
+{
+  int timeline = 0;  ///< restarts before it (0: the first timeline)
+  OccupancyImage map;
+};
+
 class GridSlamPipeline : public SensorPipeline<GridScan, GridPipelineUpdate>
 {
 public:
@@ -62,15 +69,32 @@ public:
   void enqueueScan(double stamp, ScanData scan, const Pose2& sensor, double arrival = NAN);
 
   const GridSlam& filter() const { return *filter_; }
+  /** @brief The maps that restarts ended since the last call (only the latest is kept when nobody takes them: a
+   * map image can be large): a restart starts a new map, and the old one is the caller's to save. */
+  std::vector<GridTimelineMap> takeEndedMaps()
+  {
+    std::vector<GridTimelineMap> ended;
+    ended.swap(ended_);
+    return ended;
+  }
   double secondsFilter() const { return seconds_filter_; }
   /** @brief The longest one update() took [s]. */
   double worstSeconds() const { return worst_seconds_; }
 
 private:
   GridPipelineUpdate update(GridScan&& scan, bool covered) override;
-  void resetFilter() override { filter_->reset(); }
+  void resetFilter() override
+  {
+    if (filter_->initialised() && filter_->map().tileCount() > 0)
+    {
+      ended_.clear();
+      ended_.push_back({ restarts() - 1, filter_->map().toImage() });
+    }
+    filter_->reset();
+  }
 
   std::unique_ptr<GridSlam> filter_;
+  std::vector<GridTimelineMap> ended_;
   double seconds_filter_ = 0.0, worst_seconds_ = 0.0;
 };
 

@@ -12,6 +12,9 @@ namespace io
 /** @brief @p path with a leading "~/" replaced by $HOME (unchanged without HOME or without "~/"). */
 std::string expandHome(const std::string& path);
 
+/** @brief @p path without its file name's extension ("a/map.csv" -> "a/map"; "a.b/map" stays). */
+std::string withoutExtension(const std::string& path);
+
 /** @brief Creates @p dir and its parents (mkdir -p); true when the folder exists afterwards. */
 bool makeDirectories(const std::string& dir);
 

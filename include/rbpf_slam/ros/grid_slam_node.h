@@ -90,6 +90,8 @@ private:
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   TransformGuard tf_guard_;  ///< map -> odom: this node's to publish, or another's (named)
+  /** @brief Saves the maps that restarts ended beside ~map_path (FILE.restartN.yaml + .pgm) and says where. */
+  void saveEndedMaps();
   ros::Subscriber scan_sub_;
   ros::Publisher map_pub_, metadata_pub_, pose_pub_, particles_pub_, path_pub_;
   ros::ServiceServer save_srv_;
