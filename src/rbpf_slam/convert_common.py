@@ -10,8 +10,10 @@ import collections
 import errno
 import gzip
 import heapq
+import math
 import os
 import time
+import zipfile
 import zlib
 
 import numpy as np
@@ -96,6 +98,12 @@ def input_file(path):
     raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), path)
 
 
+def with_gz(directory, name):
+    """DIRECTORY/name, or DIRECTORY/name.gz when only that exists (data sets are often shipped gzipped)."""
+    path = os.path.join(directory, name)
+    return path if os.path.exists(path) or not os.path.exists(path + '.gz') else path + '.gz'
+
+
 def open_text(path):
     """Open a text log for reading, plain or gzip-compressed (recognised by its magic bytes). A plain file
     with NUL bytes near its start is binary, not a log: ConversionError."""
@@ -108,15 +116,17 @@ def open_text(path):
     return open(path, 'r', encoding='latin-1', newline=None)
 
 
-def read_tokens(path, limit=None):
+def read_tokens(path, limit=None, stream=None):
     """Yield ``(line_number, tokens)`` for every non-blank line of a text log that is not a ``#`` comment.
 
-    Handles CRLF line ends and gzip. A gzip stream cut short raises ConversionError at the line where
-    it ends. ``limit``: stop after that many yielded lines.
+    Handles CRLF line ends and gzip. A compressed stream cut short or damaged (gzip, or a member of a zip
+    archive) raises ConversionError at the line where it ends. ``limit``: stop after that many yielded lines.
+    ``stream``: an open text stream to read instead of opening ``path`` (which then only names it in
+    messages, e.g. ``archive.zip/member.txt``); it is closed at the end.
     """
     n = 0
     line_no = 0
-    with open_text(path) as f:
+    with open_text(path) if stream is None else stream as f:
         try:
             for line_no, line in enumerate(f, 1):
                 tokens = line.split()
@@ -126,9 +136,68 @@ def read_tokens(path, limit=None):
                 n += 1
                 if limit is not None and n >= limit:
                     return
-        except (EOFError, zlib.error, gzip.BadGzipFile) as e:
+        except COMPRESSION_ERRORS as e:
             raise ConversionError(path, line_no + 1, 'more data (the compressed file is cut short or damaged)',
                                   got=e)
+
+
+#: What reading a compressed stream raises where it is cut short or damaged.
+COMPRESSION_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile, zipfile.BadZipFile)
+
+
+def read_table(path, columns, bad=None, limit=None, until=None, one_past=False, order=None, stream=None):
+    """The rows of a text table of numbers, one record a line (blank lines and ``#`` comments skipped): an
+    (n, k) float array and the line number of each row (an int array).
+
+    ``columns``: the names of the k fields; the messages say e.g. ``expected time speed steering (3 fields)``.
+    A line with another number of fields, or a field that is not a finite number, is malformed (``bad``).
+    ``order``: the first field is a time that must ``'increase'`` (strictly) or ``'not decrease'`` from row to
+    row; a row against it is malformed. ``limit``: at most that many rows. ``until``: stop before the first
+    row timed after it (with ``one_past``, after that row, so that a stream sampled at its own rate covers
+    ``until``; no row at all when the first is past it). ``stream``: see read_tokens. A file without a line is
+    ``file: expected lines of ..., got an empty file``; one whose every line was malformed (and skipped) likewise,
+    ``got no valid line``.
+    """
+    bad = bad or BadLines()
+    names = ' '.join(columns)
+    rows, lines = [], []
+    previous = None  # (time, its text, its line)
+    n_lines = 0
+    stopped = False
+    for line, tokens in read_tokens(path, stream=stream):
+        n_lines += 1
+        try:
+            require_fields(tokens, len(columns), path, line, names)
+            values = parse_floats(tokens, path, line, 'numbers as %s' % names)
+            if order is not None and previous is not None and (
+                    values[0] < previous[0] or (order == 'increase' and values[0] == previous[0])):
+                raise ConversionError(path, line, 'times in %s order' % ('increasing' if order == 'increase' else
+                                                                          'non-decreasing'),
+                                      got='%s after %s on line %d' % (tokens[0], previous[1], previous[2]))
+        except ConversionError as e:
+            bad(e)
+            continue
+        if until is not None and values[0] > until and not (one_past and (not rows or rows[-1][0] < until)):
+            stopped = True
+            break
+        rows.append(values)
+        lines.append(line)
+        previous = (values[0], tokens[0], line)
+        if limit is not None and len(rows) >= limit:
+            break
+    if not rows and not stopped:
+        raise ConversionError(path, None, 'lines of %s' % names, got='no valid line' if n_lines else 'an empty file')
+    return np.array(rows, dtype=float).reshape(-1, len(columns)), np.array(lines, dtype=int)
+
+
+def check_same_clock(path, line, stamps, span, what, slack=60.0):
+    """A file whose stamps lie wholly outside ``span`` (first, last) [s] of the stream that sets the clock (by more
+    than ``slack`` seconds) is of another log or another release (e.g. Unix-epoch stamps beside stamps from 0):
+    ConversionError at ``line``, the line of its first stamp, naming ``what`` sets the clock."""
+    first, last = float(np.min(stamps)), float(np.max(stamps))
+    if first > span[1] + slack or last < span[0] - slack:
+        raise ConversionError(path, line, 'stamps on the clock of %s (%.3f .. %.3f s)' % (what, span[0], span[1]),
+                              got='%.3f .. %.3f s (a file of another log or release?)' % (first, last))
 
 
 def parse_floats(tokens, path, line, what):
@@ -200,6 +269,28 @@ def integrate_arcs(ds, dtheta, pose0=(0.0, 0.0, 0.0)):
     y = pose0[1] + np.cumsum(chord * np.sin(heading))
     theta = wrap_angle(pose0[2] + np.cumsum(dtheta))
     return x, y, theta
+
+
+def integrate_velocities(stamps, v, w, pose0=(0.0, 0.0, 0.0)):
+    """Dead reckoning from velocities held from each stamp to the next: forward speed ``v`` [m/s] and yaw rate
+    ``w`` [rad/s] of sample k act over [t_k, t_k+1) (exact arcs). Returns the poses at every stamp (x, y, theta
+    arrays; the first is ``pose0``) and the arc length and heading change of the step ending at each stamp
+    (ds, dtheta; 0 for the first)."""
+    dt = np.diff(np.asarray(stamps, dtype=float))
+    ds = np.asarray(v, dtype=float)[:-1] * dt
+    dth = np.asarray(w, dtype=float)[:-1] * dt
+    x, y, th = integrate_arcs(ds, dth, pose0)
+    return (np.r_[pose0[0], x], np.r_[pose0[1], y], np.r_[wrap_angle(pose0[2]), th], np.r_[0.0, ds],
+            np.r_[0.0, dth])
+
+
+def polar_covariance(r, bearing, range_sigma, bearing_sigma):
+    """Row-major 2 x 2 covariance of the point (r cos b, r sin b) from independent range and bearing noise
+    (through the polar-to-Cartesian Jacobian)."""
+    c, s = math.cos(bearing), math.sin(bearing)
+    j = np.array([[c, -r * s], [s, r * c]])
+    cov = j @ np.diag([range_sigma ** 2, bearing_sigma ** 2]) @ j.T
+    return tuple(float(v) for v in cov.reshape(-1))
 
 
 def diff_drive_steps(d_left, d_right, track):
@@ -535,6 +626,41 @@ def last_of_equal_runs(stamps, tolerance=1e-6):
     keep = np.ones(len(stamps), dtype=bool)
     keep[:-1] = np.diff(stamps) > tolerance
     return np.nonzero(keep)[0]
+
+
+def spread_equal_stamps(stamps):
+    """Stamps printed with too few digits, spread out again by line number. Lines logged at a steady rate whose
+    stamps were rounded to the printed digits come in runs of equal stamps (e.g. ``1000.1`` five times at 50 Hz);
+    rounding to the nearest digit centres a run's true stamps on the printed value, so each run's middle keeps
+    it and the lines between the middles of consecutive runs are interpolated linearly. A run cut by the start or
+    the end of the log is not centred on its value: beyond the outermost whole runs the lines go on at the median
+    rate of the runs. Stamps all distinct come back unchanged.
+
+    ``stamps`` must not decrease. Returns (stamps, how many lines share a stamp with another, the largest
+    move [s]); the stamps returned increase strictly. All equal: a TooFewStamps (they do not advance)."""
+    t = np.asarray(stamps, dtype=float)
+    if len(t) < 2:
+        return t.copy(), 0, 0.0
+    starts = np.flatnonzero(np.r_[True, np.diff(t) != 0])
+    if len(starts) == len(t):
+        return t.copy(), 0, 0.0
+    if len(starts) == 1:
+        raise TooFewStamps('all %d stamps equal (%.6g s)' % (len(t), t[0]))
+    ends = np.r_[starts[1:], len(t)]
+    lengths = ends - starts
+    whole = np.ones(len(starts), dtype=bool)
+    if len(starts) >= 4:  # the first and the last run may be cut by the log's ends
+        whole[0], whole[-1] = lengths[0] == 1, lengths[-1] == 1
+    centres = ((starts + ends - 1) / 2.0)[whole]
+    values = t[starts][whole]
+    rate = float(np.median(np.diff(values) / np.diff(centres)))
+    k = np.arange(len(t), dtype=float)
+    out = np.interp(k, centres, values)
+    before, after = k < centres[0], k > centres[-1]
+    out[before] = values[0] + (k[before] - centres[0]) * rate
+    out[after] = values[-1] + (k[after] - centres[-1]) * rate
+    shared = int(np.sum(lengths[lengths > 1]))
+    return out, shared, float(np.max(np.abs(out - t)))
 
 
 # --- Summary and output -----------------------------------------------------------------------------

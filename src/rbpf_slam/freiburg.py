@@ -119,10 +119,7 @@ def normalise_observation(r, bearing):
 
 def observation_covariance(r, bearing, range_sigma=RANGE_SIGMA, bearing_sigma=BEARING_SIGMA):
     """Row-major 2 x 2 covariance of (r cos b, r sin b) from independent range and bearing noise."""
-    c, s = math.cos(bearing), math.sin(bearing)
-    j = np.array([[c, -r * s], [s, r * c]])
-    cov = j @ np.diag([range_sigma ** 2, bearing_sigma ** 2]) @ j.T
-    return tuple(float(v) for v in cov.reshape(-1))
+    return cc.polar_covariance(r, bearing, range_sigma, bearing_sigma)
 
 
 def build_parser():

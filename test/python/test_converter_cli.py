@@ -10,7 +10,8 @@ import pytest
 from bagcheck import DATA, ROOT
 from rbpf_slam import convert_common as cc
 
-COMMANDS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag')
+COMMANDS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag', 'mrclam_to_bag',
+            'victoria_park_to_bag')
 
 
 def run(name, *args):

@@ -18,7 +18,8 @@ import pytest
 from bagcheck import ROOT
 
 SCRIPTS = os.path.join(ROOT, 'scripts')
-COMMANDS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag')
+COMMANDS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag', 'mrclam_to_bag',
+            'victoria_park_to_bag')
 
 
 def run(name, *args):
@@ -80,6 +81,27 @@ def lego_dir(d, motors=None, scans=None):
     return d
 
 
+def victoria_park_dir(d, laser=None, drs=None):
+    """The extracted files of the Victoria Park release, two scans: LASER.txt one tab-separated stream."""
+    d.mkdir(exist_ok=True)
+    scan = '\t'.join(['5.00'] * 361)
+    (d / 'LASER.txt').write_text(laser if laser is not None else '1.000\t%s\t1.200\t%s' % (scan, scan))
+    (d / 'DRS.txt').write_text(drs if drs is not None else ''.join(
+        '%.3f\t 1.000\t0.0100\r\n' % (1.0 + 0.025 * k) for k in range(9)))
+    (d / 'GPS.txt').write_text('0.000\t  0.00\t  0.00\r\n1.001\t  0.05\t -0.08\r\n')
+    return d
+
+
+def mrclam_dir(d, odometry=None):
+    """One robot of the MR.CLAM data set, plain files."""
+    d.mkdir(exist_ok=True)
+    (d / 'Robot1_Odometry.dat').write_text(odometry if odometry is not None else ''.join(
+        '%g 0.1 0.05\n' % (0.02 * k) for k in range(50)))
+    (d / 'Robot1_Measurement.dat').write_text('0.5 72 1.5 0.1\n0.5 14 2.0 0.0\n')
+    (d / 'Barcodes.dat').write_text('# Subject #    Barcode #\n1 5\n2 14\n6 72\n')
+    return d
+
+
 def encoders_mat(path, compress=False):
     import numpy as np
     import scipy.io
@@ -106,6 +128,10 @@ def valid_input(name, tmp_path):
         return [freiburg_dir(tmp_path / 'freiburg')]
     if name == 'lego_to_bag':
         return [lego_dir(tmp_path / 'lego')]
+    if name == 'victoria_park_to_bag':
+        return [victoria_park_dir(tmp_path / 'vp')]
+    if name == 'mrclam_to_bag':
+        return [mrclam_dir(tmp_path / 'mrclam'), '--robot', '1']
     d = tmp_path / 'ese'
     d.mkdir()
     encoders_mat(d / 'Encoders7.mat')
@@ -350,9 +376,60 @@ def ese650_case(tmp_path, case):
     return [d, '7'], '%s: expected a MATLAB .mat file, got ' % enc
 
 
+def victoria_park_case(tmp_path, case):
+    d = tmp_path / 'in'
+    laser = d / 'LASER.txt'
+    if case == 'missing':
+        return [d], '%s: no such file or directory' % d
+    victoria_park_dir(d)
+    if case == 'directory':
+        (d / 'sub').mkdir()
+        return [d, '--laser', d / 'sub'], '%s: is a directory' % (d / 'sub')
+    if case == 'empty':
+        laser.write_text('')
+        return [d], '%s: expected scans of a time and 361 ranges, got an empty file' % laser
+    if case == 'truncated':
+        laser.write_text(laser.read_text()[:-1500])
+        return [d], '%s:1: expected a time and 361 ranges (362 numbers) in scan 2, got ' % laser
+    drs = d / 'DRS.txt'
+    if case == 'truncated gzip':
+        drs.write_bytes(_gzip_cut('1.000\t 1.000\t0.0100\n' * 500))
+        return [d], 'expected more data (the compressed file is cut short or damaged)'
+    if case == 'garbage':
+        drs.write_text('Lorem ipsum dolor sit amet\n')
+        return [d], '%s:1: expected time speed steering (3 fields), got 5 fields' % drs
+    laser.write_bytes(_bytes())
+    return [d], '%s: expected a text log, got binary data' % laser
+
+
+def mrclam_case(tmp_path, case):
+    d = tmp_path / 'in'
+    odometry = d / 'Robot1_Odometry.dat'
+    if case == 'missing':
+        return [d, '--robot', '1'], '%s: no such file or directory' % d
+    mrclam_dir(d)
+    if case == 'directory':
+        (d / 'sub').mkdir()
+        return [d, '--robot', '1', '--odometry', d / 'sub'], '%s: is a directory' % (d / 'sub')
+    if case == 'empty':
+        odometry.write_text('')
+        return [d, '--robot', '1'], '%s: expected lines of time v w, got an empty file' % odometry
+    if case == 'truncated':
+        odometry.write_text(odometry.read_text()[:-6])
+        return [d, '--robot', '1'], '%s:50: expected time v w (3 fields), got 2 fields' % odometry
+    if case == 'truncated gzip':
+        odometry.write_bytes(_gzip_cut(''.join('%g 0.1 0.05\n' % (0.02 * k) for k in range(3000))))
+        return [d, '--robot', '1'], 'expected more data (the compressed file is cut short or damaged)'
+    if case == 'garbage':
+        odometry.write_text('Lorem ipsum dolor sit amet\n')
+        return [d, '--robot', '1'], '%s:1: expected time v w (3 fields), got 5 fields' % odometry
+    odometry.write_bytes(_bytes())
+    return [d, '--robot', '1'], '%s: expected a text log, got binary data' % odometry
+
+
 CASES = ('missing', 'directory', 'empty', 'truncated', 'truncated gzip', 'garbage', 'binary')
 MAKERS = {'carmen_to_bag': carmen_case, 'freiburg_to_bag': freiburg_case, 'lego_to_bag': lego_case,
-          'ese650_to_bag': ese650_case}
+          'ese650_to_bag': ese650_case, 'mrclam_to_bag': mrclam_case, 'victoria_park_to_bag': victoria_park_case}
 
 
 @pytest.mark.parametrize('case', CASES)

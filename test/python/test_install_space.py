@@ -78,7 +78,8 @@ def test_the_install_space_holds_files_not_links_into_the_build_machine():
     for rel in ('share/rbpf_slam/package.xml', 'share/rbpf_slam/config/fastslam.yaml',
                 'share/rbpf_slam/config/worlds/paper_forest.yaml', 'share/rbpf_slam/launch/forest_demo.launch',
                 'share/rbpf_slam/config/rviz/forest.rviz', 'lib/rbpf_slam/fastslam_benchmark',
-                'lib/rbpf_slam/plot_forest_run', 'lib/rbpf_slam/fastslam_experiments'):
+                'lib/rbpf_slam/plot_forest_run', 'lib/rbpf_slam/fastslam_experiments',
+                'lib/rbpf_slam/mrclam_to_bag', 'lib/rbpf_slam/victoria_park_to_bag'):
         assert os.path.isfile(os.path.join(INSTALL, rel)), rel
 
 
@@ -126,3 +127,13 @@ def test_the_installed_world_generators_and_experiments_run(tmp_path):
     assert r.returncode == 0, r.stdout[-3000:]
     assert len([line for line in (tmp_path / 'f.trees.txt').read_text().splitlines()
                 if line and not line.startswith('#')]) == 20
+
+
+CONVERTERS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag', 'mrclam_to_bag',
+              'victoria_park_to_bag')
+
+
+def test_the_installed_converters_run(tmp_path):
+    """Each converter starts from the install space (its script and its module rbpf_slam.<name> installed)."""
+    r = _run(' && '.join('rosrun rbpf_slam %s --help > /dev/null' % name for name in CONVERTERS), str(tmp_path))
+    assert r.returncode == 0, r.stdout[-3000:]
