@@ -750,9 +750,9 @@ class BagOutput:
     def write(self, topic, msg, stamp, latch=False):
         from rbpf_slam.convert_msgs import ros_time
         topic = ros_topic(topic)
-        if not 0.0 <= stamp + self.time_offset < ROS_TIME_LIMIT:
-            raise ConversionError(self.summary.output, None, 'time stamps from 0 to 2^32 s (ROS time holds the '
-                                  'seconds as uint32)', got='%.6g s on %s%s' % (
+        if not 0.0 < stamp + self.time_offset < ROS_TIME_LIMIT:
+            raise ConversionError(self.summary.output, None, 'time stamps after 0 and before 2^32 s (ROS time 0 is '
+                                  'no time; ROS time holds the seconds as uint32)', got='%.6g s on %s%s' % (
                                       stamp + self.time_offset, topic,
                                       ' (with --time-offset %g)' % self.time_offset if self.time_offset else ''))
         last = self._last.get(topic)
@@ -793,16 +793,24 @@ def _shift_times(msg, offset):
                 _shift_times(item, offset)
 
 
-def add_common_arguments(parser, topics=(), frames=()):
-    """Options every converter has. ``topics``/``frames``: (option, default, help) triples."""
+#: [s] Shift of the stamps of data sets whose clock starts at 0: ROS time 0 means "no time" (rosbag refuses it as an
+#: index time, TF reads it as "the latest", a node's clock at 0 has not started), so their data begin at 1 s.
+ZERO_CLOCK_OFFSET = 1.0
+
+
+def add_common_arguments(parser, topics=(), frames=(), time_offset=0.0):
+    """Options every converter has. ``topics``/``frames``: (option, default, help) triples; ``time_offset``: the
+    default of --time-offset (ZERO_CLOCK_OFFSET for data whose clock starts at 0)."""
     parser.add_argument('-o', '--output', required=True, metavar='BAG',
                         help='the bag to write (*.bag; written to a temporary name and renamed when complete)')
     parser.add_argument('--skip-bad', action='store_true',
                         help='skip malformed lines (counted and reported) instead of stopping at the first')
     parser.add_argument('--limit', type=int, default=None, metavar='N',
                         help='convert only the first N records (see above what a record is here)')
-    parser.add_argument('--time-offset', type=float, default=0.0, metavar='S',
-                        help='add S seconds to every stamp (default 0: the log\'s own times)')
+    parser.add_argument('--time-offset', type=float, default=time_offset, metavar='S',
+                        help='add S seconds to every stamp (default %g%s)' % (
+                            time_offset, ': the log\'s own times' if time_offset == 0.0 else
+                            ': the data\'s clock starts at 0, which ROS takes as no time'))
     parser.add_argument('--compression', choices=('none', 'bz2', 'lz4'), default='none',
                         help='bag compression (default none)')
     parser.add_argument('-q', '--quiet', action='store_true', help='no progress bar (the summary is still printed)')

@@ -30,7 +30,8 @@ Frames: the truth is expressed in ``map`` = the robot's Vicon pose at the first 
 room's Vicon coordinates (``--truth-frame room``).
 
 Stamps are the files' own (from 0 in the redistributed files, Unix seconds in the original release; files of
-both kinds together are refused). The redistributed files print stamps with five significant digits, so from
+both kinds together are refused) plus ``--time-offset``, by default 1 s (ROS time 0 is no time: rosbag refuses it,
+TF reads it as "the latest"). The redistributed files print stamps with five significant digits, so from
 1000 s on five 50 Hz odometry and truth lines share each printed 0.1 s: runs of equal stamps in those two files
 are spread out again by line number (convert_common.spread_equal_stamps; the summary says how many and by how
 much). Readings are grouped by their printed stamp; readings timed outside the odometry are skipped.
@@ -222,7 +223,7 @@ def build_parser():
     p.add_argument('--fov', type=cc.positive_float, default=math.degrees(CAMERA_HALF_FOV), metavar='DEG',
                    help='half the camera\'s field of view [deg] stated in every array (default %(default)g)')
     cc.add_common_arguments(
-        p,
+        p, time_offset=cc.ZERO_CLOCK_OFFSET,
         topics=(('--odom-topic', 'odom', 'nav_msgs/Odometry'),
                 ('--landmarks-topic', 'landmarks', 'rbpf_slam/TrunkArray, the landmark readings of each time'),
                 ('--truth-odom-topic', 'ground_truth/odom', 'nav_msgs/Odometry, the Vicon poses'),

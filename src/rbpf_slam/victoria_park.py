@@ -40,8 +40,8 @@ also the tree detections ``published_measurements.dat[.gz]``.
   in the laser frame), detection probability 0.9. Detections timed outside the laser log are skipped (the file
   runs 4 s past LASER.txt).
 
-Stamps are the data set's own seconds (GPS from 0.0, laser from 0.852, DRS from 0.973); ``--time-offset`` shifts
-them all. ``Sensors_manager.txt`` (the order the streams were logged in) is not needed: the stamps give it.
+Stamps are the data set's own seconds (GPS from 0.0, laser from 0.852, DRS from 0.973) plus ``--time-offset``,
+by default 1 s (ROS time 0 is no time: rosbag refuses it, TF reads it as "the latest"). ``Sensors_manager.txt`` (the order the streams were logged in) is not needed: the stamps give it.
 """
 import io
 import math
@@ -329,7 +329,7 @@ def build_parser():
     p.add_argument('--bearing-sigma', type=cc.positive_float, default=DETECTION_BEARING_SIGMA,
                    help='bearing noise of the detections [rad] (default %.3f)' % DETECTION_BEARING_SIGMA)
     cc.add_common_arguments(
-        p,
+        p, time_offset=cc.ZERO_CLOCK_OFFSET,
         topics=(('--odom-topic', 'odom', 'nav_msgs/Odometry'),
                 ('--scan-topic', 'scan', 'sensor_msgs/LaserScan'),
                 ('--landmarks-topic', 'landmarks', 'rbpf_slam/TrunkArray, the tree detections (--detections)'),

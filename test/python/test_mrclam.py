@@ -95,12 +95,13 @@ def test_tiny_set(tmp_path, capsys):
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
     odom = [(t, pose2(msg)) for t, msg in bag['/odom']]
-    assert [t for t, _ in odom] == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0])
+    # The files' clock starts at 0, which ROS takes as no time: shifted by 1 s.
+    assert [t for t, _ in odom] == pytest.approx([1.0, 1.5, 2.0, 2.5, 3.0])
     assert odom[0][1] == (0.0, 0.0, 0.0) and odom[-1][1] == pytest.approx((0.4, 0.0, 0.0))
     assert bag['/odom'][2][1].twist.twist.linear.x == pytest.approx(0.2) and len(bag['/tf']) == 5
     # readings: one array per time, robots and unknown barcodes dropped, ids from Barcodes.dat
     arrays = [(t, msg) for t, msg in bag['/landmarks']]
-    assert [t for t, _ in arrays] == pytest.approx([0.5, 1.0, 1.5])
+    assert [t for t, _ in arrays] == pytest.approx([1.5, 2.0, 2.5])
     assert [[tr.id for tr in a.trunks] for _, a in arrays] == [[6], [], [7]]
     tr = arrays[0][1].trunks[0]
     assert (tr.center.x, tr.center.y) == pytest.approx((math.cos(0.1), math.sin(0.1)))
@@ -133,7 +134,7 @@ def test_room_frame_no_ids_and_limit(tmp_path):
     out = str(tmp_path / 'r.bag')
     assert mrclam.main([d, '--robot', '1', '-o', out, '-q', '--truth-frame', 'room', '--no-ids', '--limit', '3']) == 0
     bag = read_bag(out)
-    assert [t for t, _ in bag['/odom']] == pytest.approx([0.0, 0.5, 1.0])
+    assert [t for t, _ in bag['/odom']] == pytest.approx([1.0, 1.5, 2.0])
     assert [[tr.id for tr in a.trunks] for _, a in bag['/landmarks']] == [[-1], []]
     assert pose2(bag['/ground_truth/odom'][0][1]) == pytest.approx((1.0, 2.0, math.pi / 2))
     lm = bag['/ground_truth/landmarks'][0][1].trunks[0]
@@ -208,9 +209,9 @@ def test_real_data_first_100_s(tmp_path):
     assert summary.counts['/odom'] == 5000 and summary.counts['/ground_truth/landmarks'] == 1
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
-    assert bag['/odom'][-1][0] == pytest.approx(99.98)
+    assert bag['/odom'][-1][0] == pytest.approx(100.98)
     arrays = bag['/landmarks']
-    assert arrays[0][0] == pytest.approx(12.72) and [t.id for t in arrays[0][1].trunks] == [16]  # barcode 90
+    assert arrays[0][0] == pytest.approx(13.72) and [t.id for t in arrays[0][1].trunks] == [16]  # barcode 90
     ids = set(t.id for _, a in arrays for t in a.trunks)
     assert ids and ids <= set(range(6, 21))
     # a reading seen from the Vicon pose lands near its landmark's truth

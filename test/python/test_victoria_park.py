@@ -123,7 +123,8 @@ def test_tiny_zip(tmp_path, capsys):
     assert_stamps_monotonic(bag)
     # scans: 361 beams from -pi/2 at 0.5 deg in the laser frame; the top cluster +Inf, range_max below it
     scans = [msg for _, msg in bag['/scan']]
-    assert [t for t, _ in bag['/scan']] == pytest.approx([1.0, 1.2, 1.4])
+    # The data's clock (here from 1.0 s) shifted by 1 s: ROS time 0 is no time, and the set's GPS starts at 0.
+    assert [t for t, _ in bag['/scan']] == pytest.approx([2.0, 2.2, 2.4])
     s = scans[0]
     assert len(s.ranges) == 361 and s.header.frame_id == 'laser'
     assert s.angle_min == pytest.approx(-math.pi / 2) and s.angle_increment == pytest.approx(math.radians(0.5))
@@ -139,7 +140,7 @@ def test_tiny_zip(tmp_path, capsys):
     assert (mount.transform.translation.x, mount.transform.translation.y) == pytest.approx((3.78, 0.5))
     # GPS: time north east -> x east, y north, positions only
     ref = [(t, pose2(msg)) for t, msg in bag['/ground_truth/odom']]
-    assert [t for t, _ in ref] == pytest.approx([0.0, 1.001, 1.401])
+    assert [t for t, _ in ref] == pytest.approx([1.0, 2.001, 2.401])
     assert ref[1][1] == pytest.approx((-2.0, 1.0, 0.0))
     q = bag['/ground_truth/odom'][1][1].pose.pose.orientation
     assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
@@ -147,7 +148,7 @@ def test_tiny_zip(tmp_path, capsys):
     assert connection_latched(out, '/ground_truth/path') and len(bag['/ground_truth/path'][0][1].poses) == 3
     # detections: one array per scan (empty where none), in the laser frame: bearing - pi/2
     arrays = [(t, msg) for t, msg in bag['/landmarks']]
-    assert [t for t, _ in arrays] == pytest.approx([1.0, 1.2, 1.4])
+    assert [t for t, _ in arrays] == pytest.approx([2.0, 2.2, 2.4])
     assert [len(a.trunks) for _, a in arrays] == [2, 0, 1]
     ahead, right = arrays[0][1].trunks
     assert (ahead.center.x, ahead.center.y) == pytest.approx((10.0, 0.0), abs=1e-4)
@@ -310,14 +311,14 @@ def test_real_data_first_scans(tmp_path):
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
     first = bag['/scan'][0][1]
-    assert bag['/scan'][0][0] == pytest.approx(0.852) and bag['/scan'][-1][0] == pytest.approx(64.728)
+    assert bag['/scan'][0][0] == pytest.approx(1.852) and bag['/scan'][-1][0] == pytest.approx(65.728)
     assert first.ranges[:3] == pytest.approx([0.83, 0.84, 0.84]) and math.isinf(first.ranges[13])
     assert first.range_max == pytest.approx(81.80)
-    assert bag['/odom'][0][0] == pytest.approx(0.973) and pose2(bag['/odom'][0][1]) == (0.0, 0.0, 0.0)
+    assert bag['/odom'][0][0] == pytest.approx(1.973) and pose2(bag['/odom'][0][1]) == (0.0, 0.0, 0.0)
     assert bag['/odom'][-1][0] >= bag['/scan'][-1][0]
     tree = bag['/landmarks'][0][1].trunks[0]  # 0.852 20.46202 0.88575 0.35404
     assert (tree.range, tree.bearing, tree.radius) == pytest.approx((20.46202, 0.88575 - math.pi / 2, 0.17702))
-    assert bag['/ground_truth/odom'][0][0] == 0.0
+    assert bag['/ground_truth/odom'][0][0] == 1.0  # the set's clock starts at 0: shifted by 1 s
 
 
 def test_real_dead_reckoning_against_the_gps():
@@ -340,3 +341,17 @@ def test_real_dead_reckoning_against_the_gps():
     gps = np.column_stack([gx, gy])[inside]
     assert ev.aligned_rmse(odo, gps) == pytest.approx(57.1, abs=0.5)
     assert ev.aligned_rmse(odo, gps[:, ::-1]) > 100.0
+
+
+def test_a_stamp_at_ros_time_zero_is_refused(tmp_path):
+    """ROS time 0 is no time (rosbag's reader refuses it as an index time): with --time-offset 0, the GPS fix at 0.0 of
+    a set whose clock starts there stops the conversion, and no bag is left."""
+    d = tmp_path / 'vp'
+    d.mkdir()
+    (d / 'LASER.txt').write_text(' '.join(['1.0'] + ['5.0'] * 361) + '\n')
+    (d / 'DRS.txt').write_text('0.5 1.0 0.0\n1.5 1.0 0.0\n')
+    (d / 'GPS.txt').write_text('0.0 0.0 0.0\n1.0 0.0 1.0\n')
+    out = tmp_path / 'zero.bag'
+    assert vp.main([str(d), '-o', str(out), '-q', '--time-offset', '0']) != 0
+    assert not out.exists()
+    assert vp.main([str(d), '-o', str(out), '-q']) == 0 and out.exists()
