@@ -793,6 +793,19 @@ def _shift_times(msg, offset):
                 _shift_times(item, offset)
 
 
+def position_reference(args, stamps, xs, ys):
+    """A reference of positions only (a camera's points, GPS fixes) as a stream for BagOutput.write_merged:
+    ``args.truth_odom_topic`` (Odometry, orientation identity, child ``args.truth_point_frame``) at each stamp, then
+    ``args.truth_path_topic`` (latched Path) at the last, in ``args.map_frame``."""
+    from rbpf_slam import convert_msgs as m
+    for i in range(len(stamps)):
+        t = float(stamps[i])
+        yield t, args.truth_odom_topic, m.odometry(t, args.map_frame, args.truth_point_frame, float(xs[i]),
+                                                   float(ys[i]), 0.0), False
+    t_end = float(stamps[-1])
+    yield t_end, args.truth_path_topic, m.path(t_end, args.map_frame, stamps, xs, ys), True
+
+
 #: [s] Shift of the stamps of data sets whose clock starts at 0: ROS time 0 means "no time" (rosbag refuses it as an
 #: index time, TF reads it as "the latest", a node's clock at 0 has not started), so their data begin at 1 s.
 ZERO_CLOCK_OFFSET = 1.0

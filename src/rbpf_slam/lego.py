@@ -345,15 +345,8 @@ def convert(args, out, bad, summary):
                                                    scan_to_rep117(scans[i]).tolist(), RANGE_MIN, RANGE_MAX), False
 
     def truth():
-        if ref is None:
-            return
-        t_r, rx, ry = ref
-        for i in range(len(t_r)):
-            t = float(t_r[i])
-            yield t, args.truth_odom_topic, m.odometry(t, args.map_frame, args.truth_point_frame, float(rx[i]),
-                                                       float(ry[i]), 0.0), False
-        t_end = float(t_r[-1])
-        yield t_end, args.truth_path_topic, m.path(t_end, args.map_frame, t_r, rx, ry), True
+        if ref is not None:
+            yield from cc.position_reference(args, *ref)
 
     out.write_merged([statics(), odometry(), laser(), truth()])
 

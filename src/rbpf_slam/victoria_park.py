@@ -447,15 +447,8 @@ def _convert(args, release, out, bad, summary):
                                                    range_max), False
 
     def truth():
-        if gps is None:
-            return
-        t_g, gx, gy = gps
-        for i in range(len(t_g)):
-            t = float(t_g[i])
-            yield t, args.truth_odom_topic, m.odometry(t, args.map_frame, args.truth_point_frame, float(gx[i]),
-                                                       float(gy[i]), 0.0), False
-        t_end = float(t_g[-1])
-        yield t_end, args.truth_path_topic, m.path(t_end, args.map_frame, t_g, gx, gy), True
+        if gps is not None:
+            yield from cc.position_reference(args, *gps)
 
     def detections():
         for t, part in arrays or ():
