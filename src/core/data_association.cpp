@@ -112,6 +112,49 @@ void DataAssociation::selectCandidates(const LandmarkMap& map, const Pose2& base
   }
 }
 
+void DataAssociation::addNamedCandidates(const LandmarkMap& map, const Pose2& base, const Pose2& sensor_in_base,
+                                         const std::vector<LandmarkObservation>& obs,
+                                         const Eigen::Matrix3d* pose_covariance)
+{
+  bool any = false;
+  for (const LandmarkObservation& o : obs)
+    any = any || o.id >= 0;
+  if (!any)
+    return;
+  const Pose2 s = base * sensor_in_base;
+  bool added = false;
+  for (std::size_t j = 0; j < map.size(); ++j)
+  {
+    const Landmark& l = map[j];
+    if (!l.known_id)
+      continue;
+    bool named = false;
+    for (const LandmarkObservation& o : obs)
+      named = named || o.id == l.id;
+    if (!named)
+      continue;
+    bool present = false;
+    for (const AssociationCandidate& c : cand_)
+      present = present || c.index == j;
+    if (present)
+      continue;
+    Eigen::Matrix2d H;
+    const Eigen::Vector2d z = predictRangeBearing(l.mean, s, &H);
+    Eigen::Matrix2d pose_term = Eigen::Matrix2d::Zero();
+    if (pose_covariance)
+    {
+      const Matrix23d Hx = rangeBearingPoseJacobian(H, base, sensor_in_base);
+      pose_term = Hx * *pose_covariance * Hx.transpose();
+    }
+    const Eigen::Matrix2d A = H * l.covariance * H.transpose() + pose_term;
+    cand_.push_back({ j, z, H, pose_term, A });
+    added = true;
+  }
+  if (added)
+    std::sort(cand_.begin(), cand_.end(),
+              [](const AssociationCandidate& a, const AssociationCandidate& b) { return a.index < b.index; });
+}
+
 void DataAssociation::associate(const LandmarkMap& map, const std::vector<LandmarkObservation>& obs,
                                 const std::vector<Eigen::Matrix2d>& R)
 {

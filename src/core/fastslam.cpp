@@ -205,6 +205,8 @@ std::string FastSlamConfig::validate() const
     return "delete_evidence must be < 0";
   if (confirm_observations < 1)
     return "confirm_observations must be >= 1";
+  if (!(evidence_view_change >= 0.0) || !std::isfinite(evidence_view_change))
+    return "evidence_view_change must be a finite number >= 0";
   const std::string r = resampling.validate();
   if (!r.empty())
     return r;
@@ -224,7 +226,8 @@ FastSlam::FastSlam(const FastSlamConfig& config)
   , association_(AssociationConfig{ config.association_gate, config.use_radius, config.radius_sigma_floor,
                                      config.use_known_ids })
   , evidence_(EvidenceConfig{ config.evidence_hit, config.evidence_miss, config.evidence_max, config.delete_evidence,
-                              config.confirm_observations, config.drop_unconfirmed_leaving_scope })
+                              config.confirm_observations, config.drop_unconfirmed_leaving_scope,
+                              config.evidence_view_change })
 {
   const std::string error = config.validate();
   if (!error.empty())
@@ -309,6 +312,14 @@ void FastSlam::initialize(const std::vector<Pose2>& starts, const LandmarkMap& m
   }
 }
 
+namespace
+{
+Eigen::Vector2d sensorPosition(const Pose2& sensor)
+{
+  return Eigen::Vector2d(sensor.x, sensor.y);
+}
+}  // namespace
+
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
                               FastSlamUpdateStats* stats)
 {
@@ -320,6 +331,9 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
     gate_covariance += cloud_covariance_;
   association_.selectCandidates(p->map, p->pose, sensor_in_base, scope_,
                                 gaussian || relocalizing_ ? &gate_covariance : nullptr);
+  if (config_.use_known_ids)
+    association_.addNamedCandidates(p->map, p->pose, sensor_in_base, obs,
+                                    gaussian || relocalizing_ ? &gate_covariance : nullptr);
   association_.associate(p->map, obs, scratch_.R);
   if (relocalizing_)
   {
@@ -345,7 +359,10 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
   updateMap(p, obs, p->pose * sensor_in_base, &log_w, stats);
   // No landmark is missed while the pose is too uncertain to say where it should have been seen.
   const std::size_t deleted =
-      relocalizing_ || !sweep_complete_ ? 0 : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr);
+      relocalizing_ || !sweep_complete_
+          ? 0
+          : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr,
+                                  sensorPosition(p->pose * sensor_in_base));
   if (stats && deleted_positions_.size() > kDeletedMemory)
     deleted_positions_.erase(deleted_positions_.begin(),
                              deleted_positions_.begin() + static_cast<std::ptrdiff_t>(deleted_positions_.size() - kDeletedMemory));
@@ -389,10 +406,24 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
       const Eigen::Matrix2d& R = scratch_.R[i];
       const LandmarkObservation& o = obs[i];
       const bool confirmed = !p->map[cd.index].provisional;
+      if (stats)
+      {
+        // The innovation against all the uncertainty the filter claims: the landmark's, one independent look's
+        // noise, and the cloud's spread before the update.
+        const Matrix23d Hx = rangeBearingPoseJacobian(cd.H, p->pose, p->pose.inverse() * s);
+        const Eigen::Matrix2d S = cd.H * p->map[cd.index].covariance * cd.H.transpose() + R * evidence_share_ +
+                                  Hx * cloud_covariance_ * Hx.transpose();
+        const Eigen::Vector2d vc(o.range - cd.z.x(), wrapAngle(o.bearing - cd.z.y()));
+        if (S.determinant() > 0.0)
+        {
+          stats->claimed_nis += vc.dot(S.inverse() * vc);
+          ++stats->claimed_matches;
+        }
+      }
       p->map.modify(cd.index, [&](Landmark& l) {
         updateLandmarkPosition(&l, cd.H, s_inv, v, R);
         fuseLandmarkRadius(&l, o);
-        evidence_.recordHit(&l);
+        evidence_.recordHit(&l, sensorPosition(s));
         if (std::isfinite(clock_))
           l.last_seen = clock_;
       });
@@ -444,11 +475,12 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
         ++stats->ignored;
       continue;
     }
-    evidence_.initialize(&l);
+    evidence_.initialize(&l, sensorPosition(s));
     l.first_seen = l.last_seen = clock_;
     if (known)
     {
       l.id = obs[i].id;
+      l.known_id = true;
       next_id_ = std::max(next_id_, l.id + 1);
     }
     else
@@ -572,6 +604,7 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     R = observations[i].covariance;
     R(0, 0) += config_.range_sigma_floor * config_.range_sigma_floor;
     R(1, 1) += config_.bearing_sigma_floor * config_.bearing_sigma_floor;
+    R /= evidence_share_;
     scratch_.log_new[i] = -0.5 * config_.association_gate - kLog2Pi - 0.5 * std::log(R.determinant());
   }
   scratch_.dual_flags.clear();
@@ -641,7 +674,21 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     for (Particle& p : particles_)
       p.history = std::make_shared<const HistoryNode<Pose2>>(p.pose, std::move(p.history));
   stats.landmarks = static_cast<int>(particles_[best_].map.size());
+  const PoseMoments cloud = moments();
+  stats.has_cloud = true;
+  stats.cloud_mean = Eigen::Vector2d(cloud.mean.x, cloud.mean.y);
+  stats.cloud_covariance = cloud.covariance.topLeftCorner<2, 2>();
   return stats;
+}
+
+bool insideRegion95(const Eigen::Vector2d& truth, const Eigen::Vector2d& mean, const Eigen::Matrix2d& covariance)
+{
+  constexpr double kChi2Dof2Quantile95 = 5.991;
+  const Eigen::Vector2d d = truth - mean;
+  const double det = covariance.determinant();
+  if (!(det > 0.0) || !covariance.allFinite())
+    return d.norm() == 0.0;
+  return d.dot(covariance.inverse() * d) <= kChi2Dof2Quantile95;
 }
 
 double FastSlam::weighPosition(const Eigen::Vector2d& position, const Eigen::Matrix2d& covariance,

@@ -19,7 +19,8 @@ const char* toString(HealthLevel level)
 const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particles)
 {
   window_.push_back({ particles > 0 ? s.neff / particles : 1.0, s.resampled, s.relocalizing, s.observations,
-                      s.matched, s.matched_confirmed, s.matched_prior, s.created, s.recreated, s.deleted, s.innovation_nis });
+                      s.matched, s.matched_confirmed, s.matched_prior, s.created, s.recreated, s.deleted, s.innovation_nis, s.claimed_nis,
+                      s.claimed_matches });
   while (static_cast<int>(window_.size()) > std::max(1, config_.window))
     window_.pop_front();
   HealthStatus h;
@@ -27,9 +28,12 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
   h.pose_spread = s.pose_spread;
   double neff = 0.0;
   int resampled = 0, relocalizing = 0, matched_confirmed = 0, matched = 0, matched_prior = 0;
-  double nis = 0.0;
+  double nis = 0.0, claimed = 0.0;
+  int claimed_matches = 0;
   for (const Entry& e : window_)
   {
+    claimed += e.claimed_nis;
+    claimed_matches += e.claimed_matches;
     neff += e.neff_ratio;
     resampled += e.resampled ? 1 : 0;
     relocalizing += e.relocalizing ? 1 : 0;
@@ -43,6 +47,8 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
     nis += e.nis;
   }
   h.mean_nis = matched > 0 ? nis / matched : 0.0;
+  h.claimed_nis = claimed_matches > 0 ? claimed / claimed_matches : 0.0;
+  h.overconfident = claimed_matches >= config_.min_observations && h.claimed_nis > config_.claimed_nis_warn;
   int recent_updates = 0, recent_observations = 0, recent_prior = 0;
   for (auto it = window_.rbegin(); it != window_.rend() && recent_updates < config_.prior_window; ++it)
   {
@@ -76,6 +82,15 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
                   "map being rebuilt: %.0f %% of %d observations matched confirmed landmarks, %d new landmarks in the "
                   "last %d updates",
                   100.0 * h.matched_confirmed_share, h.observations, h.created, h.updates);
+  }
+  else if (h.overconfident)
+  {
+    h.level = HealthLevel::kWarn;
+    std::snprintf(why, sizeof(why),
+                  "overconfident: the innovations average %.1f per match (2 expected) against the uncertainty the "
+                  "filter claims, over %d matches in the last %d updates: the pose is further off than the particles' "
+                  "spread says",
+                  h.claimed_nis, claimed_matches, h.updates);
   }
   else if (h.saved_map_unobserved)
   {

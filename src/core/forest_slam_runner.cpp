@@ -48,12 +48,8 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   std::vector<FastSlamConfig> filters;
   for (const auto& v : variants)
   {
-    FastSlamConfig f = v.filter;
-    // A spinning lidar's runs keep the forest scope; a 2D scanner's scope is the one its scans state.
-    if (!scans && !(f.min_range > 0.0))
-      f.min_range = kForestRunMinRange;
-    if (!scans && !(f.max_range > 0.0))
-      f.max_range = kForestRunMaxRange;
+    // The filter takes the scope its sensor states (as the node and slam_bag do); the 1-12 m ring only counts trees.
+    const FastSlamConfig& f = v.filter;
     filters.push_back(f);
     pipelines.emplace_back(new TrunkSlamPipeline(v.detector, f));  // sensor height from the mount
   }
@@ -84,6 +80,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   // pipeline consumes the list at its own pace.
   std::vector<std::pair<double, Pose2>> truth_at;
   std::vector<std::size_t> truth_next(n, 0);
+  std::vector<int> cover_updates(n, 0), cover_inside(n, 0);
   SimulatorOutput out;
   std::vector<Eigen::Vector3f> pts;
   int sweeps = 0;
@@ -119,7 +116,6 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
     for (std::size_t v = 0; v < n; ++v)
     {
       ForestSlamRunResult& res = results[v];
-      const FastSlamConfig& fc = filters[v];
       for (const PipelineUpdate& u : pipelines[v]->process(NAN, !more))
       {
         std::size_t& next = truth_next[v];
@@ -133,6 +129,12 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         res.odometry.push_back(u.odometry);
         res.truth.push_back(truth);
         res.update_stats.push_back(u.stats);
+        if (u.stats.has_cloud)
+        {
+          ++cover_updates[v];
+          cover_inside[v] += insideRegion95(Eigen::Vector2d(truth.x, truth.y), u.stats.cloud_mean,
+                                            u.stats.cloud_covariance);
+        }
         if (u.health.level == HealthLevel::kWarn)
           ++res.health_warnings;
         // Trees inside the true sensor's scope at this instant.
@@ -141,10 +143,8 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         {
           const Eigen::Vector2d rel = res.trees[k].position - Eigen::Vector2d(true_sensor.x, true_sensor.y);
           const double d = rel.norm();
-          // Counted as seen within the filter's configured ranges, else within the forest scope's 1-12 m.
-          const double seen_min = fc.min_range > 0.0 ? fc.min_range : kForestRunMinRange;
-          const double seen_max = fc.max_range > 0.0 ? fc.max_range : kForestRunMaxRange;
-          if (d < seen_min || d > seen_max)
+          // Counted as seen inside the 1-12 m ring, whatever the filter's scope.
+          if (d < kForestRunMinRange || d > kForestRunMaxRange)
             continue;
           if (scans)
           {
@@ -188,6 +188,8 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
       res.final_error = err(res.estimate.back(), res.truth.back());
       res.final_error_odometry = err(res.odometry.back(), res.truth.back());
       res.ate = absoluteTrajectoryRmse(res.estimate, res.truth);
+      if (cover_updates[v] > 0)
+        res.coverage = static_cast<double>(cover_inside[v]) / cover_updates[v];
       res.ate_odometry = absoluteTrajectoryRmse(res.odometry, res.truth);
     }
   }

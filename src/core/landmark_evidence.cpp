@@ -1,23 +1,69 @@
 #include "rbpf_slam/core/landmark_evidence.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "rbpf_slam/core/pose2.h"
 
 namespace rbpf_slam
 {
 namespace core
 {
-void LandmarkEvidence::initialize(Landmark* l) const
+const Eigen::Vector2d LandmarkEvidence::kNoView(std::numeric_limits<double>::quiet_NaN(),
+                                                std::numeric_limits<double>::quiet_NaN());
+
+namespace
 {
-  l->observations = 1;
-  l->evidence = config_.hit;
-  l->provisional = config_.confirm_observations > 1;
+void noteRange(Landmark* l, const Eigen::Vector2d& sensor)
+{
+  if (!sensor.allFinite())
+    return;
+  const double r = (sensor - l->mean).norm();
+  l->seen_range = std::isfinite(l->seen_range) ? std::max(l->seen_range, r) : r;
+}
+}  // namespace
+
+bool LandmarkEvidence::takeView(Landmark* l, const Eigen::Vector2d& sensor) const
+{
+  if (!(config_.view_change > 0.0) || !sensor.allFinite())
+    return true;
+  const Eigen::Vector2d d = sensor - l->mean;
+  const double range = d.norm();
+  if (!(range > 0.0))
+    return false;
+  const double direction = std::atan2(d.y(), d.x()), log_range = std::log(range);
+  if (std::isfinite(l->view_direction) && std::isfinite(l->view_log_range))
+  {
+    const double dd = wrapAngle(direction - l->view_direction), dr = log_range - l->view_log_range;
+    if (dd * dd + dr * dr < config_.view_change * config_.view_change)
+      return false;
+  }
+  l->view_direction = direction;
+  l->view_log_range = log_range;
+  return true;
 }
 
-void LandmarkEvidence::recordHit(Landmark* l) const
+void LandmarkEvidence::initialize(Landmark* l, const Eigen::Vector2d& sensor) const
+{
+  l->observations = 1;
+  l->views = 1;
+  l->evidence = config_.hit;
+  l->provisional = config_.confirm_observations > 1;
+  noteRange(l, sensor);
+  takeView(l, sensor);
+}
+
+void LandmarkEvidence::recordHit(Landmark* l, const Eigen::Vector2d& sensor) const
 {
   ++l->observations;
+  noteRange(l, sensor);
+  if (!takeView(l, sensor))
+    return;
+  ++l->views;
   l->evidence = std::min(config_.max, l->evidence + config_.hit);
-  if (l->observations >= config_.confirm_observations)
+  if (l->views >= config_.confirm_observations)
     l->provisional = false;
 }
 
@@ -25,6 +71,9 @@ MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandid
                                              const LandmarkMap& map, std::size_t k, const VisibilityScope& scope) const
 {
   const AssociationCandidate& cd = candidates[k];
+  // A landmark the detector names by its id is there: a miss says only that the detector did not report it.
+  if (map[cd.index].known_id)
+    return MissOutcome::kOutOfScope;
   // Inside the scope for sure: a landmark predicted within two standard deviations of its prediction from an edge
   // may well lie outside, and is not expected to be seen.
   const double range_margin = 2.0 * std::sqrt(std::max(0.0, cd.A(0, 0)));
@@ -39,6 +88,10 @@ MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandid
       return MissOutcome::kLeavingUnconfirmed;
     return MissOutcome::kOutOfScope;
   }
+  // Beyond the farthest range it was seen from, a trunk may be too thin for the beams' spacing there.
+  const double seen_range = map[cd.index].seen_range;
+  if (std::isfinite(seen_range) && cd.z.x() > seen_range + range_margin)
+    return MissOutcome::kOutOfScope;
   const double own_radius = map[cd.index].radius;
   for (std::size_t m = 0; m < candidates.size(); ++m)
   {
@@ -52,7 +105,8 @@ MissOutcome LandmarkEvidence::classifyUnseen(const std::vector<AssociationCandid
 }
 
 std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociation& association,
-                                          const VisibilityScope& scope, std::vector<Eigen::Vector2d>* removed)
+                                          const VisibilityScope& scope, std::vector<Eigen::Vector2d>* removed,
+                                          const Eigen::Vector2d& sensor)
 {
   const std::vector<AssociationCandidate>& candidates = association.candidates();
   to_delete_.clear();
@@ -69,6 +123,8 @@ std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociatio
       {
         bool remove = false;
         map->modify(candidates[k].index, [&](Landmark& l) {
+          if (!takeView(&l, sensor))
+            return;
           // A miss weighs as much as the sensor was likely to report the landmark: with detection probability
           // p a landmark that is there gains p * hit - (1 - p) * p * miss per look on average, > 0 for any p
           // when hit >= miss, so a sensor that reports few of the landmarks it sees does not erase its map,

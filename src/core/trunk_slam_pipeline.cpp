@@ -19,6 +19,80 @@ double since(std::chrono::steady_clock::time_point t0)
 }
 }  // namespace
 
+double evidenceShare(const FastSlamConfig& config, const std::vector<TrunkObservation>& trunks,
+                     const Pose2& sensor_motion)
+{
+  if (!(config.evidence_view_change > 0.0))
+    return 1.0;
+  std::vector<double> ranges;
+  ranges.reserve(trunks.size());
+  for (const TrunkObservation& t : trunks)
+    if (std::isfinite(t.center.x()) && std::isfinite(t.center.y()))
+      ranges.push_back(t.center.norm());
+  if (ranges.empty())
+    return 1.0;
+  const auto mid = ranges.begin() + static_cast<std::ptrdiff_t>(ranges.size() / 2);
+  std::nth_element(ranges.begin(), mid, ranges.end());
+  const double view = config.evidence_view_change;
+  return std::min(1.0, std::hypot(sensor_motion.x, sensor_motion.y) / (view * std::max(*mid, 1e-3)));
+}
+
+int fuseSkippedLooks(std::vector<LandmarkObservation>* obs, const Pose2& sensor,
+                     const std::vector<std::vector<LookPoint>>& skipped, double gate)
+{
+  int fused = 0;
+  for (LandmarkObservation& o : *obs)
+  {
+    const double c = std::cos(o.bearing), s = std::sin(o.bearing);
+    Eigen::Matrix2d J;  // d(x, y) / d(range, bearing) in the sensor frame
+    J << c, -o.range * s, s, o.range * c;
+    double sx = 0.0, sy = 0.0;
+    sensor.transformPoint(o.range * c, o.range * s, &sx, &sy);
+    const Eigen::Vector2d q(sx, sy);
+    const Eigen::Matrix2d rot = Eigen::Rotation2Dd(sensor.theta).toRotationMatrix();
+    // Two looks of one trunk differ by at most both their errors.
+    const Eigen::Matrix2d both = 2.0 * rot * J * o.covariance * J.transpose() * rot.transpose();
+    const Eigen::Matrix2d both_inv = both.inverse();
+    if (!both_inv.allFinite())
+      continue;
+    Eigen::Vector2d sum = q;
+    double radius_sum = o.radius;
+    int n = 1;
+    for (const std::vector<LookPoint>& sweep : skipped)
+    {
+      const LookPoint* best = nullptr;
+      double best_d2 = gate;
+      for (const LookPoint& l : sweep)
+      {
+        if (o.id >= 0 && l.id >= 0 && o.id != l.id)
+          continue;
+        const Eigen::Vector2d v = l.position - q;
+        const double d2 = v.dot(both_inv * v);
+        if (d2 < best_d2)
+        {
+          best_d2 = d2;
+          best = &l;
+        }
+      }
+      if (!best)
+        continue;
+      sum += best->position;
+      radius_sum += best->radius;
+      ++n;
+    }
+    if (n == 1)
+      continue;
+    fused += n - 1;
+    double mx = 0.0, my = 0.0;
+    const Eigen::Vector2d mean = sum / n;
+    sensor.inverse().transformPoint(mean.x(), mean.y(), &mx, &my);
+    o.range = std::hypot(mx, my);
+    o.bearing = std::atan2(my, mx);
+    o.radius = radius_sum / n;
+  }
+  return fused;
+}
+
 TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
                                      const PipelineTiming& timing)
   : SensorPipeline(timing)
@@ -61,6 +135,7 @@ void TrunkSlamPipeline::resetFilter()
   anchor_estimator_.clear();  // a restart begins a new map frame (unless a saved map's)
   viewpoints_.reset(prior_viewpoints_);
   pending_fixes_.clear();
+  between_.clear();
   gate_anchor_ = GeoAnchor();
   last_weigh_stamp_ = -1e300;
   next_anchor_check_ = -1e300;
@@ -571,12 +646,37 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   }
   // The motion since the last update in steps of about motion_step along the odometry's samples.
   const FastSlamConfig& fc = filter_->config();
+  const Pose2 mount_pose(sw.mount.x, sw.mount.y, sw.mount.yaw);
+  const double share = first ? 1.0 : evidenceShare(fc, sw.trunks, between(last_odometry_ * mount_pose,
+                                                                           odom_mid * mount_pose));
+  bool skip = !first && share < kMinEvidenceShare;
   if (!first && (fc.update_min_travel > 0.0 || fc.update_min_turn > 0.0))
   {
     const Pose2 d = between(last_odometry_, odom_mid);
-    if (std::hypot(d.x, d.y) < fc.update_min_travel && std::abs(d.theta) < fc.update_min_turn)
+    const bool travelled = fc.update_min_travel > 0.0 && std::hypot(d.x, d.y) >= fc.update_min_travel;
+    const bool turned = fc.update_min_turn > 0.0 && std::abs(d.theta) >= fc.update_min_turn;
+    skip = skip || (!travelled && !turned);
+  }
+  {
+    const Pose2 d = between(last_odometry_, odom_mid);
+    if (skip)
     {
-      // Too little motion for a new look at the trunks: the estimate follows the odometry from the last update.
+      // Too little motion for a new look at the trunks: the estimate follows the odometry from the last update, and
+      // the sweep's trunks wait (odometry frame) to be fused into the next update's.
+      const Pose2 sensor_mid = odom_mid * mount_pose;
+      std::vector<LookPoint> looks;
+      for (const LandmarkObservation& o : sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,
+                                                            sw.tilt_pitch, sw.mount, odometry_, t_mid, sw.geometry))
+      {
+        LookPoint l;
+        sensor_mid.transformPoint(o.range * std::cos(o.bearing), o.range * std::sin(o.bearing), &l.position.x(),
+                                  &l.position.y());
+        l.radius = o.radius;
+        l.id = o.id;
+        looks.push_back(l);
+      }
+      if (between_.size() < kMaxSkippedLooks)
+        between_.push_back(std::move(looks));
       PipelineUpdate u;
       u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);
       u.stamp = t_mid;
@@ -605,9 +705,11 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   filter_->predict(decomposeOdometry(from, odom_mid));
   last_odometry_ = odom_mid;
   last_stamp_ = t_mid;
-  const std::vector<LandmarkObservation> obs = sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,
-                                                                 sw.tilt_pitch, sw.mount, odometry_, t_mid,
-                                                                 sw.geometry);
+  std::vector<LandmarkObservation> obs = sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,
+                                                           sw.tilt_pitch, sw.mount, odometry_, t_mid, sw.geometry);
+  fuseSkippedLooks(&obs, odom_mid * mount_pose, between_, fc.association_gate);
+  between_.clear();
+  filter_->setEvidenceShare(share);
   PipelineUpdate u;
   u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
   filter_->setClock(t_mid);

@@ -48,6 +48,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("evidence_miss", &c->evidence_miss);
   p.get("evidence_max", &c->evidence_max);
   p.get("delete_evidence", &c->delete_evidence);
+  p.get("evidence_view_change", &c->evidence_view_change);
   p.get("confirm_observations", &c->confirm_observations);
   p.get("drop_unconfirmed_leaving_scope", &c->drop_unconfirmed_leaving_scope);
   readResamplingPolicy(p, &c->resampling);

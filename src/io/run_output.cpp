@@ -71,7 +71,7 @@ FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_table
   for (std::ostringstream* s : { &estimate_, &odometry_, &table_ })
     s->precision(12);
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
-            "pose_spread,relocalizing,health\n";
+            "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy\n";
 }
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
@@ -160,13 +160,19 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
   ++updates_;
   if (keep_tables_)
   {
-    stamps_.push_back(stamp);
+    if (st.has_cloud)
+      stamps_.push_back(stamp);  // the filter's updates: the best particle's history has one pose for each
     writeTumLine(estimate_, stamp, estimate);
     writeTumLine(odometry_, stamp, odometry);
     table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ','
            << st.observations << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored
            << ',' << st.matched_confirmed << ',' << st.recreated << ',' << st.pose_spread << ','
-           << (st.relocalizing ? 1 : 0) << ',' << core::toString(health.level) << '\n';
+           << (st.relocalizing ? 1 : 0) << ',' << core::toString(health.level);
+    if (st.has_cloud)
+      table_ << ',' << st.cloud_mean.x() << ',' << st.cloud_mean.y() << ',' << st.cloud_covariance(0, 0) << ','
+             << st.cloud_covariance(0, 1) << ',' << st.cloud_covariance(1, 1) << '\n';
+    else
+      table_ << ",,,,,\n";
   }
   if (health.level == core::HealthLevel::kWarn)
   {

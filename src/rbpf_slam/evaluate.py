@@ -29,6 +29,7 @@ rbpf_slam/TrunkArray (/ground_truth/landmarks of the converters, /ground_truth/t
 """
 import csv
 import math
+import os
 import struct
 
 import numpy as np
@@ -761,3 +762,53 @@ def _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fi
     if fit and no_fit_too:
         summary['no_fit'] = {'map': score_map(features, truth_map, gate)}
     return summary, transforms, None
+
+
+#: chi-square quantile of 95 % with 2 degrees of freedom: a position inside the region of a Gaussian.
+CHI2_2DOF_95 = 5.991
+
+
+def read_updates_csv(path):
+    """The run's updates.csv (slam_bag --out, the node's run folder): a dict of columns (numpy arrays) with
+    'stamp', 'health' (strings) and, where the run wrote them, the particle cloud's 'cloud_x', 'cloud_y',
+    'cloud_xx', 'cloud_xy', 'cloud_yy' (NaN for updates that took no sweep). None when the file is missing."""
+    if not os.path.exists(path):
+        return None
+    with open(path, newline='') as f:
+        rows = list(csv.DictReader(f))
+    out = {'stamp': np.array([float(r['stamp']) for r in rows]),
+           'health': [r.get('health', '') for r in rows]}
+    for k in ('cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy'):
+        out[k] = np.array([float(r[k]) if r.get(k) not in (None, '') else float('nan') for r in rows])
+    return out
+
+
+def coverage_95(updates, ref_t, ref_xy, r=None, t=None):
+    """Share of the reference positions that lie inside the 95 % region of the particle cloud of the update
+    nearest in time (its position mean and covariance, moved by the rigid fit r, t when given). Returns
+    (share, compared) or (None, 0) when the run wrote no cloud."""
+    if updates is None or not np.isfinite(updates['cloud_xx']).any():
+        return None, 0
+    ok = np.isfinite(updates['cloud_xx'])
+    st = updates['stamp'][ok]
+    mean = np.column_stack([updates['cloud_x'][ok], updates['cloud_y'][ok]])
+    cov = np.stack([np.column_stack([updates['cloud_xx'][ok], updates['cloud_xy'][ok]]),
+                    np.column_stack([updates['cloud_xy'][ok], updates['cloud_yy'][ok]])], axis=1)
+    r = np.eye(2) if r is None else np.asarray(r)
+    t = np.zeros(2) if t is None else np.asarray(t)
+    inside = 0
+    compared = 0
+    for tq, p in zip(ref_t, ref_xy):
+        i = int(np.searchsorted(st, tq))
+        cand = [j for j in (i - 1, i) if 0 <= j < len(st)]
+        if not cand:
+            continue
+        j = min(cand, key=lambda k: abs(st[k] - tq))
+        m = r @ mean[j] + t
+        c = r @ cov[j] @ r.T
+        d = p - m
+        compared += 1
+        det = np.linalg.det(c)
+        if det > 0 and float(d @ np.linalg.solve(c, d)) <= CHI2_2DOF_95:
+            inside += 1
+    return (inside / compared if compared else None), compared

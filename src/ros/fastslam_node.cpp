@@ -431,7 +431,7 @@ void FastSlamRos::processPending()
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publishHealth(u);
-    publish(ros::Time(u.stamp), u.odometry);
+    publish(ros::Time(u.stamp), u.odometry, u.estimate);
   }
 }
 
@@ -557,13 +557,13 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
   scope_pub_.publish(visualization_msgs::Marker::ConstPtr(m));
 }
 
-void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
+void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate)
 {
   const core::FastSlam& filter = pipeline_->filter();
   const core::Particle& best = filter.best();
-  // The estimate (the weighted mean, or the best particle chosen before resampling): never simply the first of an
+  // The pipeline's estimate: the filter's (the weighted mean, or the best particle chosen before resampling) at an
+  // update, followed by the odometry from it at a sweep that waited for a new view; never the first of an
   // equal-weight set, so that the pose and map -> odom do not jump at a resampling.
-  const core::Pose2 estimate = filter.estimate();
   publishScope(stamp);
 
   if (config_.publish_tf && tf_guard_.owned())
@@ -572,7 +572,7 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose)
                                                   estimate * odom_pose.inverse()));
 
   pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
-      poseWithCovariance(stamp, config_.map_frame, filter.meanPose(), filter.poseCovariance())));
+      poseWithCovariance(stamp, config_.map_frame, estimate, filter.poseCovariance())));
   if (particles_pub_.getNumSubscribers() > 0)
     particles_pub_.publish(
         boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter.particles())));

@@ -88,7 +88,7 @@ struct Series
 {
   std::string label, proposal, method;
   int particles = 0;
-  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate, driven, speed;
+  std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate, driven, speed, coverage;
   std::vector<std::string> rows;
   int failed = 0, collided = 0;
   int warned = 0, failed_warned = 0;  ///< runs whose filter health warned; failed runs among them
@@ -281,7 +281,7 @@ int main(int argc, char** argv)
           series.push_back(s);
         }
     const std::string world_name = world_path.substr(world_path.find_last_of('/') + 1);
-    const char* header = "%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s %6s\n";
+    const char* header = "%5s %9s %9s %8s %8s %8s %7s %5s %5s %8s %7s %8s %6s %6s\n";
     for (int s = first_seed; s < first_seed + seeds; ++s)
     {
       scenario.sim.seed = static_cast<std::uint64_t>(s);
@@ -300,10 +300,10 @@ int main(int argc, char** argv)
         Series& q = series[k];
         const double hz = r.sweeps / std::max(1e-9, r.seconds_extraction + r.seconds_filter);
         char row[256];
-        std::snprintf(row, sizeof(row), "%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f %6d\n", s,
-                      r.final_error, r.final_error_odometry, r.ate, r.ate_odometry, r.map.mean_distance,
+        std::snprintf(row, sizeof(row), "%5d %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5d %5d %8.2f %7d %8.1f %6d %5.1f%%\n",
+                      s, r.final_error, r.final_error_odometry, r.ate, r.ate_odometry, r.map.mean_distance,
                       100.0 * r.map.recall, r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz,
-                      r.health_warnings);
+                      r.health_warnings, 100.0 * r.coverage);
         q.rows.push_back(row);
         if (series.size() == 1)
         {
@@ -314,7 +314,7 @@ int main(int argc, char** argv)
                         world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
                         odometry_noise, first_seed, first_seed + seeds - 1);
             std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
-                        "r RMS cm", "sweeps", "rate Hz", "warned");
+                        "r RMS cm", "sweeps", "rate Hz", "warned", "cover");
           }
           std::fputs(row, stdout);
           std::fflush(stdout);
@@ -334,6 +334,7 @@ int main(int argc, char** argv)
         q.dup.push_back(r.map.duplicates);
         q.spur.push_back(r.map.spurious);
         q.rate.push_back(hz);
+        q.coverage.push_back(r.coverage);
         q.filter_rate.push_back(r.sweeps / std::max(1e-9, r.seconds_filter));
         const bool failed = (fail_ate > 0.0 ? r.ate > fail_ate : r.final_error > 1.0) || r.collided;
         q.failed += failed;
@@ -375,16 +376,17 @@ int main(int argc, char** argv)
                     world_name.c_str(), drive.c_str(), q.particles, q.method.c_str(), q.proposal.c_str(), mixture,
                     odometry_noise, first_seed, first_seed + seeds - 1);
         std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
-                    "r RMS cm", "sweeps", "rate Hz", "warned");
+                    "r RMS cm", "sweeps", "rate Hz", "warned", "cover");
         for (const auto& row : q.rows)
           std::fputs(row.c_str(), stdout);
       }
-      std::printf("median %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", median(q.fin),
-                  median(q.fin_dr), median(q.ate), median(q.ate_dr), median(q.dist), 100.0 * median(q.recall),
-                  median(q.dup), median(q.spur), 100.0 * median(q.rad), "", median(q.rate));
-      std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f\n", worst(q.fin),
+      std::printf("median %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f %6s %5.1f%%\n",
+                  median(q.fin), median(q.fin_dr), median(q.ate), median(q.ate_dr), median(q.dist),
+                  100.0 * median(q.recall), median(q.dup), median(q.spur), 100.0 * median(q.rad), "", median(q.rate),
+                  "", 100.0 * median(q.coverage));
+      std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f %6s %5.1f%%\n", worst(q.fin),
                   best(q.fin_dr), worst(q.ate), best(q.ate_dr), worst(q.dist), 100.0 * best(q.recall), worst(q.dup),
-                  worst(q.spur), 100.0 * worst(q.rad), "", best(q.rate));
+                  worst(q.spur), 100.0 * worst(q.rad), "", best(q.rate), "", 100.0 * best(q.coverage));
       if (!out_dir.empty())
       {
         const std::string dir = series.size() == 1 ? out_dir : out_dir + "/" + q.label;
@@ -402,14 +404,16 @@ int main(int argc, char** argv)
            << jsonStats("tree_to_feature_m", q.dist) << ",\n " << jsonStats("recall", q.recall, false) << ",\n "
            << jsonStats("duplicates", q.dup) << ",\n " << jsonStats("spurious", q.spur) << ",\n "
            << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << ",\n "
-           << jsonStats("filter_rate_hz", q.filter_rate, false) << "}\n";
+           << jsonStats("filter_rate_hz", q.filter_rate, false) << ",\n "
+           << jsonStats("coverage_95", q.coverage, false) << "}\n";
         io::writeFileAtomic(dir + "/summary.json", js.str());
         std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
       }
       std::printf("driven %.0f m (median), %.1f x real time (median; simulation and all variants of a seed)\n",
                   median(q.driven), median(q.speed));
-      std::printf("health: the filter warned that its map was being rebuilt in %d of %d runs ('warned': updates), in %d "
-                  "of the %d failed runs\n",
+      std::printf("health: the filter warned (map being rebuilt, or overconfident) in %d of %d runs ('warned': "
+                  "updates), in %d of the %d failed runs; 'cover': updates with the truth inside the cloud's 95 %% "
+                  "region\n",
                   q.warned, seeds, q.failed_warned, q.failed);
       if (fail_ate > 0.0)
         std::printf("failed runs (ATE > %.1f m, or a collision): %d of %d, collisions %d   (DR columns: the same runs' "

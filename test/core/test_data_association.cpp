@@ -216,3 +216,40 @@ TEST(DataAssociation, RepredictFromADrawnPoseRecomputesTheMatchedPairs)
   a.repredict(map, Pose2(0.1, 0.0, 0.0), obs, { R }, true);
   EXPECT_NEAR(a.logLikelihood(0, 0), -0.5 * 0.01 / s_rr - kLog2Pi - 0.5 * std::log(s_rr * s_bb), 1e-9);
 }
+
+TEST(DataAssociation, AnObservationWithAnIdFindsItsLandmarkWhereverItIsPredicted)
+{
+  LandmarkMap map;
+  Landmark near = landmarkAt(4.0, 0.0, 0.05);
+  near.id = 7;
+  near.known_id = true;
+  Landmark beyond = landmarkAt(13.0, 0.0, 0.05);  // predicted beyond the 12 m ring and its margin
+  beyond.id = 9;
+  beyond.known_id = true;
+  Landmark behind = landmarkAt(-5.0, 0.0, 0.05);  // behind a forward-looking sensor
+  behind.id = 11;
+  behind.known_id = true;
+  map.add(near);
+  map.add(beyond);
+  map.add(behind);
+  const VisibilityScope scope(1.0, 12.0, M_PI);
+  AssociationConfig config;
+  config.use_known_ids = true;
+  DataAssociation a(config);
+  a.selectCandidates(map, Pose2(), Pose2(), scope);
+  ASSERT_EQ(a.candidates().size(), 1u);
+  // The detector saw id 9 at 11.8 m (the landmark is off by more than the gate) and id 7.
+  std::vector<LandmarkObservation> obs{ observeFromOrigin(11.8, 0.0), observeFromOrigin(4.0, 0.0) };
+  obs[0].id = 9;
+  obs[1].id = 7;
+  const std::vector<Eigen::Matrix2d> R(2, 0.01 * Eigen::Matrix2d::Identity());
+  a.addNamedCandidates(map, Pose2(), Pose2(), obs);
+  ASSERT_EQ(a.candidates().size(), 2u);  // 11 is named by no observation
+  EXPECT_EQ(a.candidates()[0].index, 0u);
+  EXPECT_EQ(a.candidates()[1].index, 1u);
+  a.associate(map, obs, R);
+  ASSERT_GE(a.match(0), 0);
+  EXPECT_EQ(map[a.candidates()[static_cast<std::size_t>(a.match(0))].index].id, 9);
+  ASSERT_GE(a.match(1), 0);
+  EXPECT_EQ(map[a.candidates()[static_cast<std::size_t>(a.match(1))].index].id, 7);
+}

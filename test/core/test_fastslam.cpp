@@ -452,3 +452,12 @@ TEST(SweepObservations, EachTrunkIsCarriedFromItsOwnBeamTime)
   EXPECT_NEAR(along(scan), 0.1, 1e-9);
   EXPECT_NEAR(along(SweepGeometry()), 0.075, 1e-9);
 }
+
+TEST(FastSlamConsistency, TheTruthIsInsideTheRegionWhenTheSpreadCoversTheError)
+{
+  const Eigen::Matrix2d cov = Eigen::Vector2d(0.04, 0.01).asDiagonal();  // 0.2 m along x, 0.1 m along y
+  EXPECT_TRUE(insideRegion95(Eigen::Vector2d(0.4, 0.0), Eigen::Vector2d::Zero(), cov));   // 2 sigma
+  EXPECT_FALSE(insideRegion95(Eigen::Vector2d(0.0, 0.3), Eigen::Vector2d::Zero(), cov));  // 3 sigma
+  EXPECT_FALSE(insideRegion95(Eigen::Vector2d(0.01, 0.0), Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero()));
+  EXPECT_TRUE(insideRegion95(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero()));
+}

@@ -143,3 +143,84 @@ TEST(LandmarkEvidence, HitsConfirmAndCapMissesRemove)
   }
   EXPECT_TRUE(map.empty());
 }
+
+TEST(LandmarkEvidence, LooksCountOncePerView)
+{
+  EvidenceConfig config;
+  config.view_change = 0.17;
+  config.confirm_observations = 3;
+  const LandmarkEvidence evidence(config);
+  Landmark l = trunkAt(10.0, 0.0, 0.2, true);
+  evidence.initialize(&l, Eigen::Vector2d(0.0, 0.0));
+  EXPECT_EQ(l.views, 1);
+  const double first = l.evidence;
+  // A hundred sweeps from within a few centimetres: one view, no more evidence, still provisional.
+  for (int i = 0; i < 100; ++i)
+    evidence.recordHit(&l, Eigen::Vector2d(0.001 * i, 0.0));
+  EXPECT_EQ(l.observations, 101);
+  EXPECT_EQ(l.views, 1);
+  EXPECT_DOUBLE_EQ(l.evidence, first);
+  EXPECT_TRUE(l.provisional);
+  // Sideways by 2 m at 10 m (11 degrees): a new view; then closer by a fifth of the range: another.
+  evidence.recordHit(&l, Eigen::Vector2d(0.0, 2.0));
+  EXPECT_EQ(l.views, 2);
+  evidence.recordHit(&l, Eigen::Vector2d(1.8, 2.0));
+  EXPECT_EQ(l.views, 3);
+  EXPECT_FALSE(l.provisional);
+  EXPECT_GT(l.evidence, first);
+  // Without a view rule (or without a sensor position) every look counts, as before.
+  const LandmarkEvidence every{ EvidenceConfig() };
+  Landmark m = trunkAt(10.0, 0.0, 0.2, true);
+  every.initialize(&m, Eigen::Vector2d(0.0, 0.0));
+  every.recordHit(&m, Eigen::Vector2d(0.0, 0.0));
+  every.recordHit(&m);
+  EXPECT_EQ(m.views, 3);
+  EXPECT_FALSE(m.provisional);
+}
+
+TEST(LandmarkEvidence, MissesCountOncePerViewAndOnlyWhereTheTrunkWasSeenFrom)
+{
+  EvidenceConfig config;
+  config.view_change = 0.17;
+  LandmarkEvidence evidence(config);
+  const VisibilityScope scope(1.0, 30.0, 2.0 * M_PI);
+  LandmarkMap map;
+  Landmark seen_near = trunkAt(5.0, 0.0);
+  seen_near.seen_range = 6.0;   // seen from 6 m at most: at 5 m it is expected
+  Landmark seen_far = trunkAt(0.0, 20.0);
+  seen_far.seen_range = 8.0;    // predicted at 20 m, beyond where this thin trunk was ever seen
+  map.add(seen_near);
+  map.add(seen_far);
+  const double before = map[0].evidence;
+  const DataAssociation a = unseen(map, scope);
+  EXPECT_EQ(evidence.classifyUnseen(a.candidates(), map, 0, scope), MissOutcome::kMissed);
+  EXPECT_EQ(evidence.classifyUnseen(a.candidates(), map, 1, scope), MissOutcome::kOutOfScope);
+  // Fifty sweeps from the same place: one miss.
+  for (int i = 0; i < 50; ++i)
+    evidence.applyMisses(&map, a, scope, nullptr, Eigen::Vector2d(0.0, 0.0));
+  EXPECT_DOUBLE_EQ(map[0].evidence, before - config.miss * scope.detection_probability);
+  EXPECT_DOUBLE_EQ(map[1].evidence, before);
+  // The old rule (every sweep a look) would have removed it.
+  LandmarkEvidence every{ EvidenceConfig() };
+  LandmarkMap old_map;
+  old_map.add(seen_near);
+  const DataAssociation b = unseen(old_map, scope);
+  for (int i = 0; i < 50 && old_map.size() > 0; ++i)
+    every.applyMisses(&old_map, b, scope);
+  EXPECT_EQ(old_map.size(), 0u);
+}
+
+TEST(LandmarkEvidence, ALandmarkNamedByItsIdIsNeverMissed)
+{
+  LandmarkEvidence evidence;
+  const VisibilityScope scope(1.0, 30.0, 2.0 * M_PI);
+  LandmarkMap map;
+  Landmark named = trunkAt(5.0, 0.0, 0.2, true);
+  named.known_id = true;
+  named.id = 12;
+  map.add(named);
+  const DataAssociation a = unseen(map, scope);
+  for (int i = 0; i < 20; ++i)
+    EXPECT_EQ(evidence.applyMisses(&map, a, scope), 0u);
+  EXPECT_EQ(map.size(), 1u);
+}

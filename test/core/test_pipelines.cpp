@@ -302,3 +302,108 @@ TEST(TrunkSlamPipeline, FindsTheRobotAgainInItsSavedMapWhenTheHealthSaysItIsLost
   EXPECT_LT(found, 0.3) << with;
   EXPECT_EQ(with.substr(0, 13), "recoveries 1 ") << with;
 }
+
+namespace
+{
+TrunkObservation trunkSeenAt(double x, double y)
+{
+  TrunkObservation t;
+  t.center = Eigen::Vector2d(x, y);
+  t.radius = 0.2;
+  t.radius_variance = 1e-4;
+  t.range = t.center.norm();
+  t.bearing = std::atan2(y, x);
+  t.covariance = 1e-3 * Eigen::Matrix2d::Identity();
+  return t;
+}
+
+/** Runs @p sweeps sweeps 0.1 s apart of trunks at fixed places while the odometry moves @p speed m/s ahead. */
+std::vector<PipelineUpdate> driveBy(const FastSlamConfig& fc, int sweeps, double speed)
+{
+  TrunkSlamPipeline p(TrunkDetectorConfig(), fc);
+  for (int k = 0; k <= 2 * sweeps + 2; ++k)
+    p.addOdometry(0.05 * k, Pose2(speed * 0.05 * k, 0.0, 0.0));
+  const Eigen::Vector2d trees[3] = { { 8.0, 3.0 }, { 12.0, -4.0 }, { 15.0, 2.0 } };
+  for (int s = 0; s < sweeps; ++s)
+  {
+    TrunkSweep sweep;
+    sweep.stamp = 0.1 * s;
+    sweep.period = 0.0;
+    const double x = speed * 0.1 * s;
+    for (const Eigen::Vector2d& t : trees)
+      sweep.trunks.push_back(trunkSeenAt(t.x() - x, t.y()));
+    EXPECT_EQ(p.addTrunks(sweep), StampVerdict::kAccept);
+  }
+  return p.process(NAN, true);
+}
+
+int filtered(const std::vector<PipelineUpdate>& updates)
+{
+  int n = 0;
+  for (const PipelineUpdate& u : updates)
+    n += u.filtered ? 1 : 0;
+  return n;
+}
+}  // namespace
+
+TEST(TrunkSlamPipeline, ATravelGateAloneTakesOneSweepPerItsDistance)
+{
+  FastSlamConfig fc;
+  fc.particles = 10;
+  fc.evidence_view_change = 0.0;
+  fc.update_min_travel = 0.45;  // no turn threshold: travel alone decides
+  fc.update_min_turn = 0.0;
+  const std::vector<PipelineUpdate> done = driveBy(fc, 30, 1.0);  // 0.1 m per sweep, 2.9 m in all
+  ASSERT_EQ(done.size(), 30u);
+  EXPECT_EQ(filtered(done), 6);  // the first, then every 0.5 m
+}
+
+TEST(TrunkSlamPipeline, StandingStillAddsNoEvidence)
+{
+  FastSlamConfig fc;
+  fc.particles = 10;  // the default view rule
+  const std::vector<PipelineUpdate> still = driveBy(fc, 40, 0.0);
+  ASSERT_EQ(still.size(), 40u);
+  EXPECT_EQ(filtered(still), 1);  // the first look only
+  // Driving at 1 m/s past trunks about 12 m away: every sweep is given to the filter, each weighed as a share.
+  const std::vector<PipelineUpdate> moving = driveBy(fc, 40, 1.0);
+  EXPECT_EQ(filtered(moving), 40);
+}
+
+TEST(TrunkSlamPipeline, EvidenceShareIsTheNewViewASweepBrings)
+{
+  FastSlamConfig fc;
+  fc.evidence_view_change = 0.2;
+  const std::vector<TrunkObservation> trunks{ trunkSeenAt(10.0, 0.0), trunkSeenAt(0.0, 4.0), trunkSeenAt(-20.0, 0.0) };
+  // Median range 10 m: a new view after 2 m.
+  EXPECT_NEAR(evidenceShare(fc, trunks, Pose2(1.0, 0.0, 0.0)), 0.5, 1e-12);
+  EXPECT_NEAR(evidenceShare(fc, trunks, Pose2(0.0, 0.2, 0.3)), 0.1, 1e-12);  // turning on the spot adds no view
+  EXPECT_DOUBLE_EQ(evidenceShare(fc, trunks, Pose2(5.0, 0.0, 0.0)), 1.0);
+  EXPECT_DOUBLE_EQ(evidenceShare(fc, {}, Pose2()), 1.0);  // no trunk: nothing to count twice
+  fc.evidence_view_change = 0.0;
+  EXPECT_DOUBLE_EQ(evidenceShare(fc, trunks, Pose2()), 1.0);
+}
+
+TEST(TrunkSlamPipeline, SkippedLooksAreFusedIntoTheNextUpdateAsOneLook)
+{
+  LandmarkObservation o;
+  o.range = 5.0;
+  o.bearing = 0.0;
+  o.covariance << 0.01, 0.0, 0.0, 0.0004;
+  o.radius = 0.2;
+  const Pose2 sensor(1.0, 0.0, 0.0);  // odometry frame: the trunk is at (6, 0)
+  std::vector<std::vector<LookPoint>> skipped(2);
+  skipped[0].push_back({ Eigen::Vector2d(6.1, 0.0), 0.3, -1 });
+  skipped[0].push_back({ Eigen::Vector2d(9.0, 0.0), 0.2, -1 });  // another trunk
+  skipped[1].push_back({ Eigen::Vector2d(5.9, 0.03), 0.1, -1 });
+  std::vector<LandmarkObservation> obs{ o };
+  EXPECT_EQ(fuseSkippedLooks(&obs, sensor, skipped, 13.8), 2);
+  EXPECT_NEAR(obs[0].range, std::hypot(5.0, 0.01), 1e-9);
+  EXPECT_NEAR(obs[0].radius, 0.2, 1e-12);
+  EXPECT_TRUE(obs[0].covariance.isApprox(o.covariance)) << "counted as one look";
+  // Looks of another id are not the same trunk.
+  o.id = 4;
+  skipped[1][0].id = 5;
+  std::vector<LandmarkObservation> named{ o };
+  EXPECT_EQ(fuseSkippedLooks(&named, sensor, skipped, 13.8), 1);
+}

@@ -228,3 +228,24 @@ TEST(FilterHealth, InASavedMapFewMatchesToItsTreesWarnAfterAShortWindow)
   for (int i = 0; i < 200; ++i)
     EXPECT_EQ(fresh.add(s, 100).level, HealthLevel::kOk);
 }
+
+TEST(FilterHealth, InnovationsBeyondTheClaimedUncertaintyWarn)
+{
+  FilterHealth h;
+  FastSlamUpdateStats s;
+  s.observations = 3;
+  s.matched = 3;
+  s.matched_confirmed = 3;
+  s.neff = 80;
+  s.claimed_matches = 3;
+  s.claimed_nis = 3 * 2.1;  // chi-square, 2 dof: about 2 per match when the spread covers the error
+  for (int i = 0; i < 100; ++i)
+    EXPECT_EQ(h.add(s, 100).level, HealthLevel::kOk) << h.status().message;
+  EXPECT_NEAR(h.status().claimed_nis, 2.1, 1e-12);
+  s.claimed_nis = 3 * 30.0;  // errors about four times what the cloud claims
+  for (int i = 0; i < 30; ++i)
+    h.add(s, 100);
+  EXPECT_EQ(h.status().level, HealthLevel::kWarn);
+  EXPECT_TRUE(h.status().overconfident);
+  EXPECT_NE(h.status().message.find("overconfident"), std::string::npos) << h.status().message;
+}

@@ -23,14 +23,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 _tool = built_tool
 
 
-def _cloud(stamp, kind='float32', n_trunk=400):
-    """A trunk of radius 0.2 m 4 m ahead (points from 0.5 m below to 1.5 m above the sensor) as a cloud."""
+def _cloud(stamp, kind='float32', n_trunk=400, ahead=4.0):
+    """A trunk of radius 0.2 m @p ahead metres ahead (points from 0.5 m below to 1.5 m above the sensor) as a
+    cloud."""
     pts = []
     for k in range(20):
         z = -0.5 + 0.1 * k
         for j in range(n_trunk // 20):
             phi = math.pi - 1.0 + 2.0 * j / (n_trunk // 20)
-            pts.append((4.0 + 0.2 * math.cos(phi), 0.2 * math.sin(phi), z))
+            pts.append((ahead + 0.2 * math.cos(phi), 0.2 * math.sin(phi), z))
     fmt, size, dt = ('fff', 4, PointField.FLOAT32) if kind != 'float64' else ('ddd', 8, PointField.FLOAT64)
     msg = PointCloud2()
     msg.header.stamp = stamp
@@ -85,7 +86,8 @@ def _bag(path, n=30, kinds=(), scans=False, clouds=True, odom=True):
                 bag.write('/odom', od, stamp)
             if k % 2 == 1 and k // 2 < n:
                 if clouds:
-                    bag.write('/points', _cloud(stamp, kinds.get(k // 2, 'float32')), stamp)
+                    # One tree standing 5 m ahead of the start: the robot drives towards it.
+                    bag.write('/points', _cloud(stamp, kinds.get(k // 2, 'float32'), ahead=5.0 - 0.025 * k), stamp)
                 if scans:
                     bag.write('/scan', _scan(stamp), stamp)
     return path

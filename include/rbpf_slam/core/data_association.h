@@ -63,6 +63,14 @@ public:
                         const VisibilityScope& scope, const Eigen::Matrix3d* pose_covariance = nullptr);
 
   /**
+   * @brief Known association (use_known_ids): adds as candidates the landmarks whose id an observation of @p obs
+   * names and that selectCandidates() left out (predicted outside the scope), so that an observation with an id
+   * is never dropped for where its landmark is predicted. Keeps the candidates in ascending map index.
+   */
+  void addNamedCandidates(const LandmarkMap& map, const Pose2& base, const Pose2& sensor_in_base,
+                          const std::vector<LandmarkObservation>& obs, const Eigen::Matrix3d* pose_covariance = nullptr);
+
+  /**
    * @brief Gating and the likelihood table of @p obs (noise @p R per observation, with any floor) against the
    * candidates, then stable matching. A pair is inside the gate when its squared Mahalanobis distance is below
    * the gate and, when both radii are known and use_radius is set, so is the radius's; its likelihood is then

@@ -71,9 +71,9 @@ struct FastSlamConfig
   double motion_step = 0.2;
   double motion_step_angle = 0.2;
   /// The filter takes a sweep only once the robot has driven update_min_travel [m] or turned update_min_turn
-  /// [rad] since its last update (0, 0: every sweep); in between, the estimate follows the odometry. The errors of
-  /// successive sweeps of the same trunks are not independent (the same fit bias, the same clutter): taking
-  /// every sweep of a 10 Hz lidar as independent evidence makes the weights far too sure and the cloud collapse.
+  /// [rad] since its last update (0, 0: every sweep); in between, the estimate follows the odometry and the skipped
+  /// sweeps' trunks are fused into the next update's (fuseSkippedLooks). Without it, each sweep is weighed by the
+  /// share of a look it carries (evidence_view_change, evidenceShare()).
   double update_min_travel = 0.0;
   double update_min_turn = 0.0;
 
@@ -98,7 +98,8 @@ struct FastSlamConfig
   double association_gate = 13.8;  ///< 99.9 % of a true match
   bool use_radius = true;          ///< add the trunk radius's consistency to the likelihood
   /// Associate by the detector's landmark id where it gives one (>= 0; e.g. a data set with known association):
-  /// an observation updates the landmark of its id, without a gate, or starts it.
+  /// an observation updates the landmark of its id, without a gate and wherever it is predicted (inside the scope or
+  /// not), or starts it; a landmark named by an id is never deleted by the miss rule.
   bool use_known_ids = false;
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
   /// [m] a tree of a saved map starts with at least this standard deviation of its centre (the filter's own
@@ -119,6 +120,13 @@ struct FastSlamConfig
   double evidence_max = 6.0;
   double delete_evidence = -1.5;
   int confirm_observations = 3;
+  /// [rad] Evidence counted once per view. A sweep's likelihood is tempered by the share of a new view it brings
+  /// (the sensor's travel over this angle times its trunks' median range, or its turn over this angle:
+  /// evidenceShare()), and a hit or a miss changes a landmark's existence, and counts towards its confirmation,
+  /// only when its direction from the landmark has turned by this angle, or its range changed by this share, since
+  /// the last counted look (EvidenceConfig::view_change). 10 degrees: the line of sight then passes other parts of
+  /// the occluders near the tree and fits another part of its bark. 0: every sweep counts as an independent look.
+  double evidence_view_change = 0.17;
   // A provisional landmark that leaves the visibility scope before it is confirmed is dropped: a tentative
   // track that did not make it (a trunk-like object glimpsed once at the scope's edge), not a tree.
   bool drop_unconfirmed_leaving_scope = true;
@@ -202,7 +210,24 @@ struct FastSlamUpdateStats
   /// Sum over the best particle's matches of the squared Mahalanobis distance of the innovation: a filter whose
   /// pose error stays within its uncertainty averages 2 per match (chi-square, 2 dof).
   double innovation_nis = 0.0;
+  /// The same against all the uncertainty the filter claims (the landmark's, one independent look's noise and
+  /// the particle cloud's spread before the update), over claimed_matches matches of the best particle: about 2
+  /// per match when the claimed uncertainty covers the errors, far more when the cloud is surer than it should be.
+  double claimed_nis = 0.0;
+  int claimed_matches = 0;
+  /// The particles after the update (weighted; after resampling if it happened): mean and covariance of the
+  /// position, and whether they were computed (false for an update that took no sweep).
+  bool has_cloud = false;
+  Eigen::Vector2d cloud_mean = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d cloud_covariance = Eigen::Matrix2d::Zero();
 };
+
+/**
+ * @brief Whether @p truth lies inside the 95 % region of the position Gaussian (@p mean, @p covariance), the
+ * squared Mahalanobis distance within the chi-square 2-dof quantile 5.991. A singular covariance (every particle
+ * at one place) covers only its own point.
+ */
+bool insideRegion95(const Eigen::Vector2d& truth, const Eigen::Vector2d& mean, const Eigen::Matrix2d& covariance);
 
 /**
  * @brief FastSLAM 2.0 proposal step: conditions the pose Gaussian (@p mean, @p covariance) of base_link on
@@ -269,6 +294,8 @@ public:
 
   /** @brief [s] The time of the observations of the next update(): a landmark's first_seen and last_seen. */
   void setClock(double stamp) { clock_ = stamp; }
+  /** @brief The share in (0, 1] of one independent look that the next update's observations carry. */
+  void setEvidenceShare(double share) { evidence_share_ = share; }
 
   const std::vector<Particle>& particles() const { return particles_; }
   const FastSlamConfig& config() const { return config_; }
@@ -347,6 +374,7 @@ private:
   std::vector<Particle> particles_;
   Random random_;
   int next_id_ = 0;
+  double evidence_share_ = 1.0;
   double clock_ = NAN;  ///< [s] the time of the observations of the next update (setClock)
   std::vector<double> weights_;
   std::vector<double> weights_before_;  ///< normalised weights before the last resampling

@@ -14,7 +14,7 @@ namespace core
 enum class HealthLevel
 {
   kOk,
-  kWarn,  ///< the map is being rebuilt rather than re-observed (the pose is likely lost)
+  kWarn,  ///< the map is being rebuilt rather than re-observed (the pose is likely lost), or the cloud is too sure
 };
 
 struct HealthConfig
@@ -33,6 +33,10 @@ struct HealthConfig
   /// saved map (the rule is off).
   double matched_prior_warn = -1.0;
   int prior_window = 30;
+  /// Warn when the best particle's innovations, against all the uncertainty the filter claims (claimed_nis),
+  /// average more than this per match over the window (at least min_observations matches): chi-square with 2
+  /// degrees of freedom averages 2, and 6 means errors about 1.7 times what the cloud's spread and the noise allow.
+  double claimed_nis_warn = 6.0;
 };
 
 /** @brief The figures of the window and the verdict. */
@@ -56,6 +60,10 @@ struct HealthStatus
   /// Mean squared Mahalanobis distance of the window's matches (2 for a filter whose errors are within its
   /// uncertainty; far above: the pose is further off than the particles' spread says).
   double mean_nis = 0.0;
+  /// The same against the claimed uncertainty (FastSlamUpdateStats::claimed_nis), per match; 0 without matches.
+  double claimed_nis = 0.0;
+  /// the claimed-uncertainty rule alone (claimed_nis_warn): the cloud is surer than its innovations allow
+  bool overconfident = false;
 };
 
 /**
@@ -81,6 +89,8 @@ private:
     bool resampled, relocalizing;
     int observations, matched, matched_confirmed, matched_prior, created, recreated, deleted;
     double nis;
+    double claimed_nis;
+    int claimed_matches;
   };
   HealthConfig config_;
   std::deque<Entry> window_;

@@ -22,6 +22,12 @@ struct EvidenceConfig
   int confirm_observations = 3;  ///< provisional until seen this many times
   /// Drop a provisional landmark that leaves the scope's far edge before it is confirmed.
   bool drop_unconfirmed_leaving_scope = true;
+  /// [rad] Looks at a landmark count as evidence once per view: a hit or a miss changes its existence, and a hit
+  /// brings it nearer confirmation, only when the sensor sees it from a new viewpoint, one whose direction from
+  /// the landmark differs from that of the last counted look by this angle or whose range differs by this share
+  /// (the distance sqrt(d_direction^2 + d_ln(range)^2)). Looks from about the same place repeat the same
+  /// occlusions, the same clutter and the same fit, and are not independent evidence. 0: every look counts.
+  double view_change = 0.0;
 };
 
 /** @brief What becomes of a candidate that took no observation. */
@@ -45,10 +51,16 @@ public:
 
   const EvidenceConfig& config() const { return config_; }
 
-  /** @brief A new landmark's existence after its first sighting. */
-  void initialize(Landmark* l) const;
-  /** @brief One more match of @p l: evidence up to the ceiling, confirmed after enough matches. */
-  void recordHit(Landmark* l) const;
+  /** @brief A new landmark's existence after its first sighting from @p sensor (map frame; NaN: not known). */
+  void initialize(Landmark* l, const Eigen::Vector2d& sensor = kNoView) const;
+  /**
+   * @brief One more match of @p l seen from @p sensor (map frame): evidence up to the ceiling and one view nearer
+   * confirmation when the view is new (always when @p sensor is NaN or view_change is 0).
+   */
+  void recordHit(Landmark* l, const Eigen::Vector2d& sensor = kNoView) const;
+  /** @brief Whether a look at @p l from @p sensor is a new view (and if so marks it as the last counted one). */
+  bool takeView(Landmark* l, const Eigen::Vector2d& sensor) const;
+  static const Eigen::Vector2d kNoView;
 
   /**
    * @brief Expected-miss test of candidate @p k (of @p candidates, predicted in @p map) that took no
@@ -61,10 +73,10 @@ public:
    * @brief Applies the misses of the candidates of @p association that took no observation to @p map and
    * removes the landmarks dropped or below delete_below. Returns how many were removed. Landmarks added to
    * @p map after the association are not candidates and are left alone. With @p removed, the positions of the
-   * confirmed landmarks removed are added to it.
+   * confirmed landmarks removed are added to it. A miss counts once per view from @p sensor (map frame).
    */
   std::size_t applyMisses(LandmarkMap* map, const DataAssociation& association, const VisibilityScope& scope,
-                          std::vector<Eigen::Vector2d>* removed = nullptr);
+                          std::vector<Eigen::Vector2d>* removed = nullptr, const Eigen::Vector2d& sensor = kNoView);
 
 private:
   EvidenceConfig config_;

@@ -26,6 +26,9 @@ struct Landmark
   int observations = 0;          ///< matches so far
   bool provisional = true;       ///< until seen confirm_observations times
   int id = 0;                    ///< unique within the filter (for visualisation and evaluation)
+  /// The id is the detector's (known association): the landmark is matched by it wherever it is predicted, and
+  /// never deleted by the miss rule.
+  bool known_id = false;
   double first_seen = NAN;       ///< [s] the filter's clock at the first sighting (NaN: not known)
   double last_seen = NAN;        ///< [s] the filter's clock at the last match (NaN: not known)
   /// The radius from this run's observations alone (a tree of a saved map keeps its old radius in `radius`, fused
@@ -33,6 +36,14 @@ struct Landmark
   double visit_radius = NAN;
   double visit_radius_variance = 0.0;
   int visit_observations = 0;
+  /// Distinct views that counted as evidence (see EvidenceConfig::view_change), and the last of them: the direction
+  /// [rad] from the landmark to the sensor and the log of the range [ln m] (NaN: none yet).
+  int views = 0;
+  double view_direction = NAN;
+  double view_log_range = NAN;
+  /// [m] The farthest range it was seen from in this run (NaN: not known). It is expected to be seen, and missed
+  /// when it is not, only that near: how far a sensor detects a trunk depends on its size and the beams' spacing.
+  double seen_range = NAN;
 };
 
 /**

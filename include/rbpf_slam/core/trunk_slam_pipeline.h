@@ -164,6 +164,36 @@ struct TimelineMap
   GeoAnchor anchor;
 };
 
+/** @brief A trunk seen in a sweep that the filter skipped, in the odometry frame. */
+struct LookPoint
+{
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();  ///< [m] odometry frame
+  double radius = 0.0;                                  ///< [m]
+  int id = -1;
+};
+
+/**
+ * @brief Fuses the looks skipped since the last update into @p obs (seen from @p sensor, odometry frame): each
+ * observation takes the mean position and radius of itself and of the nearest skipped look of each sweep inside
+ * the association gate @p gate (same id where ids are known), and keeps its own covariance. The looks from
+ * nearby poses share most of their error, so they are counted as one look: the mean removes the part that
+ * differs between them, the covariance stays that of one. Returns how many skipped looks were fused.
+ */
+int fuseSkippedLooks(std::vector<LandmarkObservation>* obs, const Pose2& sensor,
+                     const std::vector<std::vector<LookPoint>>& skipped, double gate);
+
+/**
+ * @brief The share of one independent look that a sweep carries (evidence counted once), from the sensor's motion
+ * @p sensor_motion since the last update: its travel over evidence_view_change times the median range of the
+ * sweep's trunks (the travel after which they are seen from a new view), or its turn over evidence_view_change,
+ * whichever is more, at most 1. Sweeps of the same trunks from about the same place repeat the same errors (the fit
+ * of the same visible arc, the same occluders, the same clutter): the filter weighs each sweep's likelihood by
+ * this share (tempered likelihood: the observation covariance divided by it), so that standing still or creeping
+ * adds no more confidence than the looks it brings. 1 when evidence_view_change is 0 or the sweep saw no trunk.
+ */
+double evidenceShare(const FastSlamConfig& config, const std::vector<TrunkObservation>& trunks,
+                     const Pose2& sensor_motion);
+
 /**
  * @brief Trunk extraction and FastSLAM on stamped sweeps and wheel odometry, ROS-free: the one pipeline of the
  * FastSLAM nodelet (fed with TrunkArray messages: addTrunks) and of every offline runner (the bag runner and the
@@ -297,6 +327,14 @@ private:
     double travel = 0.0;  ///< odometry travel at the last sighting
   };
   std::vector<Gathered> gathered_;
+  /// The observations of the sweeps skipped since the last update (updateMinTravel), in the odometry frame: fused
+  /// into the next update's observations of the same trunks.
+  std::vector<std::vector<LookPoint>> between_;
+  /// Skipped sweeps kept for fusion (a robot that stands still for minutes keeps the first ones).
+  static constexpr std::size_t kMaxSkippedLooks = 100;
+  /// A sweep that carries less than this share of a look (evidenceShare; e.g. standing still) is not given to the
+  /// filter: the estimate follows the odometry, and its trunks are fused into the next update's.
+  static constexpr double kMinEvidenceShare = 0.01;
   double search_travel_ = 0.0;
   bool search_started_ = false;
   Pose2 search_last_odometry_;

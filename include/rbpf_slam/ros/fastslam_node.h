@@ -110,7 +110,8 @@ private:
   bool toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sweep);
   /** @brief sensor -> base_link (planar) from TF, cached per frame; false when unavailable. */
   bool sensorPose(const std::string& frame, core::Pose2* pose);
-  void publish(const ros::Time& stamp, const core::Pose2& odom_pose);
+  /** @brief The estimate @p estimate (map frame) and odometry @p odom_pose at @p stamp: TF, pose, path, map. */
+  void publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate);
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
   bool writeInventory(const std::string& path, std::string* message);
