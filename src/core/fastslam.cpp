@@ -587,8 +587,9 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
 }
 
 FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
-                                     const SensorScope& sensor_scope)
+                                     const SensorScope& sensor_scope, double evidence_share)
 {
+  evidence_share_ = evidence_share > 0.0 && evidence_share <= 1.0 ? evidence_share : 1.0;
   scope_ = effectiveScope(config_.configuredScope(), sensor_scope, FastSlamConfig::fallbackScope());
   sweep_complete_ = sensor_scope.complete;
   FastSlamUpdateStats stats;

@@ -25,23 +25,30 @@ void noteRange(Landmark* l, const Eigen::Vector2d& sensor)
 }
 }  // namespace
 
-bool LandmarkEvidence::takeView(Landmark* l, const Eigen::Vector2d& sensor) const
+bool LandmarkEvidence::isNewView(const Landmark& l, const Eigen::Vector2d& sensor) const
 {
   if (!(config_.view_change > 0.0) || !sensor.allFinite())
     return true;
-  const Eigen::Vector2d d = sensor - l->mean;
+  const Eigen::Vector2d d = sensor - l.mean;
   const double range = d.norm();
   if (!(range > 0.0))
     return false;
-  const double direction = std::atan2(d.y(), d.x()), log_range = std::log(range);
-  if (std::isfinite(l->view_direction) && std::isfinite(l->view_log_range))
+  if (!std::isfinite(l.view_direction) || !std::isfinite(l.view_log_range))
+    return true;
+  const double dd = wrapAngle(std::atan2(d.y(), d.x()) - l.view_direction), dr = std::log(range) - l.view_log_range;
+  return dd * dd + dr * dr >= config_.view_change * config_.view_change;
+}
+
+bool LandmarkEvidence::takeView(Landmark* l, const Eigen::Vector2d& sensor) const
+{
+  if (!isNewView(*l, sensor))
+    return false;
+  if (sensor.allFinite())
   {
-    const double dd = wrapAngle(direction - l->view_direction), dr = log_range - l->view_log_range;
-    if (dd * dd + dr * dr < config_.view_change * config_.view_change)
-      return false;
+    const Eigen::Vector2d d = sensor - l->mean;
+    l->view_direction = std::atan2(d.y(), d.x());
+    l->view_log_range = std::log(d.norm());
   }
-  l->view_direction = direction;
-  l->view_log_range = log_range;
   return true;
 }
 
@@ -121,10 +128,12 @@ std::size_t LandmarkEvidence::applyMisses(LandmarkMap* map, const DataAssociatio
         break;
       case MissOutcome::kMissed:
       {
+        // Not a new view: nothing changes, and the landmark's chunk stays shared with the other particles.
+        if (!isNewView((*map)[candidates[k].index], sensor))
+          break;
         bool remove = false;
         map->modify(candidates[k].index, [&](Landmark& l) {
-          if (!takeView(&l, sensor))
-            return;
+          takeView(&l, sensor);
           // A miss weighs as much as the sensor was likely to report the landmark: with detection probability
           // p a landmark that is there gains p * hit - (1 - p) * p * miss per look on average, > 0 for any p
           // when hit >= miss, so a sensor that reports few of the landmarks it sees does not erase its map,

@@ -1,11 +1,11 @@
 #include "rbpf_slam/core/trunk_slam_pipeline.h"
 
-#include <chrono>
-
-#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
+
+#include <Eigen/Eigenvalues>
 
 namespace rbpf_slam
 {
@@ -709,11 +709,10 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
                                                            sw.tilt_pitch, sw.mount, odometry_, t_mid, sw.geometry);
   fuseSkippedLooks(&obs, odom_mid * mount_pose, between_, fc.association_gate);
   between_.clear();
-  filter_->setEvidenceShare(share);
   PipelineUpdate u;
-  u.mount = Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw);  // the filter's sensor pose on base_link
+  u.mount = mount_pose;  // the filter's sensor pose on base_link
   filter_->setClock(t_mid);
-  u.stats = filter_->update(obs, u.mount, sw.scope);
+  u.stats = filter_->update(obs, u.mount, sw.scope, share);
   useFixes(t_mid, odom_mid);
   u.relocalization = search;
   u.health = health_.add(u.stats, filter_->config().particles);

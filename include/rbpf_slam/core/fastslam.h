@@ -279,10 +279,11 @@ public:
   void predict(const OdometryIncrement& u);
   /**
    * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
-   * is low. @p sensor is the sensor's pose on base_link (its planar part).
+   * is low. @p sensor is the sensor's pose on base_link (its planar part). @p evidence_share in (0, 1] is the share
+   * of one independent look the observations carry (evidenceShare()): their covariance is divided by it.
    */
   FastSlamUpdateStats update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
-                             const SensorScope& sensor_scope = SensorScope());
+                             const SensorScope& sensor_scope = SensorScope(), double evidence_share = 1.0);
 
   /**
    * @brief Weighs the particles by a measurement of a point @p lever on base_link (e.g. a satellite antenna) at
@@ -294,8 +295,6 @@ public:
 
   /** @brief [s] The time of the observations of the next update(): a landmark's first_seen and last_seen. */
   void setClock(double stamp) { clock_ = stamp; }
-  /** @brief The share in (0, 1] of one independent look that the next update's observations carry. */
-  void setEvidenceShare(double share) { evidence_share_ = share; }
 
   const std::vector<Particle>& particles() const { return particles_; }
   const FastSlamConfig& config() const { return config_; }
@@ -374,7 +373,7 @@ private:
   std::vector<Particle> particles_;
   Random random_;
   int next_id_ = 0;
-  double evidence_share_ = 1.0;
+  double evidence_share_ = 1.0;  ///< of the update running (update()'s evidence_share)
   double clock_ = NAN;  ///< [s] the time of the observations of the next update (setClock)
   std::vector<double> weights_;
   std::vector<double> weights_before_;  ///< normalised weights before the last resampling

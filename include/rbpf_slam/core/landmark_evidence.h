@@ -58,7 +58,9 @@ public:
    * confirmation when the view is new (always when @p sensor is NaN or view_change is 0).
    */
   void recordHit(Landmark* l, const Eigen::Vector2d& sensor = kNoView) const;
-  /** @brief Whether a look at @p l from @p sensor is a new view (and if so marks it as the last counted one). */
+  /** @brief Whether a look at @p l from @p sensor (map frame) is a new view (view_change). */
+  bool isNewView(const Landmark& l, const Eigen::Vector2d& sensor) const;
+  /** @brief isNewView(), and if so marks the look as the last counted one. */
   bool takeView(Landmark* l, const Eigen::Vector2d& sensor) const;
   static const Eigen::Vector2d kNoView;
 
