@@ -83,6 +83,22 @@ const char* toString(PoseProposal p)
   return p == PoseProposal::kFastSlam2 ? "fastslam2" : "fastslam1";
 }
 
+bool parseMotionModel(const std::string& name, MotionModel* out)
+{
+  if (name == "odometry")
+    *out = MotionModel::kOdometry;
+  else if (name == "velocity")
+    *out = MotionModel::kVelocity;
+  else
+    return false;
+  return true;
+}
+
+const char* toString(MotionModel m)
+{
+  return m == MotionModel::kVelocity ? "velocity" : "odometry";
+}
+
 bool parsePoseEstimate(const std::string& name, PoseEstimate* out)
 {
   if (name == "mean")
@@ -181,6 +197,8 @@ std::string FastSlamConfig::validate() const
     return "motion: " + m;
   if (!(motion_step > 0.0) || !(motion_step_angle > 0.0))
     return "motion_step and motion_step_angle must be > 0";
+  if (!(motion_noise_time > 0.0) || !std::isfinite(motion_noise_time))
+    return "motion_noise_time must be > 0";
   if (!(update_min_travel >= 0.0) || !(update_min_turn >= 0.0))
     return "update_min_travel and update_min_turn must be >= 0";
   if (!(range_sigma_floor > 0.0) || !(bearing_sigma_floor > 0.0))
@@ -267,28 +285,84 @@ OdometryIncrement FastSlam::driftedIncrement(Particle* p, const OdometryIncremen
   const double turn = p->heading_drift * std::abs(v.trans);
   v.rot1 -= 0.5 * turn;
   v.rot2 -= 0.5 * turn;
-  if (n.drift_distance > 0.0 && u.trans != 0.0)
+  walkDrift(p, u.trans);
+  return v;
+}
+
+void FastSlam::walkDrift(Particle* p, double distance)
+{
+  const OdometryMotionNoise& n = config_.motion;
+  if (n.drift_distance > 0.0 && distance != 0.0)
   {
-    const double walk = std::sqrt(std::abs(u.trans) / n.drift_distance);
+    const double walk = std::sqrt(std::abs(distance) / n.drift_distance);
     if (n.heading_drift > 0.0)
       p->heading_drift += random_.gaussian(n.heading_drift * walk);
     if (n.scale_drift > 0.0)
       p->scale_drift = std::max(-kMaxScaleDrift, std::min(kMaxScaleDrift, p->scale_drift + random_.gaussian(n.scale_drift * walk)));
   }
-  return v;
 }
 
-void FastSlam::predict(const OdometryIncrement& u)
+void FastSlam::predict(const OdometryIncrement& u, double noise_scale)
 {
   const bool drift = drifting();
+  OdometryMotionNoise noise = config_.motion;
+  noise.alpha1 *= noise_scale;
+  noise.alpha2 *= noise_scale;
+  noise.alpha3 *= noise_scale;
+  noise.alpha4 *= noise_scale;
   if (gaussianPose())
   {
     for (auto& p : particles_)
-      propagatePoseGaussian(&p.pose, &p.motion_covariance, drift ? driftedIncrement(&p, u) : u, config_.motion);
+      propagatePoseGaussian(&p.pose, &p.motion_covariance, drift ? driftedIncrement(&p, u) : u, noise);
     return;
   }
   for (auto& p : particles_)
-    p.pose = sampleOdometryMotion(p.pose, drift ? driftedIncrement(&p, u) : u, config_.motion, random_);
+    p.pose = sampleOdometryMotion(p.pose, drift ? driftedIncrement(&p, u) : u, noise, random_);
+}
+
+void FastSlam::predictArcs(const std::vector<ArcStep>& block, double noise_scale)
+{
+  if (block.empty())
+    return;
+  const bool drift = drifting();
+  double distance = 0.0;
+  for (const ArcStep& a : block)
+    distance += std::abs(a.distance);
+  std::vector<Eigen::Vector2d> offsets(block.size(), Eigen::Vector2d::Zero());
+  for (auto& p : particles_)
+  {
+    if (drift)
+    {
+      // The odometry measured (1 + scale) times the distance and turned heading_drift per metre on its own.
+      for (std::size_t i = 0; i < block.size(); ++i)
+        offsets[i] = Eigen::Vector2d(block[i].distance * (1.0 / (1.0 + p.scale_drift) - 1.0),
+                                     -p.heading_drift * std::abs(block[i].distance));
+      walkDrift(&p, distance);
+    }
+    if (gaussianPose())
+    {
+      // The block's mean and its noise linearised: the pose's covariance moves with the block's rigid motion, the
+      // two draws add theirs through the Jacobian of the end pose (central differences in the draws).
+      const Pose2 start = p.pose;
+      const Pose2 end = applyVelocityBlock(start, block, config_.motion, noise_scale, 0.0, 0.0, &offsets);
+      Eigen::Matrix3d F;
+      F << 1, 0, -(end.y - start.y), 0, 1, end.x - start.x, 0, 0, 1;
+      Eigen::Matrix<double, 3, 2> J;
+      const double h = 1e-3;
+      for (int k = 0; k < 2; ++k)
+      {
+        const Pose2 up = applyVelocityBlock(start, block, config_.motion, noise_scale, k == 0 ? h : 0.0,
+                                            k == 1 ? h : 0.0, &offsets);
+        const Pose2 down = applyVelocityBlock(start, block, config_.motion, noise_scale, k == 0 ? -h : 0.0,
+                                              k == 1 ? -h : 0.0, &offsets);
+        J.col(k) = Eigen::Vector3d(up.x - down.x, up.y - down.y, wrapAngle(up.theta - down.theta)) / (2.0 * h);
+      }
+      p.motion_covariance = F * p.motion_covariance * F.transpose() + J * J.transpose();
+      p.pose = end;
+      continue;
+    }
+    p.pose = sampleVelocityBlock(p.pose, block, config_.motion, noise_scale, random_, drift ? &offsets : nullptr);
+  }
 }
 
 void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)

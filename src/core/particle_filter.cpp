@@ -62,6 +62,67 @@ Pose2 sampleOdometryMotion(const Pose2& pose, const OdometryIncrement& u, const 
   return applyOdometry(pose, noisy);
 }
 
+double partialStepNoiseScale(double fraction)
+{
+  return fraction > 0.0 && fraction < 1.0 ? 1.0 / std::sqrt(fraction) : 1.0;
+}
+
+Pose2 arcIncrement(double distance, double turn)
+{
+  // x = d sin(t) / t, y = d (1 - cos t) / t, with their series near t = 0.
+  const double t2 = turn * turn;
+  const double sinc = std::abs(turn) < 1e-4 ? 1.0 - t2 / 6.0 : std::sin(turn) / turn;
+  const double cosc = std::abs(turn) < 1e-4 ? turn / 2.0 - turn * t2 / 24.0 : (1.0 - std::cos(turn)) / turn;
+  return Pose2(distance * sinc, distance * cosc, turn);
+}
+
+ArcStep arcStep(const Pose2& a, const Pose2& b)
+{
+  ArcStep s;
+  s.delta = a.inverse() * b;
+  s.turn = s.delta.theta;
+  const double chord = std::hypot(s.delta.x, s.delta.y);
+  if (chord < 1e-9)
+    return s;
+  // A unicycle's arc: its chord is turn / 2 off the start's heading, the arc longer than the chord by
+  // (turn / 2) / sin(turn / 2).
+  const double half = 0.5 * s.turn;
+  const double ratio = std::abs(half) < 1e-4 ? 1.0 + half * half / 6.0 : half / std::sin(half);
+  s.distance = (s.delta.x >= 0.0 ? 1.0 : -1.0) * chord * ratio;
+  return s;
+}
+
+Pose2 applyVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& n,
+                         double scale, double z_v, double z_w, const std::vector<Eigen::Vector2d>* offsets)
+{
+  Pose2 out = pose;
+  for (std::size_t i = 0; i < block.size(); ++i)
+  {
+    const ArcStep& a = block[i];
+    const double d = std::abs(a.distance), t = std::abs(a.turn);
+    double distance = a.distance + z_v * scale * (n.alpha3 * d + n.alpha4 * t);
+    double turn = a.turn + z_w * scale * (n.alpha1 * t + n.alpha2 * d);
+    if (offsets)
+    {
+      distance += (*offsets)[i].x();
+      turn += (*offsets)[i].y();
+    }
+    // The odometry's own increment, then the change from its nominal arc to the noisy one (in the arc's end
+    // frame): the mean stays the odometry's even where it is not exactly an arc.
+    out = out * a.delta * (arcIncrement(a.distance, a.turn).inverse() * arcIncrement(distance, turn));
+  }
+  out.theta = wrapAngle(out.theta);
+  return out;
+}
+
+Pose2 sampleVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& n,
+                          double scale, Random& random, const std::vector<Eigen::Vector2d>* offsets)
+{
+  const double z_v = random.gaussian(1.0);
+  const double z_w = random.gaussian(1.0);
+  return applyVelocityBlock(pose, block, n, scale, z_v, z_w, offsets);
+}
+
 double normalizeLogWeights(std::vector<double>* log_weights, std::vector<double>* weights)
 {
   weights->resize(log_weights->size());

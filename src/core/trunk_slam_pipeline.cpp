@@ -594,6 +594,40 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
   u->relocalization = st;
 }
 
+void TrunkSlamPipeline::predictMotion(const FastSlamConfig& fc, const Pose2& odom_mid, double t_mid)
+{
+  Pose2 from = last_odometry_;
+  if (fc.motion_model == MotionModel::kVelocity)
+  {
+    std::vector<ArcStep> block;
+    double block_start = last_stamp_;
+    odometry_.forEachBetween(last_stamp_, t_mid, [&](double t, const Pose2& pose) {
+      block.push_back(arcStep(from, pose));
+      from = pose;
+      if (t - block_start >= fc.motion_noise_time)
+      {
+        filter_->predictArcs(block);
+        block.clear();
+        block_start = t;
+      }
+    });
+    block.push_back(arcStep(from, odom_mid));
+    filter_->predictArcs(block, partialStepNoiseScale((t_mid - block_start) / fc.motion_noise_time));
+    return;
+  }
+  odometry_.forEachBetween(last_stamp_, t_mid, [&](double, const Pose2& pose) {
+    const OdometryIncrement u = decomposeOdometry(from, pose);
+    if (u.trans >= fc.motion_step || std::abs(u.rot1) + std::abs(u.rot2) >= fc.motion_step_angle)
+    {
+      filter_->predict(u);
+      from = pose;
+    }
+  });
+  const OdometryIncrement u = decomposeOdometry(from, odom_mid);
+  filter_->predict(u, partialStepNoiseScale(std::max(u.trans / fc.motion_step,
+                                                     (std::abs(u.rot1) + std::abs(u.rot2)) / fc.motion_step_angle)));
+}
+
 PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
 {
   const auto t0 = std::chrono::steady_clock::now();
@@ -693,16 +727,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
     }
   }
   const Pose2 from_odometry = last_odometry_;
-  Pose2 from = last_odometry_;
-  odometry_.forEachBetween(last_stamp_, t_mid, [&](double, const Pose2& pose) {
-    const OdometryIncrement u = decomposeOdometry(from, pose);
-    if (u.trans >= fc.motion_step || std::abs(u.rot1) + std::abs(u.rot2) >= fc.motion_step_angle)
-    {
-      filter_->predict(u);
-      from = pose;
-    }
-  });
-  filter_->predict(decomposeOdometry(from, odom_mid));
+  predictMotion(fc, odom_mid, t_mid);
   last_odometry_ = odom_mid;
   last_stamp_ = t_mid;
   std::vector<LandmarkObservation> obs = sweepObservations(sw.trunks, sw.stamp, sw.period, sw.tilt_roll,

@@ -20,6 +20,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("motion/drift_distance", &c->motion.drift_distance);
   p.get("motion_step", &c->motion_step);
   p.get("motion_step_angle", &c->motion_step_angle);
+  p.get("motion_noise_time", &c->motion_noise_time);
   p.get("update_min_travel", &c->update_min_travel);
   p.get("update_min_turn", &c->update_min_turn);
   p.get("range_sigma_floor", &c->range_sigma_floor);
@@ -56,6 +57,10 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);
+  std::string motion_model = core::toString(c->motion_model);
+  p.get("motion_model", &motion_model);
+  if (!core::parseMotionModel(motion_model, &c->motion_model))
+    throw std::runtime_error("parameter 'motion_model' must be odometry or velocity, not '" + motion_model + "'");
   std::string proposal = core::toString(c->proposal);
   p.get("proposal", &proposal);
   if (!core::parsePoseProposal(proposal, &c->proposal))

@@ -9,6 +9,16 @@ rot2) and gets independent Gaussian noise of standard deviations
     sigma_rot1 = alpha1 |rot1| + alpha2 trans,   sigma_trans = alpha3 trans + alpha4 (|rot1| + |rot2|),
     sigma_rot2 = alpha1 |rot2| + alpha2 trans.
 
+A step cut short (the last one before an update, or a window's end) carries its share of a full step's variance
+(the variances add up as a random walk: its standard deviations are divided by the square root of its share of
+motion_step or motion_step_angle, as partialStepNoiseScale in the filter).
+
+With ``--motion-model velocity`` (odometry that is commanded velocities integrated) the model is the filter's
+velocity model (applyVelocityBlock): the odometry's samples are arcs, cut into blocks of motion_noise_time seconds;
+per block one error of the distance, alpha3 D + alpha4 A, and one of the turn, alpha1 A + alpha2 D (D, A: the
+block's distance and turning), spread over its arcs in proportion; the windows' error variances are again linear
+in the same six monomials (``window_blocks``).
+
 The drive is cut into non-overlapping windows whose ends are reference stamps; each window's odometry (the poses
 interpolated at its ends, its samples in between) is cut into steps as the filter does, and the errors of the
 window (reference against odometry) get a variance that is linear in (alpha1^2, alpha1 alpha2, alpha2^2, alpha3^2,
@@ -122,6 +132,12 @@ def window_steps(poses, step, step_angle):
     g_r1 = np.column_stack([r1 ** 2, 2 * r1 * t, t ** 2, zeros, zeros, zeros])
     g_r2 = np.column_stack([r2 ** 2, 2 * r2 * t, t ** 2, zeros, zeros, zeros])
     g_t = np.column_stack([zeros, zeros, zeros, t ** 2, 2 * t * (r1 + r2), (r1 + r2) ** 2])
+    # The last step, cut short by the window's end, carries its share of a full step's variance.
+    share = max(t[-1] / step, (r1[-1] + r2[-1]) / step_angle)
+    if 0.0 < share < 1.0:
+        g_r1[-1] /= share
+        g_r2[-1] /= share
+        g_t[-1] /= share
     p = b[:, :2]
     chord = p[-1] - p[0]
     length = float(np.hypot(*chord))
@@ -139,6 +155,75 @@ def window_steps(poses, step, step_angle):
         dt, dr1, dr2 = (e @ nc) / length, (rest1 @ uc) / length, (rest2 @ uc) / length
         out['direction_here'] = (dt ** 2) @ g_t + (dr1 ** 2) @ g_r1 + (dr2 ** 2) @ g_r2
         out['direction_before'] = (dt ** 2) @ g_t + ((1 - dr1) ** 2) @ g_r1 + ((1 - dr2) ** 2) @ g_r2
+    return out
+
+
+def arcs(poses):
+    """Per pair of consecutive poses (n, 3) the arc a unicycle drives between them (as arcStep in the filter):
+    (distance (negative backwards), turn, start x, start y, end heading); (n - 1, 5)."""
+    out = np.zeros((max(len(poses) - 1, 0), 5))
+    for k in range(len(poses) - 1):
+        a, b = poses[k], poses[k + 1]
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        c, s = math.cos(a[2]), math.sin(a[2])
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        turn = _wrap1(b[2] - a[2])
+        chord = math.hypot(lx, ly)
+        half = 0.5 * turn
+        ratio = 1.0 + half * half / 6.0 if abs(half) < 1e-4 else half / math.sin(half)
+        dist = 0.0 if chord < 1e-9 else (1.0 if lx >= 0 else -1.0) * chord * ratio
+        out[k] = (dist, turn, a[0], a[1], b[2])
+    return out
+
+
+def window_blocks(poses, stamps, block_time):
+    """As ``window_steps`` for the velocity model: the window's arcs (between its poses, (n, 3), at ``stamps``)
+    cut into blocks of ``block_time`` seconds (a block ends at the first sample at least block_time after its
+    start; the last, shorter one carries its share of the variance). Per block, one error of the distance (along
+    each arc's end heading, in proportion to alpha3 |d| + alpha4 |t| of the arc) and one of the turn (the rest of
+    the path rotated about each arc's middle, in proportion to alpha1 |t| + alpha2 |d|)."""
+    a = arcs(poses)
+    zero = np.zeros(6)
+    out = {'steps': np.zeros((0, 3)), 'turn': 0.0, 'travel': 0.0, 'heading': zero.copy(), 'distance': zero.copy(),
+           'direction_here': zero.copy(), 'direction_before': zero.copy(), 'chord': poses[-1, :2] - poses[0, :2]}
+    if not len(a):
+        return out
+    d, t = np.abs(a[:, 0]), np.abs(a[:, 1])
+    blocks, start = [], 0
+    for k in range(len(a)):
+        if stamps[k + 1] - stamps[start] >= block_time or k == len(a) - 1:
+            blocks.append((start, k + 1, (stamps[k + 1] - stamps[start]) / block_time))
+            start = k + 1
+    chord = out['chord']
+    length = float(np.hypot(*chord))
+    e = np.column_stack([np.cos(a[:, 4]), np.sin(a[:, 4])])
+    mid = 0.5 * (poses[:-1, :2] + poses[1:, :2])
+    rest = poses[-1, :2] - mid
+    if length > 0:
+        uc = chord / length
+        nc = np.array([-uc[1], uc[0]])
+        ct, cr = e @ uc, _r90(rest) @ uc  # chord length per unit of distance / turn error of each arc
+        dt, dr = (e @ nc) / length, (rest @ uc) / length  # chord direction per unit ...
+    else:
+        ct = cr = dt = dr = np.zeros(len(a))
+
+    def row_turn(w):  # a block's turn error: alpha1 sum(|t| w) + alpha2 sum(|d| w)
+        x, y = float(np.sum(t[i:j] * w[i:j])), float(np.sum(d[i:j] * w[i:j]))
+        return np.array([x * x, 2 * x * y, y * y, 0, 0, 0]) / share
+
+    def row_dist(w):  # a block's distance error: alpha3 sum(|d| w) + alpha4 sum(|t| w)
+        x, y = float(np.sum(d[i:j] * w[i:j])), float(np.sum(t[i:j] * w[i:j]))
+        return np.array([0, 0, 0, x * x, 2 * x * y, y * y]) / share
+
+    one = np.ones(len(a))
+    for i, j, share in blocks:
+        share = share if 0.0 < share < 1.0 else 1.0
+        out['heading'] = out['heading'] + row_turn(one)
+        if length > 0:
+            out['distance'] = out['distance'] + row_dist(ct) + row_turn(cr)
+            out['direction_here'] = out['direction_here'] + row_dist(dt) + row_turn(dr)
+            out['direction_before'] = out['direction_before'] + row_dist(dt) + row_turn(1 - dr)
+    out.update(steps=np.zeros((len(blocks), 3)), turn=float(np.sum(t)), travel=float(np.sum(d)))
     return out
 
 
@@ -284,8 +369,9 @@ def _observations(windows, ref_xy, ref_yaw_unwrapped, odo_yaw_unwrapped, ref_var
             'A': np.array(rows, float).reshape(n, 6), 'B': np.array(b, float), 'C': np.array(c, float)}
 
 
-def calibrate(odo, ref, motion_step, motion_step_angle, window=None, ref_var=None, free_reference=True):
-    """Fit a class. odo: (t, xy, yaw) of the odometry, sorted by stamp; ref: (t, xy, yaw or None) of the
+def calibrate(odo, ref, motion_step, motion_step_angle, window=None, ref_var=None, free_reference=True,
+              motion_noise_time=None):
+    """Fit a class (the velocity model's with ``motion_noise_time`` [s], else the odometry model's). odo: (t, xy, yaw) of the odometry, sorted by stamp; ref: (t, xy, yaw or None) of the
     reference, sorted by stamp; ref_var: per reference stamp the known variance [m^2] of a position-only
     reference along each axis (None: sigma_ref is fitted, unless ``free_reference`` is False: then taken as 0).
     Returns a dict of the fit and its figures; a UserError where the drive cannot give a class."""
@@ -318,7 +404,10 @@ def calibrate(odo, ref, motion_step, motion_step_angle, window=None, ref_var=Non
         lo, hi = np.searchsorted(ot, rt[a], side='right'), np.searchsorted(ot, rt[b], side='left')
         poses = np.vstack([[pxy[a, 0], pxy[a, 1], pyaw[a]], np.column_stack([oxy[lo:hi], oyaw[lo:hi]]),
                            [pxy[b, 0], pxy[b, 1], pyaw[b]]])
-        w = window_steps(poses, motion_step, motion_step_angle)
+        if motion_noise_time:
+            w = window_blocks(poses, np.r_[rt[a], ot[lo:hi], rt[b]], motion_noise_time)
+        else:
+            w = window_steps(poses, motion_step, motion_step_angle)
         w.update(start=a, end=b, window=length, seconds=rt[b] - rt[a])
         windows.append(w)
     # Consecutive windows (for the course changes), None where one was left out.
@@ -353,7 +442,8 @@ def calibrate(odo, ref, motion_step, motion_step_angle, window=None, ref_var=Non
            'sigma_ref': float(params[4]) if free else None, 'sigma_ref_se': float(se[4]) if free else None,
            'sigma_ref_known': (float(np.sqrt(np.median(rvar))) if rvar is not None else None),
            'nll': nll, 'observations': int(len(obs['e'])), 'coverage': {}, 'bias': {},
-           'motion_step': motion_step, 'motion_step_angle': motion_step_angle}
+           'motion_step': motion_step, 'motion_step_angle': motion_step_angle,
+           'motion_noise_time': motion_noise_time}
     for k in ('heading', 'course', 'distance'):
         sel = obs['kind'] == k
         if np.any(sel):
@@ -521,9 +611,15 @@ def fit_lines(r):
                      'with the length), ends at reference fixes; per window the distance (chord length) error, per '
                      'two consecutive windows the error of the course change between their chords'
                      % (r['windows'], r['window'], 2 * r['window']))
-    lines.append('driven: %.1f m (odometry; %.1f m of reference chords), %.1f rad turned (sum of |rot1| + |rot2| '
-                 'over %d steps), %.0f s' % (r['odometry_travel'], r['reference_travel'], r['turn'], r['steps'],
-                                             r['seconds']))
+    if r.get('motion_noise_time'):
+        lines.append('driven: %.1f m (odometry; %.1f m of reference chords), %.1f rad turned (sum of |turn| of its '
+                     'arcs, in %d blocks of up to %g s), %.0f s'
+                     % (r['odometry_travel'], r['reference_travel'], r['turn'], r['steps'], r['motion_noise_time'],
+                        r['seconds']))
+    else:
+        lines.append('driven: %.1f m (odometry; %.1f m of reference chords), %.1f rad turned (sum of |rot1| + '
+                     '|rot2| over %d steps), %.0f s' % (r['odometry_travel'], r['reference_travel'], r['turn'],
+                                                       r['steps'], r['seconds']))
     if r['gaps']:
         lines.append('left out: %d windows across gaps of the reference (%.0f m of odometry travel without a '
                      'reference stamp near the window\'s end)' % (r['gaps'], r['gap_travel']))
@@ -540,9 +636,11 @@ def fit_lines(r):
         if k + '_rms' in b:
             rms.append('%s %.4f %s (model %.4f)' % (k, b[k + '_rms'], unit, b[k + '_rms_predicted']))
     lines.append('RMS errors: ' + ', '.join(rms))
+    units = (('rad/s per rad/s', 'rad/s per m/s', 'm/s per m/s', 'm/s per rad/s') if r.get('motion_noise_time')
+             else ('rad/rad', 'rad/m', 'm/m', 'm/rad'))
     lines.append('fitted (maximum likelihood, the errors taken as independent Gaussians; +- approximate standard '
-                 'errors): alpha1 %s rad/rad, alpha2 %s rad/m, alpha3 %s m/m, alpha4 %s m/rad'
-                 % tuple(_pm(a[k], se[k]) for k in range(4)))
+                 'errors): alpha1 %s %s, alpha2 %s %s, alpha3 %s %s, alpha4 %s %s'
+                 % tuple(x for k in range(4) for x in (_pm(a[k], se[k]), units[k])))
     loose = ['%s (+- %.0f %%)' % ('alpha%d' % (k + 1), 100 * se[k] / a[k]) for k in range(4)
              if a[k] > 0 and math.isfinite(se[k]) and se[k] > 0.5 * a[k]]
     zero = ['alpha%d' % (k + 1) for k in range(4) if a[k] == 0 or not math.isfinite(se[k])]
@@ -572,21 +670,33 @@ def _comment(text, width=116):
 
 def yaml_text(r, command, name, odom_topic, reference_line, bag):
     """The class as YAML in the style of config/odometry/*.yaml: comments, then motion and the steps."""
+    velocity = bool(r.get('motion_noise_time'))
+    model = ('the velocity model: the odometry is commanded velocities integrated, their errors held over blocks of '
+             'motion_noise_time seconds' if velocity else
+             'standard deviations per step of at most motion_step and motion_step_angle, adding up as a random walk')
     out = _comment('Odometry accuracy class: %s. Fitted by calibrate_odometry to the odometry %s of %s against its '
                    'reference. Load after the filter\'s configuration (see config/odometry/forest_atv.yaml for how, '
-                   'and for the model: standard deviations per step of at most motion_step and motion_step_angle, '
-                   'adding up as a random walk).' % (name, odom_topic, bag))
+                   'and for the model: %s).' % (name, odom_topic, bag, model))
     out.append('# Made by:')
     out.append('#   ' + command)
     out += _comment(reference_line)
-    out += _comment('The heading error variance of a window is the sum over its steps of sigma_rot1^2 + '
-                    'sigma_rot2^2, the distance error variance that of sigma_trans^2 along the chord plus the '
-                    'lateral shift of the rest of the window by each step\'s rot noise (to first order).')
+    if velocity:
+        out += _comment('The heading error variance of a window is the sum over its blocks of (alpha1 A + alpha2 '
+                        'D)^2, the distance error variance that of (alpha3 D + alpha4 A)^2 along the chord plus the '
+                        'lateral shift of the rest of the window by each block\'s turn error (to first order).')
+    else:
+        out += _comment('The heading error variance of a window is the sum over its steps of sigma_rot1^2 + '
+                        'sigma_rot2^2, the distance error variance that of sigma_trans^2 along the chord plus the '
+                        'lateral shift of the rest of the window by each step\'s rot noise (to first order).')
     for line in fit_lines(r):
         out += _comment('- ' + line)
     out.append('motion: {alpha1: %s, alpha2: %s, alpha3: %s, alpha4: %s}' % tuple(significant(a) for a in r['alphas']))
-    out.append('motion_step: %s' % _plain(r['motion_step']))
-    out.append('motion_step_angle: %s' % _plain(r['motion_step_angle']))
+    if velocity:
+        out.append('motion_model: velocity')
+        out.append('motion_noise_time: %s' % _plain(r['motion_noise_time']))
+    else:
+        out.append('motion_step: %s' % _plain(r['motion_step']))
+        out.append('motion_step_angle: %s' % _plain(r['motion_step_angle']))
     return '\n'.join(out) + '\n'
 
 
@@ -627,6 +737,11 @@ def _main(argv, doc):
                    help='the filter\'s motion_step [m] (default 0.2)')
     p.add_argument('--motion-step-angle', type=_positive, default=0.2, metavar='RAD',
                    help='the filter\'s motion_step_angle [rad] (default 0.2)')
+    p.add_argument('--motion-model', choices=('odometry', 'velocity'), default='odometry',
+                   help='the filter\'s motion_model: odometry (measured increments, default) or velocity (the '
+                        'odometry is commanded velocities integrated)')
+    p.add_argument('--motion-noise-time', type=_positive, default=1.0, metavar='S',
+                   help='the velocity model\'s motion_noise_time [s] (default 1.0)')
     p.add_argument('--window', type=_positive, metavar='M',
                    help='window [m of odometry travel] (default %g with reference headings, %g for a reference of '
                         'positions only)' % (WINDOW_POSES, WINDOW_POSITIONS))
@@ -664,7 +779,8 @@ def _main(argv, doc):
         ref_line += ('; its noise from the fixes\' covariance' if ref_var is not None
                      else '; no covariance in every fix: its noise is fitted')
     result = calibrate(odo, (ref['t'], ref['xy'], yaw), args.motion_step, args.motion_step_angle, args.window,
-                       ref_var=ref_var)
+                       ref_var=ref_var,
+                       motion_noise_time=args.motion_noise_time if args.motion_model == 'velocity' else None)
     name = args.name or 'fitted to %s' % os.path.basename(args.bag)
     text = yaml_text(result, command, name, odom, ref_line, args.bag)
     if args.output:

@@ -337,6 +337,154 @@ TEST(FastSlam2, MotionGaussianMatchesTheSampledMotionModel)
   EXPECT_LT((c - cov).cwiseAbs().maxCoeff(), 0.05 * cov.cwiseAbs().maxCoeff()) << c << "\n" << cov;
 }
 
+namespace
+{
+/** @brief Mean and covariance (x, y, theta about @p mean) of particle poses. */
+Eigen::Matrix3d poseCovariance(const std::vector<Pose2>& poses, const Pose2& mean, Eigen::Vector3d* offset)
+{
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  const double n = static_cast<double>(poses.size());
+  for (const Pose2& s : poses)
+  {
+    const Eigen::Vector3d d(s.x - mean.x, s.y - mean.y, wrapAngle(s.theta - mean.theta));
+    m += d / n;
+    c += d * d.transpose() / n;
+  }
+  *offset = m;
+  return c - m * m.transpose();
+}
+}  // namespace
+
+TEST(MotionModel, PartialStepsAddUpToTheNoiseOfAFullStep)
+{
+  // A full step of motion_step taken at once, or in four parts each scaled by partialStepNoiseScale(1/4): the
+  // spread is the same (a random walk), not half of it (four independent steps of a quarter).
+  OdometryMotionNoise n;
+  n.alpha1 = 0.1;
+  n.alpha2 = 0.05;
+  n.alpha3 = 0.05;
+  n.alpha4 = 0.02;
+  const OdometryIncrement full = decomposeOdometry(Pose2(), Pose2(0.2, 0.0, 0.0));
+  const OdometryIncrement part = decomposeOdometry(Pose2(), Pose2(0.05, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(partialStepNoiseScale(0.25), 2.0);
+  EXPECT_DOUBLE_EQ(partialStepNoiseScale(1.0), 1.0);
+  EXPECT_DOUBLE_EQ(partialStepNoiseScale(0.0), 1.0);
+  OdometryMotionNoise scaled = n;
+  scaled.alpha1 *= 2.0;
+  scaled.alpha2 *= 2.0;
+  scaled.alpha3 *= 2.0;
+  scaled.alpha4 *= 2.0;
+  Random random(3);
+  std::vector<Pose2> once, parts, unscaled;
+  for (int k = 0; k < 40000; ++k)
+  {
+    once.push_back(sampleOdometryMotion(Pose2(), full, n, random));
+    Pose2 a, b;
+    for (int j = 0; j < 4; ++j)
+    {
+      a = sampleOdometryMotion(a, part, scaled, random);
+      b = sampleOdometryMotion(b, part, n, random);
+    }
+    parts.push_back(a);
+    unscaled.push_back(b);
+  }
+  Eigen::Vector3d m;
+  const Eigen::Matrix3d c_once = poseCovariance(once, Pose2(0.2, 0, 0), &m);
+  const Eigen::Matrix3d c_parts = poseCovariance(parts, Pose2(0.2, 0, 0), &m);
+  const Eigen::Matrix3d c_unscaled = poseCovariance(unscaled, Pose2(0.2, 0, 0), &m);
+  EXPECT_NEAR(c_parts(0, 0), c_once(0, 0), 0.05 * c_once(0, 0));
+  EXPECT_NEAR(c_parts(2, 2), c_once(2, 2), 0.05 * c_once(2, 2));
+  EXPECT_LT(c_unscaled(0, 0), 0.3 * c_once(0, 0));  // what unscaled parts would claim
+}
+
+TEST(MotionModel, ArcStepsRecoverTheArcAndItsDirection)
+{
+  for (const double d : { 0.5, -0.5 })
+    for (const double t : { 0.0, 0.3, -1.2 })
+    {
+      const Pose2 a(1.0, -2.0, 0.7);
+      const Pose2 b = a * arcIncrement(d, t);
+      const ArcStep s = arcStep(a, b);
+      EXPECT_NEAR(s.distance, d, 1e-9) << d << " " << t;
+      EXPECT_NEAR(s.turn, t, 1e-12);
+    }
+  const ArcStep spin = arcStep(Pose2(), Pose2(0, 0, 0.4));
+  EXPECT_EQ(spin.distance, 0.0);
+  EXPECT_NEAR(spin.turn, 0.4, 1e-12);
+}
+
+TEST(MotionModel, VelocityBlockKeepsTheOdometryAsItsMeanAndHoldsItsErrorOverTheBlock)
+{
+  OdometryMotionNoise n;
+  n.alpha1 = 0.1;
+  n.alpha2 = 0.04;
+  n.alpha3 = 0.05;
+  n.alpha4 = 0.02;
+  // Ten arcs of 0.1 m (one second at 0.1 m/s), the last one not quite an arc (a sideways centimetre).
+  std::vector<ArcStep> block;
+  Pose2 o;
+  for (int k = 0; k < 10; ++k)
+  {
+    const Pose2 next = o * (k == 9 ? Pose2(0.1, 0.01, 0.0) : arcIncrement(0.1, 0.0));
+    block.push_back(arcStep(o, next));
+    o = next;
+  }
+  const Pose2 mean = applyVelocityBlock(Pose2(), block, n, 1.0, 0.0, 0.0);
+  EXPECT_NEAR(mean.x, o.x, 1e-12);
+  EXPECT_NEAR(mean.y, o.y, 1e-12);
+  // The distance error is one draw for the whole block: alpha3 * 1 m (not alpha3 * 0.1 m * sqrt(10)); the heading
+  // error alpha2 * 1 m.
+  Random random(4);
+  std::vector<Pose2> poses;
+  for (int k = 0; k < 40000; ++k)
+    poses.push_back(sampleVelocityBlock(Pose2(), block, n, 1.0, random));
+  Eigen::Vector3d m;
+  const Eigen::Matrix3d c = poseCovariance(poses, mean, &m);
+  double distance = 0.0;
+  for (const ArcStep& a : block)
+    distance += a.distance;
+  EXPECT_NEAR(distance, 1.0, 1e-3);
+  EXPECT_NEAR(std::sqrt(c(0, 0)), n.alpha3 * distance, 0.03 * n.alpha3 * distance);
+  EXPECT_NEAR(std::sqrt(c(2, 2)), n.alpha2 * distance, 0.03 * n.alpha2 * distance);
+  EXPECT_LT(m.cwiseAbs().maxCoeff(), 2e-3);
+}
+
+TEST(MotionModel, VelocityBlockGaussianMatchesTheSamples)
+{
+  // FastSLAM 2.0 carries the block's pose as a Gaussian (linearised); it agrees with the sampled velocity model.
+  FastSlamConfig c;
+  c.particles = 1;
+  c.proposal = PoseProposal::kFastSlam2;
+  c.motion_model = MotionModel::kVelocity;
+  c.motion.alpha1 = 0.1;
+  c.motion.alpha2 = 0.05;
+  c.motion.alpha3 = 0.05;
+  c.motion.alpha4 = 0.02;
+  std::vector<ArcStep> block;
+  Pose2 o;
+  for (int k = 0; k < 8; ++k)
+  {
+    const Pose2 next = o * arcIncrement(0.12, 0.08);
+    block.push_back(arcStep(o, next));
+    o = next;
+  }
+  FastSlam filter(c);
+  const Pose2 start(1.0, 2.0, 0.3);
+  filter.initialize(start);
+  filter.predictArcs(block);
+  const Particle& p = filter.particles().front();
+  Random random(6);
+  std::vector<Pose2> poses;
+  for (int k = 0; k < 100000; ++k)
+    poses.push_back(sampleVelocityBlock(start, block, c.motion, 1.0, random));
+  Eigen::Vector3d m;
+  const Eigen::Matrix3d cov = poseCovariance(poses, p.pose, &m);
+  EXPECT_LT(m.cwiseAbs().maxCoeff(), 2e-3) << m.transpose();
+  EXPECT_LT((cov - p.motion_covariance).cwiseAbs().maxCoeff(), 0.05 * cov.cwiseAbs().maxCoeff())
+      << cov << "\n" << p.motion_covariance;
+}
+
 TEST(FastSlam2, ProposalsFollowTheTruthInASurveyedMapWhereOdometryDrifts)
 {
   // A surveyed map of four trunks (1 mm); odometry reads 5 % short and turns 0.01 rad too far per step (twice the

@@ -38,6 +38,8 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.detection_probability, defaults.detection_probability);
   EXPECT_EQ(read.motion_step, defaults.motion_step);
   EXPECT_EQ(read.motion_step_angle, defaults.motion_step_angle);
+  EXPECT_EQ(read.motion_model, defaults.motion_model);
+  EXPECT_EQ(read.motion_noise_time, defaults.motion_noise_time);
   EXPECT_EQ(read.estimate, defaults.estimate);
   EXPECT_EQ(read.use_known_ids, defaults.use_known_ids);
   EXPECT_EQ(read.association_gate, defaults.association_gate);
@@ -139,6 +141,16 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
   {
     EXPECT_NE(std::string(e.what()).find("proposal"), std::string::npos) << e.what();
   }
+  std::ofstream(path) << "motion_model: wheels\n";
+  try
+  {
+    io::readFastSlamConfig(io::YamlParamSource(path), &c);
+    FAIL() << "no error for an unknown motion model";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("motion_model"), std::string::npos) << e.what();
+  }
   std::ofstream(path) << "proposal: fastslam2\nmixture_fraction: 0.1\n";
   core::FastSlamConfig ok;
   io::readFastSlamConfig(io::YamlParamSource(path), &ok);
@@ -151,7 +163,7 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
 {
   // Each accuracy class of config/odometry/ read after config/fastslam.yaml sets the motion model and its step,
   // nothing else, and every class differs from the defaults somewhere or is the defaults' own statement.
-  for (const char* name : { "forest_atv", "skid_steer_indoor", "car" })
+  for (const char* name : { "forest_atv", "skid_steer_indoor", "car", "indoor_commanded" })
   {
     const std::string path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/odometry/" + name + ".yaml";
     core::FastSlamConfig c;
@@ -161,6 +173,8 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
     EXPECT_TRUE(cls.unusedKeys().empty()) << name;
     EXPECT_GT(c.motion.alpha1, 0.0) << name;
     EXPECT_GT(c.motion_step, 0.0) << name;
+    // The commanded-velocity class takes the velocity model, the measured ones the odometry model.
+    EXPECT_EQ(c.motion_model == core::MotionModel::kVelocity, std::string(name) == "indoor_commanded") << name;
     const core::FastSlamConfig d;
     EXPECT_EQ(c.particles, d.particles) << name;
     EXPECT_EQ(c.association_gate, d.association_gate) << name;

@@ -109,6 +109,56 @@ def test_finds_the_class_with_a_ground_truth_reference(tmp_path):
     assert 'the class takes them as noise' in r.stdout.replace('\n#  ', '')
 
 
+def true_path_velocity(t, poses, alphas, block_time, seed=2):
+    """The truth of the velocity model (applyVelocityBlock) for the odometry ``poses`` at stamps ``t``: blocks of
+    ``block_time`` seconds, per block one standard normal draw for the distance and one for the turn, each arc's
+    (distance, turn) changed by it times (alpha3 |d| + alpha4 |t|) and (alpha1 |t| + alpha2 |d|)."""
+    rng = np.random.RandomState(seed)
+    a1, a2, a3, a4 = alphas
+    arcs = cal.arcs(poses)
+    truth = [np.array(poses[0], float)]
+    start, zv, zw = 0, rng.normal(), rng.normal()
+    for k, (d, turn) in enumerate(arcs[:, :2]):
+        if t[k] - t[start] >= block_time:
+            start, zv, zw = k, rng.normal(), rng.normal()
+        d2 = d + zv * (a3 * abs(d) + a4 * abs(turn))
+        w2 = turn + zw * (a1 * abs(turn) + a2 * abs(d))
+        p = truth[-1]
+        # the arc of length d2 turning w2: its chord is w2 / 2 off the start heading
+        chord = d2 if abs(w2) < 1e-9 else d2 * math.sin(0.5 * w2) / (0.5 * w2)
+        truth.append(np.array([p[0] + chord * math.cos(p[2] + 0.5 * w2), p[1] + chord * math.sin(p[2] + 0.5 * w2),
+                               p[2] + w2]))
+    return np.array(truth)
+
+
+def test_finds_the_velocity_class_of_commanded_odometry(tmp_path):
+    """Odometry that is commanded velocities integrated, its errors held over 1 s blocks: --motion-model velocity
+    finds the alphas again and writes a class for the velocity model."""
+    alphas = (0.1, 0.05, 0.05, 0.03)
+    t, odo = odometry_drive(1500, seed=5, v=0.3)
+    truth = true_path_velocity(t, odo, alphas, 1.0, seed=7)
+    bag = write_bag(tmp_path / 'commanded.bag', t, odo, t, truth)
+    r = run('calibrate_odometry', bag, '--motion-model', 'velocity', '--window', 0.5, '-q')
+    assert r.returncode == 0 and 'Traceback' not in r.stderr, r.stderr
+    data = yaml.safe_load(r.stdout)
+    assert data['motion_model'] == 'velocity' and data['motion_noise_time'] == 1.0 and 'motion_step' not in data
+    flat = ' '.join(line.lstrip('#').strip() for line in r.stdout.splitlines())
+    assert 'blocks of up to 1 s' in flat and 'm/s per m/s' in flat
+    for k, truth_alpha in enumerate(alphas, 1):
+        assert abs(data['motion']['alpha%d' % k] / truth_alpha - 1.0) < 0.35, (k, data['motion'])
+    coverage = float(re.search(r'all ([0-9.]+) % of', flat).group(1)) / 100.0
+    assert 0.85 <= coverage <= 1.0, flat
+
+
+def test_a_partial_step_carries_its_share_of_the_variance():
+    """A window of 0.3 m: one full step of 0.2 m and one of 0.1 m, the latter with twice the variance of a step of
+    0.1 m (its share of a full step's), as partialStepNoiseScale in the filter."""
+    poses = np.array([[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]], float)
+    w = cal.window_steps(poses, STEP, STEP_ANGLE)
+    assert len(w['steps']) == 2
+    np.testing.assert_allclose(w['g_t'][:, 3], [0.2 ** 2, 0.1 ** 2 / 0.5])
+
+
 def test_position_only_reference_with_noise(tmp_path):
     """A GPS (PointStamped, 5 cm per axis) instead of the truth, in windows of 3 and 6 m. What holds here, and
     held over five seeds of drive and noise: the fitted class predicts the observed spread (95-97 % of the

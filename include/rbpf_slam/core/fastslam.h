@@ -35,6 +35,16 @@ enum class PoseProposal
 bool parsePoseProposal(const std::string& name, PoseProposal* out);
 const char* toString(PoseProposal p);
 
+/** @brief What the odometry is, and so which motion model takes it. */
+enum class MotionModel
+{
+  kOdometry,  ///< measured increments (wheel encoders): rot1 - trans - rot2 per step of motion_step
+  kVelocity,  ///< commanded (or measured) velocities integrated: errors of the velocity held over motion_noise_time
+};
+/** @brief "odometry" or "velocity"; false (and @p out unchanged) otherwise. */
+bool parseMotionModel(const std::string& name, MotionModel* out);
+const char* toString(MotionModel m);
+
 /** @brief Range-bearing form of a detected trunk (its Cartesian covariance carried through the Jacobian). */
 LandmarkObservation toLandmarkObservation(const TrunkObservation& trunk);
 
@@ -70,6 +80,12 @@ struct FastSlamConfig
   /// path the odometry drove rather than one straight chord.
   double motion_step = 0.2;
   double motion_step_angle = 0.2;
+  /// The motion model: kOdometry (the alphas per step of motion_step) or kVelocity (applyVelocityBlock: the odometry
+  /// is a commanded velocity integrated, its error held over blocks of motion_noise_time seconds; the alphas per
+  /// such block, as rates). A step or block cut short by an update carries its share of the variance
+  /// (partialStepNoiseScale), so the noise does not depend on how often the sensor looks.
+  MotionModel motion_model = MotionModel::kOdometry;
+  double motion_noise_time = 1.0;  ///< [s]
   /// The filter takes a sweep only once the robot has driven update_min_travel [m] or turned update_min_turn
   /// [rad] since its last update (0, 0: every sweep); in between, the estimate follows the odometry and the skipped
   /// sweeps' trunks are fused into the next update's (fuseSkippedLooks). Without it, each sweep is weighed by the
@@ -275,8 +291,13 @@ public:
    * deviations @p sigma_xy [m] and @p sigma_theta [rad] from the filter's generator), sharing the prior map @p map.
    */
   void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta);
-  /** @brief Samples every particle's motion for one odometry increment (after its own drift). */
-  void predict(const OdometryIncrement& u);
+  /**
+   * @brief Samples every particle's motion for one odometry increment (after its own drift), the noise's standard
+   * deviations multiplied by @p noise_scale (partialStepNoiseScale).
+   */
+  void predict(const OdometryIncrement& u, double noise_scale = 1.0);
+  /** @brief The velocity model's prediction of one block of arcs (applyVelocityBlock), after each particle's drift. */
+  void predictArcs(const std::vector<ArcStep>& block, double noise_scale = 1.0);
   /**
    * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
    * is low. @p sensor is the sensor's pose on base_link (its planar part). @p evidence_share in (0, 1] is the share
@@ -330,6 +351,8 @@ private:
   bool drifting() const { return config_.motion.heading_drift > 0.0 || config_.motion.scale_drift > 0.0; }
   /** @brief @p u as particle @p p's drifting odometry would have measured it; walks its drifts on. */
   OdometryIncrement driftedIncrement(Particle* p, const OdometryIncrement& u);
+  /** @brief Walks particle @p p's drifts on over @p distance metres. */
+  void walkDrift(Particle* p, double distance);
   /** @brief Buffers of one update, kept between calls so that an update allocates nothing. */
   struct Scratch
   {

@@ -69,6 +69,48 @@ Pose2 sampleOdometryMotion(const Pose2& pose, const OdometryIncrement& u, const 
                            Random& random);
 
 /**
+ * @brief The noise scale of a step that is the fraction @p fraction (in (0, 1)) of a full step (motion_step or
+ * motion_step_angle, or the velocity model's motion_noise_time): the noise of a full step adds up as a random walk,
+ * so a part of it carries the same share of its variance. The standard deviations of a partial step u, linear in u,
+ * are multiplied by 1 / sqrt(fraction); 1 for a full step or no motion.
+ */
+double partialStepNoiseScale(double fraction);
+
+/**
+ * @brief One piece of odometry that is a commanded (or measured) velocity integrated: the arc a unicycle drives
+ * between two odometry samples. @p delta is the odometry's own increment (the mean of the motion model), distance
+ * the arc's length [m] (negative when driving backwards) and turn its heading change [rad].
+ */
+struct ArcStep
+{
+  double distance = 0.0;
+  double turn = 0.0;
+  Pose2 delta;
+};
+/** @brief The arc from odometry pose @p a to @p b (a turn on the spot below 1e-9 m). */
+ArcStep arcStep(const Pose2& a, const Pose2& b);
+/** @brief The increment of an arc of length @p distance turning @p turn, in its start's frame. */
+Pose2 arcIncrement(double distance, double turn);
+
+/**
+ * @brief Velocity motion model (Probabilistic Robotics 5.3, with the errors of a command held over a block):
+ * the velocities a robot drives differ from those it was commanded (or measured) by errors that persist over
+ * a block of motion_noise_time seconds. Over one block of arcs, with two standard normal draws z_v, z_w for the
+ * whole block, each arc's length gets z_v (alpha3 |distance| + alpha4 |turn|) and its turn
+ * z_w (alpha1 |turn| + alpha2 |distance|): the alphas are those of a rate (m/s per m/s, ...) and their meaning is
+ * that of the odometry model's (1: rotation from rotation, 2: rotation from translation, 3: translation from
+ * translation, 4: translation from rotation). @p scale multiplies the standard deviations (partialStepNoiseScale);
+ * @p offsets (when given, one per arc) are added to each arc's (distance, turn) before the noise (a particle's drift).
+ * Returns the pose after the block for the given draws.
+ */
+Pose2 applyVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& noise,
+                         double scale, double z_v, double z_w,
+                         const std::vector<Eigen::Vector2d>* offsets = nullptr);
+/** @brief applyVelocityBlock with z_v, z_w drawn from @p random. */
+Pose2 sampleVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& noise,
+                          double scale, Random& random, const std::vector<Eigen::Vector2d>* offsets = nullptr);
+
+/**
  * @brief Turns log-weights into normalised weights (in place, the max subtracted first so nothing
  * underflows); returns the log of the normaliser (the log of the sum of the input weights).
  */

@@ -303,6 +303,12 @@ private:
   void resetFilter() override;
   /** @brief Queues @p sweep; false (dropped) when it holds more trunks than max_trunks_per_sweep. */
   bool enqueueSweep(TrunkSweep sweep, double arrival);
+  /**
+   * @brief Predicts the filter from the last update's odometry up to @p odom_mid at @p t_mid along the odometry's
+   * own samples: steps of motion_step (odometry model) or blocks of motion_noise_time (velocity model); the last,
+   * partial one carries its share of the noise.
+   */
+  void predictMotion(const FastSlamConfig& fc, const Pose2& odom_mid, double t_mid);
   std::vector<TimelineMap> ended_;
 
   TrunkDetectorConfig detector_config_;
