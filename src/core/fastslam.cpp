@@ -501,7 +501,7 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
         if (std::isfinite(clock_))
           l.last_seen = clock_;
       });
-      *log_w += association_.logLikelihood(i, kc);
+      *log_w += confirmed || config_.provisional_weighs ? association_.logLikelihood(i, kc) : scratch_.log_new[i];
       if (stats)
       {
         ++stats->matched;

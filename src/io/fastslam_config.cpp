@@ -51,6 +51,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("delete_evidence", &c->delete_evidence);
   p.get("evidence_view_change", &c->evidence_view_change);
   p.get("confirm_observations", &c->confirm_observations);
+  p.get("provisional_weighs", &c->provisional_weighs);
   p.get("drop_unconfirmed_leaving_scope", &c->drop_unconfirmed_leaving_scope);
   readResamplingPolicy(p, &c->resampling);
   p.get("relocalization_spread", &c->relocalization_spread);

@@ -485,6 +485,33 @@ TEST(MotionModel, VelocityBlockGaussianMatchesTheSamples)
       << cov << "\n" << p.motion_covariance;
 }
 
+TEST(FastSlam, ProvisionalLandmarksWeighNoParticleWhenSoConfigured)
+{
+  // Twenty particles spread by motion noise see two trunks again that are still provisional (5 sightings to
+  // confirm): with provisional_weighs they are weighed apart, without it every observation weighs as a new
+  // landmark's and the weights stay equal (Neff = N).
+  for (const bool weighs : { true, false })
+  {
+    FastSlamConfig c = quietConfig(20);
+    c.motion.alpha2 = 0.02;
+    c.motion.alpha3 = 0.05;
+    c.confirm_observations = 5;
+    c.provisional_weighs = weighs;
+    FastSlam f(c);
+    f.initialize(Pose2());
+    f.update({ observe(Pose2(), 5.0, 1.0), observe(Pose2(), 6.0, -2.0) }, Pose2());
+    f.predict(decomposeOdometry(Pose2(), Pose2(0.5, 0.0, 0.0)));
+    const Pose2 truth(0.5, 0.0, 0.0);
+    const FastSlamUpdateStats st = f.update({ observe(truth, 5.0, 1.0), observe(truth, 6.0, -2.0) }, Pose2());
+    EXPECT_EQ(st.matched, 2) << weighs;
+    EXPECT_EQ(st.matched_confirmed, 0) << weighs;
+    if (weighs)
+      EXPECT_LT(st.neff, 19.0);
+    else
+      EXPECT_NEAR(st.neff, 20.0, 1e-9);
+  }
+}
+
 TEST(FastSlam2, ProposalsFollowTheTruthInASurveyedMapWhereOdometryDrifts)
 {
   // A surveyed map of four trunks (1 mm); odometry reads 5 % short and turns 0.01 rad too far per step (twice the

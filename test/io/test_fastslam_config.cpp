@@ -40,6 +40,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.motion_step_angle, defaults.motion_step_angle);
   EXPECT_EQ(read.motion_model, defaults.motion_model);
   EXPECT_EQ(read.motion_noise_time, defaults.motion_noise_time);
+  EXPECT_EQ(read.provisional_weighs, defaults.provisional_weighs);
   EXPECT_EQ(read.estimate, defaults.estimate);
   EXPECT_EQ(read.use_known_ids, defaults.use_known_ids);
   EXPECT_EQ(read.association_gate, defaults.association_gate);
@@ -179,6 +180,18 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
     EXPECT_EQ(c.particles, d.particles) << name;
     EXPECT_EQ(c.association_gate, d.association_gate) << name;
   }
+}
+
+TEST(FastSlamConfigFile, TheScannerOverlaySetsOnlyTheProvisionalRule)
+{
+  const std::string dir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
+  core::FastSlamConfig c;
+  io::readFastSlamConfig(io::YamlParamSource(dir + "fastslam.yaml"), &c);
+  EXPECT_TRUE(c.provisional_weighs);
+  io::YamlParamSource overlay(dir + "scanner_2d.yaml");
+  io::readFastSlamConfig(overlay, &c);
+  EXPECT_TRUE(overlay.unusedKeys().empty());
+  EXPECT_FALSE(c.provisional_weighs);
 }
 
 TEST(FastSlamConfigFile, TheShippedFileLeavesOnlyTheNodesKeysUnread)

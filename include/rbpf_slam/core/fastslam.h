@@ -146,6 +146,12 @@ struct FastSlamConfig
   // A provisional landmark that leaves the visibility scope before it is confirmed is dropped: a tentative
   // track that did not make it (a trunk-like object glimpsed once at the scope's edge), not a tree.
   bool drop_unconfirmed_leaving_scope = true;
+  /// Whether an observation matched to a provisional landmark weighs the particle by its likelihood (true) or as
+  /// one that made a new landmark (false: a landmark not yet confirmed is no evidence for or against a pose, so a
+  /// bush or a car's side that passes for a trunk in a few sweeps cannot pull the particles). false costs the
+  /// observations of trees until they are confirmed: right for a 2D scanner's clutter (config/scanner_2d.yaml),
+  /// wrong for a clean detector.
+  bool provisional_weighs = true;
 
   // Resampling (the skeleton's policy): low-variance resampling when Neff < resample_neff_ratio * N.
   ResamplingPolicy resampling;
