@@ -329,6 +329,25 @@ void FastSlam::predictArcs(const std::vector<ArcStep>& block, double noise_scale
   for (const ArcStep& a : block)
     distance += std::abs(a.distance);
   std::vector<Eigen::Vector2d> offsets(block.size(), Eigen::Vector2d::Zero());
+  // FastSLAM 2.0 carries the block's pose as a Gaussian: the block's motion from the origin and the Jacobian of its
+  // end in the two draws (central differences), in the block's start frame; the same for every particle unless each
+  // drifts its own way.
+  Pose2 local;
+  Eigen::Matrix<double, 3, 2> J_local;
+  const auto linearise = [&]() {
+    local = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, 0.0, 0.0, &offsets);
+    const double h = 1e-3;
+    for (int k = 0; k < 2; ++k)
+    {
+      const Pose2 up = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, k == 0 ? h : 0.0,
+                                          k == 1 ? h : 0.0, &offsets);
+      const Pose2 down = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, k == 0 ? -h : 0.0,
+                                            k == 1 ? -h : 0.0, &offsets);
+      J_local.col(k) = Eigen::Vector3d(up.x - down.x, up.y - down.y, wrapAngle(up.theta - down.theta)) / (2.0 * h);
+    }
+  };
+  if (gaussianPose() && !drift)
+    linearise();
   for (auto& p : particles_)
   {
     if (drift)
@@ -341,22 +360,16 @@ void FastSlam::predictArcs(const std::vector<ArcStep>& block, double noise_scale
     }
     if (gaussianPose())
     {
-      // The block's mean and its noise linearised: the pose's covariance moves with the block's rigid motion, the
-      // two draws add theirs through the Jacobian of the end pose (central differences in the draws).
+      if (drift)
+        linearise();
+      // The pose's covariance moves with the block's rigid motion; the draws add theirs, turned into the map frame.
       const Pose2 start = p.pose;
-      const Pose2 end = applyVelocityBlock(start, block, config_.motion, noise_scale, 0.0, 0.0, &offsets);
-      Eigen::Matrix3d F;
+      const Pose2 end = start * local;
+      Eigen::Matrix3d F, R = Eigen::Matrix3d::Identity();
       F << 1, 0, -(end.y - start.y), 0, 1, end.x - start.x, 0, 0, 1;
-      Eigen::Matrix<double, 3, 2> J;
-      const double h = 1e-3;
-      for (int k = 0; k < 2; ++k)
-      {
-        const Pose2 up = applyVelocityBlock(start, block, config_.motion, noise_scale, k == 0 ? h : 0.0,
-                                            k == 1 ? h : 0.0, &offsets);
-        const Pose2 down = applyVelocityBlock(start, block, config_.motion, noise_scale, k == 0 ? -h : 0.0,
-                                              k == 1 ? -h : 0.0, &offsets);
-        J.col(k) = Eigen::Vector3d(up.x - down.x, up.y - down.y, wrapAngle(up.theta - down.theta)) / (2.0 * h);
-      }
+      const double c = std::cos(start.theta), s = std::sin(start.theta);
+      R.topLeftCorner<2, 2>() << c, -s, s, c;
+      const Eigen::Matrix<double, 3, 2> J = R * J_local;
       p.motion_covariance = F * p.motion_covariance * F.transpose() + J * J.transpose();
       p.pose = end;
       continue;

@@ -207,22 +207,20 @@ def window_blocks(poses, stamps, block_time):
     else:
         ct = cr = dt = dr = np.zeros(len(a))
 
-    def row_turn(w):  # a block's turn error: alpha1 sum(|t| w) + alpha2 sum(|d| w)
-        x, y = float(np.sum(t[i:j] * w[i:j])), float(np.sum(d[i:j] * w[i:j]))
-        return np.array([x * x, 2 * x * y, y * y, 0, 0, 0]) / share
-
-    def row_dist(w):  # a block's distance error: alpha3 sum(|d| w) + alpha4 sum(|t| w)
-        x, y = float(np.sum(d[i:j] * w[i:j])), float(np.sum(t[i:j] * w[i:j]))
-        return np.array([0, 0, 0, x * x, 2 * x * y, y * y]) / share
+    def rows(sl, w, share):
+        """The variance rows of a block's (slice ``sl`` of the arcs) turn error, alpha1 sum(|t| w) + alpha2
+        sum(|d| w), and distance error, alpha3 sum(|d| w) + alpha4 sum(|t| w), for per-arc weights ``w``."""
+        x, y = float(np.sum(t[sl] * w[sl])), float(np.sum(d[sl] * w[sl]))
+        return np.array([x * x, 2 * x * y, y * y, 0, 0, 0]) / share, np.array([0, 0, 0, y * y, 2 * x * y, x * x]) / share
 
     one = np.ones(len(a))
     for i, j, share in blocks:
-        share = share if 0.0 < share < 1.0 else 1.0
-        out['heading'] = out['heading'] + row_turn(one)
+        sl, share = slice(i, j), (share if 0.0 < share < 1.0 else 1.0)
+        out['heading'] = out['heading'] + rows(sl, one, share)[0]
         if length > 0:
-            out['distance'] = out['distance'] + row_dist(ct) + row_turn(cr)
-            out['direction_here'] = out['direction_here'] + row_dist(dt) + row_turn(dr)
-            out['direction_before'] = out['direction_before'] + row_dist(dt) + row_turn(1 - dr)
+            out['distance'] = out['distance'] + rows(sl, ct, share)[1] + rows(sl, cr, share)[0]
+            out['direction_here'] = out['direction_here'] + rows(sl, dt, share)[1] + rows(sl, dr, share)[0]
+            out['direction_before'] = out['direction_before'] + rows(sl, dt, share)[1] + rows(sl, 1 - dr, share)[0]
     out.update(steps=np.zeros((len(blocks), 3)), turn=float(np.sum(t)), travel=float(np.sum(d)))
     return out
 
