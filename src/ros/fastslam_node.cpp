@@ -2,7 +2,7 @@
 #include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/fastslam_node.h"
 
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -32,6 +32,7 @@
 #include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
+#include "rbpf_slam/ros/trunk_conversions.h"
 
 namespace rbpf_slam
 {
@@ -57,95 +58,6 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
 }
 
 }  // namespace
-
-core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg)
-{
-  core::SensorScope s;
-  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (positive(msg.max_range))
-  {
-    // A sensor that states its range states its near limit too (0: it sees from its origin on).
-    s.max_range = msg.max_range;
-    if (std::isfinite(msg.min_range) && msg.min_range >= 0.0 && msg.min_range < msg.max_range)
-      s.min_range = msg.min_range;
-  }
-  else if (positive(msg.min_range))
-    s.min_range = msg.min_range;
-  if (std::isfinite(msg.fov_min) && std::isfinite(msg.fov_max) && msg.fov_max > msg.fov_min)
-  {
-    s.fov_min = msg.fov_min;
-    s.fov_max = msg.fov_max;
-  }
-  if (positive(msg.detection_probability) && msg.detection_probability <= 1.0)
-    s.detection_probability = msg.detection_probability;
-  return s;
-}
-
-std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& sensor, double sensor_height,
-                         core::TrunkSweep* sweep)
-{
-  sweep->stamp = msg.header.stamp.toSec();
-  // Every trunk is carried to the sweep's middle from its own instant (sweep_period, sweep_start_angle, sweep_span)
-  // and moved by the lever arm of the tilt the extractor removed (tilt_roll, tilt_pitch, the sensor's height on
-  // base_link); 0 = all trunks at the stamp, no tilt, a spinning lidar's sweep.
-  sweep->period = msg.sweep_period;
-  sweep->tilt_roll = msg.tilt_roll;
-  sweep->tilt_pitch = msg.tilt_pitch;
-  if (std::isfinite(msg.sweep_span) && msg.sweep_span > 0.0 && std::isfinite(msg.sweep_start_angle))
-  {
-    sweep->geometry.start_angle = msg.sweep_start_angle;
-    sweep->geometry.span = msg.sweep_span;
-  }
-  sweep->mount.x = sensor.x;
-  sweep->mount.y = sensor.y;
-  sweep->mount.yaw = sensor.theta;
-  sweep->mount.z = sensor_height;
-  sweep->scope = scopeFromMsg(msg);
-  sweep->trunks.clear();
-  sweep->trunks.reserve(msg.trunks.size());
-  std::size_t bad = 0;
-  for (const auto& trunk : msg.trunks)
-  {
-    const core::TrunkObservation o = fromMsg(trunk);
-    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
-    {
-      ++bad;
-      continue;
-    }
-    sweep->trunks.push_back(o);
-  }
-  // What the array left out unreadable may have been a tree: no tree counts as missed in it.
-  sweep->scope.complete = bad == 0;
-  return bad;
-}
-
-core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk)
-{
-  core::TrunkObservation t;
-  t.center = Eigen::Vector2d(trunk.center.x, trunk.center.y);
-  t.height = trunk.center.z;
-  t.radius = trunk.radius;
-  t.radius_variance = trunk.radius_variance;
-  t.range = t.center.norm();
-  t.bearing = std::atan2(t.center.y(), t.center.x());
-  t.covariance << trunk.covariance[0], trunk.covariance[1], trunk.covariance[2], trunk.covariance[3];
-  t.num_points = static_cast<int>(trunk.num_points);
-  t.num_inliers = static_cast<int>(trunk.num_inliers);
-  t.score = trunk.score;
-  t.id = trunk.id >= 0 ? trunk.id : -1;
-  switch (trunk.method)
-  {
-    case rbpf_slam::Trunk::METHOD_CENTROID:
-      t.method = core::TrunkMethod::kCentroid;
-      break;
-    case rbpf_slam::Trunk::METHOD_ARC:
-      t.method = core::TrunkMethod::kArc;
-      break;
-    default:  // circle, and given observations: their radius (with a variance) is used
-      t.method = core::TrunkMethod::kCircle;
-  }
-  return t;
-}
 
 FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), name_(pnh.getNamespace())
 {
@@ -517,44 +429,9 @@ bool FastSlamRos::sensorPose(const std::string& frame, core::Pose2* pose)
 
 void FastSlamRos::publishScope(const ros::Time& stamp)
 {
-  if (scope_pub_.getNumSubscribers() == 0)
-    return;
-  const core::VisibilityScope& c = pipeline_->filter().scope();
-  auto m = boost::make_shared<visualization_msgs::Marker>();
-  m->header.frame_id = config_.base_frame;  // at the update's stamp: it moves with the robot
-  m->header.stamp = stamp;
-  m->ns = "visibility_scope";
-  m->type = visualization_msgs::Marker::LINE_LIST;
-  m->action = visualization_msgs::Marker::ADD;
-  m->pose.orientation.w = 1.0;
-  m->scale.x = 0.06;
-  m->color.r = 0.3f;
-  m->color.g = 0.8f;
-  m->color.b = 1.0f;
-  m->color.a = 1.0f;  // opaque: a flat colour rviz draws exactly
-  const double fov = std::min(std::max(c.fov_max - c.fov_min, 0.0), 2.0 * M_PI);
-  const double first = c.fov_min;
-  const int n = 120;
-  auto point = [&](double range, double bearing) {
-    geometry_msgs::Point p;
-    p.x = sensor_pose_.x + range * std::cos(sensor_pose_.theta + bearing);
-    p.y = sensor_pose_.y + range * std::sin(sensor_pose_.theta + bearing);
-    p.z = 0.05;
-    return p;
-  };
-  for (const double range : { c.min_range, c.max_range })
-    for (int k = 0; k < n; ++k)
-    {
-      m->points.push_back(point(range, first + fov * k / n));
-      m->points.push_back(point(range, first + fov * (k + 1) / n));
-    }
-  if (fov < 2.0 * M_PI - 1e-6)
-    for (const double side : { first, first + fov })
-    {
-      m->points.push_back(point(c.min_range, side));
-      m->points.push_back(point(c.max_range, side));
-    }
-  scope_pub_.publish(visualization_msgs::Marker::ConstPtr(m));
+  if (scope_pub_.getNumSubscribers() > 0)
+    scope_pub_.publish(visualization_msgs::Marker::ConstPtr(
+        scopeMarker(stamp, config_.base_frame, pipeline_->filter().scope(), sensor_pose_)));
 }
 
 void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate)
@@ -583,140 +460,19 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, 
   if (odom_path_pub_.getNumSubscribers() > 0)
     odom_path_pub_.publish(boost::make_shared<nav_msgs::Path>(odom_path_));
 
-  {
-    auto array = boost::make_shared<rbpf_slam::TrunkArray>();
-    array->header.stamp = stamp;
-    array->header.frame_id = config_.map_frame;
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-    {
-      const core::Landmark& l = best.map[i];
-      rbpf_slam::Trunk t;
-      t.center.x = l.mean.x();
-      t.center.y = l.mean.y();
-      t.radius = l.radius;
-      t.radius_variance = l.radius_variance;
-      t.range = l.mean.norm();
-      t.bearing = std::atan2(l.mean.y(), l.mean.x());
-      t.covariance[0] = l.covariance(0, 0);
-      t.covariance[1] = l.covariance(0, 1);
-      t.covariance[2] = l.covariance(1, 0);
-      t.covariance[3] = l.covariance(1, 1);
-      t.num_points = static_cast<std::uint32_t>(std::max(0, l.observations));
-      t.score = l.provisional ? 0.5f : 1.0f;
-      t.method = rbpf_slam::Trunk::METHOD_GIVEN;
-      t.id = l.id;
-      array->trunks.push_back(t);
-    }
-    landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(array));
-  }
-
+  landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(toLandmarkArray(stamp, config_.map_frame, best.map)));
   if (!saved_trees_.empty() && change_markers_pub_.getNumSubscribers() > 0)
   {
-    // Felled (red, where the saved tree stood) and new (blue) trees since the saved map.
+    // Felled and new trees since the saved map.
     std::vector<core::Landmark> now;
     for (std::size_t i = 0; i < best.map.size(); ++i)
       now.push_back(best.map[i]);
-    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
-    visualization_msgs::Marker clear;
-    clear.header.stamp = stamp;
-    clear.header.frame_id = config_.map_frame;
-    clear.action = visualization_msgs::Marker::DELETEALL;
-    markers->markers.push_back(clear);
-    for (const core::TreeChange& c : core::detectChanges(saved_trees_, now, core::ChangeConfig(), saved_viewpoints_))
-    {
-      if (c.kind == core::ChangeKind::kChanged)
-        continue;
-      visualization_msgs::Marker m;
-      m.header = clear.header;
-      m.ns = core::toString(c.kind);
-      m.id = c.id;
-      m.type = visualization_msgs::Marker::CYLINDER;
-      m.action = visualization_msgs::Marker::ADD;
-      m.pose.position.x = c.center.x();
-      m.pose.position.y = c.center.y();
-      m.pose.position.z = 1.5;
-      m.pose.orientation.w = 1.0;
-      const double dbh = c.kind == core::ChangeKind::kFelled ? c.dbh_before : c.dbh_after;
-      m.scale.x = m.scale.y = std::max(0.3, std::isfinite(dbh) ? dbh + 0.2 : 0.3);
-      m.scale.z = 3.0;
-      m.color.a = 0.6f;
-      if (c.kind == core::ChangeKind::kFelled)
-        m.color.r = 1.0f;
-      else
-      {
-        m.color.g = 0.4f;
-        m.color.b = 1.0f;
-      }
-      markers->markers.push_back(m);
-    }
-    change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(markers));
+    change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(changeMarkers(
+        stamp, config_.map_frame, core::detectChanges(saved_trees_, now, core::ChangeConfig(), saved_viewpoints_))));
   }
-
   if (landmarks_pub_.getNumSubscribers() > 0)
-  {
-    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
-    visualization_msgs::Marker clear;
-    clear.header.stamp = stamp;
-    clear.header.frame_id = config_.map_frame;
-    clear.action = visualization_msgs::Marker::DELETEALL;
-    markers->markers.push_back(clear);
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-    {
-      const core::Landmark& l = best.map[i];
-      visualization_msgs::Marker m;
-      m.header = clear.header;
-      m.ns = "landmarks";
-      m.id = l.id;
-      m.type = visualization_msgs::Marker::CYLINDER;
-      m.action = visualization_msgs::Marker::ADD;
-      m.pose.position.x = l.mean.x();
-      m.pose.position.y = l.mean.y();
-      m.pose.position.z = 1.0;
-      m.pose.orientation.w = 1.0;
-      m.scale.x = m.scale.y = std::max(0.02, 2.0 * l.radius);
-      m.scale.z = 2.0;
-      m.color.a = 0.8f;
-      if (l.provisional)  // yellow
-      {
-        m.color.r = 1.0f;
-        m.color.g = 0.85f;
-      }
-      else  // brown-green
-      {
-        m.color.r = 0.2f;
-        m.color.g = 0.7f;
-        m.color.b = 0.2f;
-      }
-      markers->markers.push_back(m);
-
-      // 2-sigma ellipse of the centre's covariance.
-      visualization_msgs::Marker e;
-      e.header = clear.header;
-      e.ns = "landmark_covariance";
-      e.id = l.id;
-      e.type = visualization_msgs::Marker::LINE_STRIP;
-      e.action = visualization_msgs::Marker::ADD;
-      e.pose.orientation.w = 1.0;
-      e.scale.x = 0.02;
-      e.color = m.color;
-      e.color.a = 1.0f;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
-      const Eigen::Vector2d ev = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt() * 2.0;
-      const Eigen::Matrix2d axes = eig.eigenvectors();
-      for (int k = 0; k <= 36; ++k)
-      {
-        const double a = 2.0 * M_PI * k / 36.0;
-        const Eigen::Vector2d p = l.mean + axes * Eigen::Vector2d(ev.x() * std::cos(a), ev.y() * std::sin(a));
-        geometry_msgs::Point q;
-        q.x = p.x();
-        q.y = p.y();
-        q.z = 0.05;
-        e.points.push_back(q);
-      }
-      markers->markers.push_back(e);
-    }
-    landmarks_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(markers));
-  }
+    landmarks_pub_.publish(
+        visualization_msgs::MarkerArray::ConstPtr(landmarkMarkers(stamp, config_.map_frame, best.map)));
 }
 
 bool FastSlamRos::onSave(const std::string& key, const std::string& fallback, bool with_report,

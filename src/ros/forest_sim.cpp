@@ -8,10 +8,10 @@
 #include <rosgraph_msgs/Clock.h>
 #include <std_msgs/Bool.h>
 
-#include "rbpf_slam/core/occupancy_image.h"
+#include "rbpf_slam/core/grid/occupancy_image.h"
 #include "rbpf_slam/io/map_image_file.h"
-#include "rbpf_slam/io/sim_config.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/sim_config.h"
+#include "rbpf_slam/sim/world_file.h"
 #include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"

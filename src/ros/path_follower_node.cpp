@@ -8,7 +8,7 @@
 #include <nav_msgs/Path.h>
 #include <std_msgs/Bool.h>
 
-#include "rbpf_slam/io/waypoints_file.h"
+#include "rbpf_slam/sim/waypoints_file.h"
 #include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam

@@ -18,6 +18,7 @@
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 #include "rbpf_slam/ros/scan_conversions.h"
+#include "rbpf_slam/ros/trunk_conversions.h"
 
 namespace rbpf_slam
 {
@@ -69,105 +70,6 @@ std::string fromDynamic(const rbpf_slam::TrunkExtractionConfig& d, core::TrunkDe
   c->scan_min_jump = d.scan_min_jump;
   c->detection_probability = d.detection_probability;
   return c->validate();
-}
-
-std::uint8_t toMsgMethod(core::TrunkMethod method)
-{
-  switch (method)
-  {
-    case core::TrunkMethod::kCentroid:
-      return rbpf_slam::Trunk::METHOD_CENTROID;
-    case core::TrunkMethod::kCircle:
-      return rbpf_slam::Trunk::METHOD_CIRCLE;
-    case core::TrunkMethod::kArc:
-      return rbpf_slam::Trunk::METHOD_ARC;
-  }
-  return rbpf_slam::Trunk::METHOD_CIRCLE;
-}
-
-rbpf_slam::Trunk toMsg(const core::TrunkObservation& t)
-{
-  rbpf_slam::Trunk m;
-  m.center.x = t.center.x();
-  m.center.y = t.center.y();
-  m.center.z = t.height;
-  m.radius = t.radius;
-  m.radius_variance = t.radius_variance;
-  m.range = t.range;
-  m.bearing = t.bearing;
-  m.covariance[0] = t.covariance(0, 0);
-  m.covariance[1] = t.covariance(0, 1);
-  m.covariance[2] = t.covariance(1, 0);
-  m.covariance[3] = t.covariance(1, 1);
-  m.num_points = static_cast<std::uint32_t>(std::max(0, t.num_points));
-  m.num_inliers = static_cast<std::uint32_t>(std::max(0, t.num_inliers));
-  m.score = static_cast<float>(t.score);
-  m.method = toMsgMethod(t.method);
-  m.id = -1;
-  return m;
-}
-
-/** @brief A DELETEALL, then per trunk a cylinder (diameter, band high, coloured by method) and a label. */
-visualization_msgs::MarkerArray::Ptr toMarkers(const rbpf_slam::TrunkArray& trunks, double band_height)
-{
-  auto msg = boost::make_shared<visualization_msgs::MarkerArray>();
-  visualization_msgs::Marker clear;
-  clear.header = trunks.header;
-  clear.action = visualization_msgs::Marker::DELETEALL;
-  msg->markers.push_back(clear);
-  int id = 0;
-  for (const auto& t : trunks.trunks)
-  {
-    visualization_msgs::Marker m;
-    m.header = trunks.header;
-    m.ns = "trunks";
-    m.id = id;
-    m.type = visualization_msgs::Marker::CYLINDER;
-    m.action = visualization_msgs::Marker::ADD;
-    m.pose.position = t.center;
-    m.pose.orientation.w = 1.0;
-    m.scale.x = m.scale.y = std::max(0.02, 2.0 * t.radius);
-    m.scale.z = band_height;
-    m.color.a = 0.8f;
-    switch (t.method)
-    {
-      case rbpf_slam::Trunk::METHOD_CENTROID:  // orange
-        m.color.r = 1.0f;
-        m.color.g = 0.5f;
-        break;
-      case rbpf_slam::Trunk::METHOD_CIRCLE:  // green
-        m.color.r = 0.1f;
-        m.color.g = 0.8f;
-        m.color.b = 0.1f;
-        break;
-      case rbpf_slam::Trunk::METHOD_ARC:  // blue
-        m.color.r = 0.2f;
-        m.color.g = 0.4f;
-        m.color.b = 1.0f;
-        break;
-      default:  // grey
-        m.color.r = m.color.g = m.color.b = 0.6f;
-    }
-    msg->markers.push_back(m);
-
-    visualization_msgs::Marker label;
-    label.header = trunks.header;
-    label.ns = "trunk_labels";
-    label.id = id;
-    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-    label.action = visualization_msgs::Marker::ADD;
-    label.pose.position = t.center;
-    label.pose.position.z += 0.5 * band_height + 0.25;
-    label.pose.orientation.w = 1.0;
-    label.scale.z = 0.25;
-    label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
-    char text[32];
-    std::snprintf(text, sizeof(text), "%.1f cm", 100.0 * t.radius);
-    label.text = text;
-    msg->markers.push_back(label);
-    ++id;
-  }
-  return msg;
 }
 
 }  // namespace
@@ -401,30 +303,12 @@ void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<
                               double sweep_period, const core::SensorScope& scope,
                               const core::SweepGeometry* geometry)
 {
-  auto out = boost::make_shared<rbpf_slam::TrunkArray>();
-  out->header = header;
-  // What the sensor could see: 0 where it is not known (NaN would not survive every consumer).
-  const auto known = [](double v) { return std::isfinite(v) ? v : 0.0; };
-  out->min_range = known(scope.min_range);
-  out->max_range = known(scope.max_range);
-  out->fov_min = known(scope.fov_min);
-  out->fov_max = known(scope.fov_max);
-  out->detection_probability = known(scope.detection_probability);
-  out->sweep_period = sweep_period;
-  if (geometry)
-  {
-    out->sweep_start_angle = geometry->start_angle;
-    out->sweep_span = geometry->span;
-  }
-  out->tilt_roll = stats.tilt_roll;
-  out->tilt_pitch = stats.tilt_pitch;
-  out->trunks.reserve(trunks.size());
-  for (const auto& t : trunks)
-    out->trunks.push_back(toMsg(t));
+  const rbpf_slam::TrunkArray::Ptr out =
+      toSweepMsg(header, trunks, scope, sweep_period, geometry, stats.tilt_roll, stats.tilt_pitch);
 
   if (markers_pub_.getNumSubscribers() > 0)
   {
-    markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(toMarkers(*out, band_height)));
+    markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(trunkMarkers(*out, band_height)));
     ++markers_published_;
   }
   if (stats_pub_.getNumSubscribers() > 0)

@@ -31,15 +31,15 @@
 #include <vector>
 
 #include "package_dir.h"
-#include "rbpf_slam/core/forest_slam_runner.h"
-#include "rbpf_slam/core/path_follower.h"
+#include "rbpf_slam/eval/forest_slam_runner.h"
+#include "rbpf_slam/sim/path_follower.h"
 #include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/run_output.h"
-#include "rbpf_slam/io/sim_config.h"
+#include "rbpf_slam/sim/sim_config.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
-#include "rbpf_slam/io/waypoints_file.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/waypoints_file.h"
+#include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
 

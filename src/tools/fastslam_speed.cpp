@@ -24,9 +24,9 @@
 #include <vector>
 
 #include "package_dir.h"
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/forest_slam_runner.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/eval/forest_slam_runner.h"
+#include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
 

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "package_dir.h"
-#include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/param_source.h"
 #include "rbpf_slam/io/trunk_detector_config.h"

@@ -16,14 +16,14 @@
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include "rbpf_slam/core/occupancy_image.h"
-#include "rbpf_slam/core/scenario.h"
+#include "rbpf_slam/core/grid/occupancy_image.h"
+#include "rbpf_slam/sim/scenario.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/ros/gnss_conversions.h"
-#include "rbpf_slam/io/sim_config.h"
-#include "rbpf_slam/io/waypoints_file.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/sim_config.h"
+#include "rbpf_slam/sim/waypoints_file.h"
+#include "rbpf_slam/sim/world_file.h"
 #include "rbpf_slam/ros/sim_conversions.h"
 
 using namespace rbpf_slam;

@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "package_dir.h"
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/scenario.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/sim/scenario.h"
+#include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
 

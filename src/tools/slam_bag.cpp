@@ -63,11 +63,11 @@
 
 #include <pcl/console/print.h>
 
-#include "rbpf_slam/core/grid_slam_pipeline.h"
-#include "rbpf_slam/core/odometry_buffer.h"
-#include "rbpf_slam/core/skid_steer_odometry.h"
-#include "rbpf_slam/core/stamp_gate.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/grid/grid_slam_pipeline.h"
+#include "rbpf_slam/core/filter/odometry_buffer.h"
+#include "rbpf_slam/core/filter/skid_steer_odometry.h"
+#include "rbpf_slam/core/filter/stamp_gate.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 #include "rbpf_slam/io/grid_slam_config.h"
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/param_source.h"

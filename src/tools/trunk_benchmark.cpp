@@ -16,10 +16,10 @@
 #include <pcl/console/print.h>
 
 #include "package_dir.h"
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/trunk_detector.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
 

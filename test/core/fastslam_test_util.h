@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
 
 namespace rbpf_slam
 {

@@ -7,9 +7,9 @@
 #include <limits>
 #include <vector>
 
-#include "rbpf_slam/core/occupancy_grid.h"
-#include "rbpf_slam/core/pose2.h"
-#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/grid/occupancy_grid.h"
+#include "rbpf_slam/core/filter/pose2.h"
+#include "rbpf_slam/core/filter/random.h"
 
 namespace grid_test_world
 {

@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/circle_fit.h"
-#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/extraction/circle_fit.h"
+#include "rbpf_slam/core/filter/random.h"
 
 using rbpf_slam::core::circleCovariance;
 using rbpf_slam::core::circleInliers;

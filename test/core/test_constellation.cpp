@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/constellation.h"
+#include "rbpf_slam/core/forest_map/constellation.h"
 
 using namespace rbpf_slam::core;
 

@@ -7,8 +7,8 @@
 
 #include <Eigen/Dense>
 
-#include "rbpf_slam/core/data_association.h"
-#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/fastslam/data_association.h"
+#include "rbpf_slam/core/fastslam/landmark_map.h"
 
 using namespace rbpf_slam::core;
 

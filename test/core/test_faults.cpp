@@ -9,14 +9,14 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/constellation.h"
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/gnss.h"
-#include "rbpf_slam/core/grid_slam.h"
-#include "rbpf_slam/core/history_chain.h"
-#include "rbpf_slam/core/stamp_gate.h"
-#include "rbpf_slam/core/trunk_detector.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/forest_map/constellation.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/core/forest_map/gnss.h"
+#include "rbpf_slam/core/grid/grid_slam.h"
+#include "rbpf_slam/core/filter/history_chain.h"
+#include "rbpf_slam/core/filter/stamp_gate.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 #include "fastslam_test_util.h"
 #include "grid_test_world.h"
 

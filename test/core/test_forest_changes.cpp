@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/forest_changes.h"
+#include "rbpf_slam/core/forest_map/forest_changes.h"
 
 using namespace rbpf_slam::core;
 

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/forest_world.h"
+#include "rbpf_slam/sim/forest_world.h"
 
 using rbpf_slam::core::addClutter;
 using rbpf_slam::core::BranchSpec;

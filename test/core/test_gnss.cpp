@@ -3,11 +3,11 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/geodesy.h"
-#include "rbpf_slam/core/gnss.h"
-#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/core/forest_map/geodesy.h"
+#include "rbpf_slam/core/forest_map/gnss.h"
+#include "rbpf_slam/core/filter/random.h"
 
 namespace rbpf_slam
 {

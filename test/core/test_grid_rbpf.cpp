@@ -7,9 +7,9 @@
 #include "grid_test_world.h"
 #include <memory>
 
-#include "rbpf_slam/core/grid_slam.h"
-#include "rbpf_slam/core/occupancy_grid.h"
-#include "rbpf_slam/core/scan_matcher.h"
+#include "rbpf_slam/core/grid/grid_slam.h"
+#include "rbpf_slam/core/grid/occupancy_grid.h"
+#include "rbpf_slam/core/grid/scan_matcher.h"
 
 using namespace rbpf_slam::core;
 using namespace grid_test_world;

@@ -6,13 +6,13 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/evaluation.h"
+#include "rbpf_slam/eval/evaluation.h"
 #include <memory>
 
-#include "rbpf_slam/core/grid_slam.h"
-#include "rbpf_slam/core/particle_filter.h"
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/skid_steer_odometry.h"
+#include "rbpf_slam/core/grid/grid_slam.h"
+#include "rbpf_slam/core/filter/particle_filter.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/filter/skid_steer_odometry.h"
 #include "grid_test_world.h"
 
 using namespace rbpf_slam::core;

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/ground_model.h"
+#include "rbpf_slam/core/extraction/ground_model.h"
 
 using rbpf_slam::core::GroundModel;
 using rbpf_slam::core::packCell;

@@ -6,7 +6,7 @@
 
 #include <Eigen/Dense>
 
-#include "rbpf_slam/core/landmark_ekf.h"
+#include "rbpf_slam/core/fastslam/landmark_ekf.h"
 
 using namespace rbpf_slam::core;
 

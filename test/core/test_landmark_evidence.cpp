@@ -5,10 +5,10 @@
 #include <cmath>
 #include <vector>
 
-#include "rbpf_slam/core/data_association.h"
-#include "rbpf_slam/core/landmark_evidence.h"
-#include "rbpf_slam/core/landmark_map.h"
-#include "rbpf_slam/core/visibility_scope.h"
+#include "rbpf_slam/core/fastslam/data_association.h"
+#include "rbpf_slam/core/fastslam/landmark_evidence.h"
+#include "rbpf_slam/core/fastslam/landmark_map.h"
+#include "rbpf_slam/core/fastslam/visibility_scope.h"
 
 using namespace rbpf_slam::core;
 

@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/fastslam/landmark_map.h"
 
 using namespace rbpf_slam::core;
 

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/occupancy_grid.h"
+#include "rbpf_slam/core/grid/occupancy_grid.h"
 
 using rbpf_slam::core::BeamKind;
 using rbpf_slam::core::MapOrigin;

@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/occupancy_image.h"
+#include "rbpf_slam/core/grid/occupancy_image.h"
 
 using rbpf_slam::core::MapOrigin;
 using rbpf_slam::core::OccupancyImage;

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/odometry_buffer.h"
+#include "rbpf_slam/core/filter/odometry_buffer.h"
 
 using rbpf_slam::core::OdometryBuffer;
 using rbpf_slam::core::Pose2;

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/particle_filter.h"
+#include "rbpf_slam/core/filter/particle_filter.h"
 
 using namespace rbpf_slam::core;
 

@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 
 #include "grid_test_world.h"
-#include "rbpf_slam/core/grid_slam_pipeline.h"
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/grid/grid_slam_pipeline.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
 using grid_test_world::simulateScan;

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/random.h"
+#include "rbpf_slam/core/filter/random.h"
 
 using rbpf_slam::core::Random;
 

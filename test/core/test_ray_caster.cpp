@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/ray_caster.h"
+#include "rbpf_slam/sim/ray_caster.h"
 
 using namespace rbpf_slam::core;
 

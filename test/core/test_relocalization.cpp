@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "fastslam_test_util.h"
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/filter_health.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/core/fastslam/filter_health.h"
 
 using rbpf_slam::core::FastSlam;
 using rbpf_slam::core::FastSlamConfig;

@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "fastslam_test_util.h"
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/trunk_clustering.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
-#include "rbpf_slam/core/visibility_scope.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/core/extraction/trunk_clustering.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/fastslam/visibility_scope.h"
 
 using namespace rbpf_slam::core;
 using rbpf_slam::test::observe;

@@ -5,11 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/ackermann.h"
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/forest_slam_runner.h"
-#include "rbpf_slam/core/ray_caster.h"
-#include "rbpf_slam/core/scenario.h"
+#include "rbpf_slam/sim/ackermann.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/eval/forest_slam_runner.h"
+#include "rbpf_slam/sim/ray_caster.h"
+#include "rbpf_slam/sim/scenario.h"
 
 using namespace rbpf_slam::core;
 

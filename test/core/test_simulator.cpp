@@ -3,8 +3,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/scenario.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/sim/scenario.h"
 
 using namespace rbpf_slam::core;
 

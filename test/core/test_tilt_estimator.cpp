@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/tilt_estimator.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/extraction/tilt_estimator.h"
 
 using rbpf_slam::core::estimateTiltFromTrunks;
 using rbpf_slam::core::Random;

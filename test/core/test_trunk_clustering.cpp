@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/trunk_clustering.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/extraction/trunk_clustering.h"
 
 using rbpf_slam::core::clusterHorizontal;
 using rbpf_slam::core::downsampleVoxels;

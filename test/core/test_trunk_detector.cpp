@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
 
 using rbpf_slam::core::PlanarScan;
 using rbpf_slam::core::Random;

@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/random.h"
-#include "rbpf_slam/core/trunk_fit.h"
+#include "rbpf_slam/core/filter/random.h"
+#include "rbpf_slam/core/extraction/trunk_fit.h"
 
 using rbpf_slam::core::checkTrunkFit;
 using rbpf_slam::core::fitTrunk;

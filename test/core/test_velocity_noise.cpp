@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/velocity_noise.h"
+#include "rbpf_slam/sim/velocity_noise.h"
 
 using rbpf_slam::core::VelocityCommand;
 using rbpf_slam::core::VelocityNoiseConfig;

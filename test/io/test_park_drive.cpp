@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/core/forest_world.h"
-#include "rbpf_slam/io/sim_config.h"
-#include "rbpf_slam/io/waypoints_file.h"
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/forest_world.h"
+#include "rbpf_slam/sim/sim_config.h"
+#include "rbpf_slam/sim/waypoints_file.h"
+#include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
 

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/io/sim_config.h"
+#include "rbpf_slam/sim/sim_config.h"
 
 using namespace rbpf_slam;
 

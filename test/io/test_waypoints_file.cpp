@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/path_follower.h"
-#include "rbpf_slam/io/waypoints_file.h"
+#include "rbpf_slam/sim/path_follower.h"
+#include "rbpf_slam/sim/waypoints_file.h"
 #include "temp_files.h"
 
 namespace io = rbpf_slam::io;

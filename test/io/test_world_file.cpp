@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rbpf_slam/io/world_file.h"
+#include "rbpf_slam/sim/world_file.h"
 #include "temp_files.h"
 
 using rbpf_slam::core::ForestWorld;

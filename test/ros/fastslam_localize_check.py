@@ -36,7 +36,7 @@ class FastSlamLocalizeCheck(unittest.TestCase):
         cls.sim = SimRun(limit=80.0)
         cls.lock, cls.truth, cls.odom, cls.tf_buffer = cls.sim.lock, cls.sim.truth, cls.sim.odom, cls.sim.tf_buffer
 
-    def test_1_found_in_the_saved_map(self):
+    def test_the_robot_is_found_in_the_saved_map(self):
         self.assertTrue(self.sim.done, 'no sim_done within 80 s wall time')
         t = self.tf_buffer.lookup_transform('map', 'base_link', rospy.Time(0), rospy.Duration(2.0))
         stamp = t.header.stamp.to_sec()
@@ -51,14 +51,14 @@ class FastSlamLocalizeCheck(unittest.TestCase):
                       got[0], got[1], expected[0], expected[1], error)
         self.assertLess(error, 0.3)
 
-    def test_2_the_saved_trees_are_kept(self):
+    def test_the_saved_trees_are_kept(self):
         with self.lock:
             lm = self.sim.landmarks
         self.assertIsNotNone(lm, 'no landmark_array')
         ids = set(t.id for t in lm.trunks)
         self.assertGreaterEqual(len(ids & set(range(16))), 14, 'the saved trees (ids 0..15) are gone: %s' % sorted(ids))
 
-    def test_3_save_map_writes_the_change_report(self):
+    def test_save_map_writes_the_change_report(self):
         rospy.wait_for_service('fastslam/save_map', 5.0)
         path = os.path.join(tempfile.mkdtemp(), 'visit2.csv')
         rospy.set_param('fastslam/map_path', path)

@@ -26,14 +26,14 @@ class FastSlamPipelineCheck(unittest.TestCase):
         cls.sim = SimRun(limit=80.0)
         cls.lock, cls.truth, cls.odom, cls.tf_buffer = cls.sim.lock, cls.sim.truth, cls.sim.odom, cls.sim.tf_buffer
 
-    def test_1_sim_finished(self):
+    def test_the_simulator_finished(self):
         self.assertTrue(self.sim.done, 'no sim_done within 80 s wall time')
 
-    def test_2_map_to_odom_exists(self):
+    def test_map_to_odom_is_on_tf(self):
         self.assertTrue(self.tf_buffer.can_transform('map', 'odom', rospy.Time(0), rospy.Duration(2.0)),
                         'no TF map -> odom')
 
-    def test_3_landmarks_created(self):
+    def test_landmarks_are_published_once_each(self):
         with self.lock:
             lm = self.sim.landmarks
         self.assertIsNotNone(lm, 'no landmark_array')
@@ -50,7 +50,7 @@ class FastSlamPipelineCheck(unittest.TestCase):
         a = 0.0 if s1 <= s0 else min(1.0, max(0.0, (stamp - s0) / (s1 - s0)))
         return x0 + a * (x1 - x0), y0 + a * (y1 - y0)
 
-    def test_4_final_pose_near_truth(self):
+    def test_final_pose_is_near_the_truth_and_better_than_odometry(self):
         t = self.tf_buffer.lookup_transform('map', 'base_link', rospy.Time(0), rospy.Duration(2.0))
         stamp = t.header.stamp.to_sec()
         with self.lock:
@@ -70,7 +70,7 @@ class FastSlamPipelineCheck(unittest.TestCase):
         # Odometry drifts about 0.4 m over this drive: the map must have done better.
         self.assertLess(error, math.hypot(ox - tx, oy - ty))
 
-    def test_5_save_inventory(self):
+    def test_save_inventory_writes_the_tree_table(self):
         rospy.wait_for_service('fastslam/save_inventory', 5.0)
         path = os.path.join(tempfile.mkdtemp(), 'sub', 'trees.csv')
         rospy.set_param('fastslam/inventory_path', path)
@@ -94,7 +94,7 @@ class FastSlamPipelineCheck(unittest.TestCase):
         self.assertTrue((trees['first_seen'] > 0.0).all())
         self.assertTrue((trees['last_seen'] >= trees['first_seen']).all())
 
-    def test_6_save_map(self):
+    def test_save_map_writes_a_map_in_a_local_frame(self):
         rospy.wait_for_service('fastslam/save_map', 5.0)
         path = os.path.join(tempfile.mkdtemp(), 'forest_map.csv')
         rospy.set_param('fastslam/map_path', path)

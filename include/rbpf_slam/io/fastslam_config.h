@@ -1,7 +1,7 @@
 #ifndef RBPF_SLAM_IO_FASTSLAM_CONFIG_H
 #define RBPF_SLAM_IO_FASTSLAM_CONFIG_H
 
-#include "rbpf_slam/core/fastslam.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/io/param_source.h"
 
 namespace rbpf_slam

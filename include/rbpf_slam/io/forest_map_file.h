@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/forest_changes.h"
-#include "rbpf_slam/core/geodesy.h"
-#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/forest_map/forest_changes.h"
+#include "rbpf_slam/core/forest_map/geodesy.h"
+#include "rbpf_slam/core/fastslam/landmark_map.h"
 
 namespace rbpf_slam
 {

@@ -1,7 +1,7 @@
 #ifndef RBPF_SLAM_IO_GRID_SLAM_CONFIG_H
 #define RBPF_SLAM_IO_GRID_SLAM_CONFIG_H
 
-#include "rbpf_slam/core/grid_slam.h"
+#include "rbpf_slam/core/grid/grid_slam.h"
 #include "rbpf_slam/io/param_source.h"
 
 namespace rbpf_slam

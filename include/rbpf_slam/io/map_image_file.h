@@ -6,7 +6,7 @@
 
 #include "rbpf_slam/io/files.h"
 
-#include "rbpf_slam/core/occupancy_image.h"
+#include "rbpf_slam/core/grid/occupancy_image.h"
 
 namespace rbpf_slam
 {

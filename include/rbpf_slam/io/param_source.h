@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/particle_filter.h"
+#include "rbpf_slam/core/filter/particle_filter.h"
 
 namespace rbpf_slam
 {

@@ -6,12 +6,12 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/fastslam.h"
-#include "rbpf_slam/core/filter_health.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
-#include "rbpf_slam/core/landmark_map.h"
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/core/fastslam/filter_health.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/io/files.h"
-#include "rbpf_slam/core/pose2.h"
+#include "rbpf_slam/core/filter/pose2.h"
 
 namespace rbpf_slam
 {

@@ -1,7 +1,7 @@
 #ifndef RBPF_SLAM_IO_TRUNK_DETECTOR_CONFIG_H
 #define RBPF_SLAM_IO_TRUNK_DETECTOR_CONFIG_H
 
-#include "rbpf_slam/core/trunk_detector.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/io/param_source.h"
 
 namespace rbpf_slam

@@ -18,11 +18,12 @@
 
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 #include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/transform_guard.h"
+#include "rbpf_slam/ros/trunk_conversions.h"
 
 namespace rbpf_slam
 {
@@ -44,18 +45,6 @@ struct FastSlamRosConfig : SlamRosConfig
   /// Where ~save_map writes the tree map (~ = $HOME).
   std::string map_path = "~/.ros/forest_map.csv";
 };
-
-/** @brief A Trunk message (sensor frame) as the core's observation: centre, covariance, radius, method. */
-core::TrunkObservation fromMsg(const rbpf_slam::Trunk& trunk);
-/** @brief The sensor's scope a TrunkArray states (NaN for each field it leaves 0). */
-core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg);
-/**
- * @brief A TrunkArray (sensor frame) as the pipeline's sweep, the sensor at @p sensor on base_link, @p sensor_height
- * above it: timing, tilt, scope and the trunks; trunks with a non-finite centre, covariance or radius are left out
- * and counted (the return value). The node and the bag runner share it.
- */
-std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& sensor, double sensor_height,
-                         core::TrunkSweep* sweep);
 
 /**
  * @brief FastSLAM over tree trunks (core::FastSlam) on ROS topics, relative to @p nh:

@@ -15,7 +15,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include "rbpf_slam/core/forest_simulator.h"
+#include "rbpf_slam/sim/forest_simulator.h"
 #include "rbpf_slam/ros/any_stamped.h"
 #include "rbpf_slam/ros/sim_conversions.h"
 

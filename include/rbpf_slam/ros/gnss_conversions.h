@@ -6,7 +6,7 @@
 
 #include <sensor_msgs/NavSatFix.h>
 
-#include "rbpf_slam/core/gnss.h"
+#include "rbpf_slam/core/forest_map/gnss.h"
 
 namespace rbpf_slam
 {

@@ -18,7 +18,7 @@
 
 #include "rbpf_slam/ros/transform_guard.h"
 
-#include "rbpf_slam/core/grid_slam_pipeline.h"
+#include "rbpf_slam/core/grid/grid_slam_pipeline.h"
 #include "rbpf_slam/ros/params.h"
 
 namespace rbpf_slam

@@ -7,7 +7,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <ros/ros.h>
 
-#include "rbpf_slam/core/velocity_noise.h"
+#include "rbpf_slam/sim/velocity_noise.h"
 
 namespace rbpf_slam
 {

@@ -6,7 +6,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 
-#include "rbpf_slam/core/path_follower.h"
+#include "rbpf_slam/sim/path_follower.h"
 
 namespace rbpf_slam
 {

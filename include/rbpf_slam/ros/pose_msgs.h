@@ -15,7 +15,7 @@
 #include <nav_msgs/Path.h>
 #include <ros/time.h>
 
-#include "rbpf_slam/core/pose2.h"
+#include "rbpf_slam/core/filter/pose2.h"
 
 namespace rbpf_slam
 {

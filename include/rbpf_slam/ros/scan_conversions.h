@@ -6,9 +6,9 @@
 
 #include <sensor_msgs/LaserScan.h>
 
-#include "rbpf_slam/core/occupancy_grid.h"
-#include "rbpf_slam/core/trunk_detector.h"
-#include "rbpf_slam/core/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/grid/occupancy_grid.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {

@@ -13,8 +13,8 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include "rbpf_slam/TrunkArray.h"
-#include "rbpf_slam/core/forest_simulator.h"
-#include "rbpf_slam/core/occupancy_image.h"
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/core/grid/occupancy_image.h"
 
 namespace rbpf_slam
 {

@@ -1,0 +1,180 @@
+#ifndef RBPF_SLAM_CORE_GRID_SCAN_MATCHER_H
+#define RBPF_SLAM_CORE_GRID_SCAN_MATCHER_H
+
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rbpf_slam/core/grid/occupancy_grid.h"
+#include "rbpf_slam/core/filter/pose2.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/**
+ * @brief The likelihood-field model and the hill-climbing scan matcher of the `rbpf` grid SLAM mode, after
+ * GMapping (Grisetti, Stachniss, Burgard 2007): each scan end point looks for the nearest occupied cell in a
+ * (2 kernel + 1)^2 window around the cell it falls in; the distance d to that cell's centre scores
+ * exp(-d^2 / (2 match_sigma^2)) for the matcher and -d^2 / (2 likelihood_sigma^2) for the weight; an end point
+ * with no occupied cell in its window scores 0 and no_hit_distance for the weight.
+ */
+/// Largest window half-size of the likelihood field [cells].
+constexpr int kMaxKernel = 10;
+/// Largest window half-size of the coarse level [coarse cells].
+constexpr int kMaxCoarseKernel = 4;
+
+struct ScanMatcherConfig
+{
+  int kernel = 1;                  ///< [cells] search window half-size around each end point
+  double match_sigma = 0.05;       ///< [m] of the matcher's score
+  double likelihood_sigma = 0.075; ///< [m] of the weight's likelihood
+  double no_hit_distance = 0.3;    ///< [m] distance charged to an end point with no occupied cell in its window
+  double linear_step = 0.05;       ///< [m] first step of hill climbing
+  double angular_step = 0.05;      ///< [rad] first step of hill climbing
+  int refinements = 5;             ///< step halvings before hill climbing stops
+  int max_iterations = 100;        ///< cap on the moves of one match
+  int beam_step = 1;               ///< match and weigh with every n-th hit beam
+  /// The fine climb moves on every n-th of those end points; the pose it ends at is scored on all of them (the
+  /// match's score, likelihood and matched count). 1 = the climb uses them all.
+  int climb_beam_step = 1;
+  /// GMapping's test: a window cell counts only if the cell at the same offset from the point sqrt(2) cells back
+  /// along the beam is not occupied.
+  bool free_check = false;
+  /// Distances to the mean hit point of each occupied cell (OccupancyGrid::hitPoint, as GMapping keeps it)
+  /// instead of its centre: matches finer than a cell.
+  bool sub_cell = false;
+  /// The climb moves on the end points whose window holds an observed cell at its start (the match is then
+  /// scored on all of them). Without it a scan whose far end reaches past the map's edge scores higher the
+  /// further it slides back onto the mapped part (a long corridor).
+  bool climb_on_observed = false;
+  /// Coarse-to-fine: before the fine climb above, a climb on the map's coarse level (cells of 4 x 4 cells,
+  /// OccupancyGrid::coarseCount): each end point looks for the nearest occupied coarse cell in a
+  /// (2 coarse_kernel + 1)^2 window of coarse cells and scores exp(-d^2 / 2 coarse_sigma^2) with d to its centre;
+  /// every coarse_beam_step-th end point, the same first steps, coarse_refinements halvings. It brings a start
+  /// whose far end points miss the fine window by decimetres into its reach. 0 = off.
+  int coarse_kernel = 0;
+  double coarse_sigma = 0.15;      ///< [m]
+  int coarse_beam_step = 2;
+  int coarse_refinements = 2;
+
+  /// Motion prior (the proposal's other factor, p(x | x', u)): the climb maximises score - prior_weight *
+  /// (|dxy|^2 / (2 sigma_xy^2) + dtheta^2 / (2 sigma_theta^2)), d measured from the odometry sample it starts at,
+  /// sigmas those of the motion model for this increment (at least the floors; GridSlam computes them once per
+  /// scan for this prior and for the weight's motion factor). Without it, a scan whose far
+  /// end points fall in unmapped space slides back onto the mapped part (seen on Intel: 1 m per scan in a
+  /// corridor). 0 = off.
+  double prior_weight = 0.0;
+  double prior_floor_xy = 0.05;     ///< [m]
+  double prior_floor_theta = 0.05;  ///< [rad]
+
+  /** @brief Empty when valid, else a message naming the bad parameter. */
+  std::string validate() const;
+};
+
+/** @brief The motion prior of one match: centre and standard deviations (see ScanMatcherConfig::prior_weight). */
+struct MatchPrior
+{
+  Pose2 centre;
+  double sigma_xy = 1.0;     ///< [m]
+  double sigma_theta = 1.0;  ///< [rad]
+};
+
+/** @brief What one match found. */
+struct ScanMatch
+{
+  Pose2 pose;              ///< the robot pose of the best score
+  double score = 0.0;      ///< matcher score there (sum over end points, each in [0, 1])
+  double log_likelihood = 0.0;  ///< the likelihood-field log-likelihood there
+  int matched = 0;         ///< end points with an occupied cell in their window there
+  int evaluations = 0;     ///< poses scored
+};
+
+class ScanMatcher
+{
+public:
+  explicit ScanMatcher(const ScanMatcherConfig& config = ScanMatcherConfig());
+  const ScanMatcherConfig& config() const { return config_; }
+
+  /**
+   * @brief Scores robot pose @p pose for end points @p end_points (sensor frame; the sensor sits at @p sensor
+   * on the robot) against @p map; fills score, log_likelihood and matched of the result.
+   */
+  ScanMatch evaluate(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                     const std::vector<std::pair<double, double>>& end_points) const;
+
+  /**
+   * @brief Hill climbing from @p start: tries +-x, +-y (map frame) and +-theta; takes the best improving move
+   * and repeats; when none improves, halves the steps (refinements times).
+   */
+  ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                  const std::vector<std::pair<double, double>>& end_points) const;
+  /** @brief As above, the climb penalised by @p prior (used when config().prior_weight > 0). */
+  ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const;
+
+private:
+  /** @brief The window, score sigma and beam stride of one level of the climb. */
+  struct Level
+  {
+    bool coarse;  // on the map's coarse level
+    int kernel;
+    double sigma;
+    int beam_step;
+    int refinements;
+    double linear_step, angular_step;
+  };
+  /**
+   * @brief The end points a level uses, rotated into the map's axes for one sensor heading: the climb's four
+   * translating moves keep the heading, so they reuse them.
+   */
+  struct Rotated
+  {
+    struct Slot
+    {
+      double theta = std::numeric_limits<double>::quiet_NaN();
+      long used = -1;  // when last read: the least recently used slot takes a new heading
+      std::vector<std::pair<double, double>> points;
+    };
+    Slot slots[3];  // a climb step's own heading and its two turning moves
+    long clock = 0;
+  };
+  const std::vector<std::pair<double, double>>& rotate(const Level& level, double theta,
+                                                       const std::vector<std::pair<double, double>>& end_points,
+                                                       Rotated* cache) const;
+  ScanMatch evaluateAt(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                       const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const;
+  ScanMatch evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                           const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const;
+  ScanMatch climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
+                  int* evaluations) const;
+  double penalty(const Pose2& pose, const MatchPrior* prior) const;
+  /** @brief The coarse (if on) and fine climbs from @p start on @p end_points. */
+  ScanMatch climbLevels(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
+                        const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const;
+  Level fineLevel() const;
+
+  /** @brief exp(-x) for x = d^2 / (2 sigma^2) >= 0 by linear interpolation in a table (inline: it runs once per
+   * end point and pose). */
+  double matchKernel(double x) const
+  {
+    if (x >= kExpTableMax)
+      return 0.0;
+    const double f = x * kExpTableScale;
+    const std::size_t i = static_cast<std::size_t>(f);
+    const double t = f - static_cast<double>(i);
+    return exp_table_[i] + t * (exp_table_[i + 1] - exp_table_[i]);
+  }
+
+  ScanMatcherConfig config_;
+  std::vector<double> exp_table_;  // exp(-x) at x = i / kExpTableScale
+  static constexpr double kExpTableScale = 256.0;
+  static constexpr double kExpTableMax = 16.0;  // exp(-16) ~ 1e-7: beyond, 0
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_GRID_SCAN_MATCHER_H

@@ -1,0 +1,72 @@
+#ifndef RBPF_SLAM_SIM_SCENARIO_H
+#define RBPF_SLAM_SIM_SCENARIO_H
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/sim/forest_simulator.h"
+#include "rbpf_slam/sim/path_follower.h"
+#include "rbpf_slam/sim/velocity_noise.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/**
+ * @brief What the path follower steers on: the robot's odometry (a robot without SLAM), or the true pose (a human
+ * driver, who sees the road). Either way the filters see only odometry and sensor data.
+ */
+enum class SteerOn
+{
+  kOdometry,
+  kTruth,
+};
+
+/** @brief Parses "odometry" or "truth"; false for anything else. */
+bool parseSteerOn(const std::string& name, SteerOn* steer_on);
+
+struct ScenarioConfig
+{
+  SimulatorConfig sim;
+  VelocityNoiseConfig relay;  ///< motor noise between the follower and the robot
+  PathFollowerConfig follower;
+  SteerOn steer_on = SteerOn::kOdometry;  ///< the follower's input (at each odometry message)
+  std::vector<Eigen::Vector2d> drive = straightDrive();  ///< start frame
+  double timeout = 600.0;  ///< [s] of simulated time
+  double settle = 1.0;     ///< [s] run on after the follower is done, so the robot stops
+};
+
+/**
+ * @brief The ROS graph of a simulated run (follower -> noise relay -> simulator -> odometry ->
+ * follower), in one process and in lockstep: the follower answers every odometry message, as the
+ * nodelet does, so a seed gives the same run here and in the graph.
+ */
+class Scenario
+{
+public:
+  Scenario(const ForestWorld& world, const ScenarioConfig& config,
+           std::shared_ptr<const OccupancyImage> image = nullptr);
+
+  /** @brief One physics tick; false once the drive is finished (or timed out) and settled, or the robot collided
+   * (simulator().collision()). */
+  bool step(SimulatorOutput* out);
+
+  ForestSimulator& simulator() { return sim_; }
+  const PathFollower& follower() const { return follower_; }
+  bool timedOut() const { return sim_.time() >= config_.timeout; }
+
+private:
+  ScenarioConfig config_;
+  ForestSimulator sim_;
+  VelocityNoiseModel relay_;
+  PathFollower follower_;
+  double done_time_ = -1.0;
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_SIM_SCENARIO_H

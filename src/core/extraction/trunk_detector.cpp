@@ -1,0 +1,380 @@
+// Trunk detection: the steps of detect() and detectScan(), each in its own file (ground_model, trunk_clustering,
+// tilt_estimator, trunk_fit, circle_fit).
+#include "rbpf_slam/core/extraction/trunk_detector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <Eigen/Eigenvalues>
+
+#include "rbpf_slam/core/extraction/ground_model.h"
+#include "rbpf_slam/core/extraction/tilt_estimator.h"
+#include "rbpf_slam/core/extraction/trunk_clustering.h"
+#include "rbpf_slam/core/extraction/trunk_fit.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+namespace
+{
+/** Wall time of consecutive stages. */
+class StageTimer
+{
+public:
+  /** Adds the time since the previous lap (or the start) to @p acc [ms]. */
+  void lap(double* acc)
+  {
+    const auto now = std::chrono::steady_clock::now();
+    *acc += std::chrono::duration<double, std::milli>(now - last_).count();
+    last_ = now;
+  }
+
+private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+/** The finite points, rotated by @p level into the levelled frame. */
+void levelFinitePoints(const std::vector<Eigen::Vector3f>& points, const Eigen::Matrix3d& level,
+                       std::vector<Eigen::Vector3d>* out)
+{
+  out->clear();
+  out->reserve(points.size());
+  for (const auto& pf : points)
+    if (pf.allFinite())
+      out->push_back(level * pf.cast<double>());
+}
+
+/** A candidate's horizontal projection after removing the tilt (shear about the sensor origin). */
+void levelCandidate(const TrunkCandidate& candidate, const Eigen::Vector2d& tilt, std::vector<Eigen::Vector2d>* out)
+{
+  out->clear();
+  out->reserve(candidate.points.size());
+  for (const auto& q : candidate.points)
+    out->emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z());
+}
+
+TiltEstimatorParams tiltParams(const TrunkDetectorConfig& cfg)
+{
+  TiltEstimatorParams p;
+  p.min_radius = cfg.min_radius;
+  p.max_radius = cfg.max_radius;
+  p.range_sigma = cfg.range_sigma;
+  p.max_tilt = cfg.max_tilt;
+  return p;
+}
+}  // namespace
+
+bool parseTrunkMethod(const std::string& text, TrunkMethod* method)
+{
+  if (text == "centroid")
+    *method = TrunkMethod::kCentroid;
+  else if (text == "circle")
+    *method = TrunkMethod::kCircle;
+  else
+    return false;
+  return true;
+}
+
+const char* trunkMethodName(TrunkMethod method)
+{
+  switch (method)
+  {
+    case TrunkMethod::kCentroid:
+      return "centroid";
+    case TrunkMethod::kCircle:
+      return "circle";
+    case TrunkMethod::kArc:
+      return "arc";
+  }
+  return "unknown";
+}
+
+std::string TrunkDetectorConfig::validate() const
+{
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (method != TrunkMethod::kCentroid && method != TrunkMethod::kCircle)
+    return "method must be centroid or circle";
+  if (!positive(ground_cell))
+    return "ground_cell must be > 0";
+  if (!(ground_max_slope >= 0.0))
+    return "ground_max_slope must be >= 0";
+  if (!std::isfinite(min_height) || !std::isfinite(max_height) || !(max_height > min_height))
+    return "max_height must be > min_height";
+  if (!(voxel_size >= 0.0))
+    return "voxel_size must be >= 0";
+  if (!positive(cluster_tolerance))
+    return "cluster_tolerance must be > 0";
+  if (min_points < 3)
+    return "min_points must be >= 3";
+  if (scan_min_beams < 1)
+    return "scan_min_beams must be >= 1";
+  if (!positive(scan_min_jump))
+    return "scan_min_jump must be > 0";
+  if (max_points < min_points)
+    return "max_points must be >= min_points";
+  if (!positive(min_radius) || !(max_radius > min_radius))
+    return "min_radius must be > 0 and max_radius > min_radius";
+  if (!positive(ransac_threshold))
+    return "ransac_threshold must be > 0";
+  if (ransac_iterations < 1)
+    return "ransac_iterations must be >= 1";
+  if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0))
+    return "min_inlier_ratio must be in [0, 1]";
+  if (!(min_vertical_extent >= 0.0))
+    return "min_vertical_extent must be >= 0";
+  if (!positive(max_tilt))
+    return "max_tilt must be > 0";
+  if (min_fit_points < 3)
+    return "min_fit_points must be >= 3";
+  if (!(min_fit_arc >= 0.0))
+    return "min_fit_arc must be >= 0";
+  if (!positive(arc_radius_prior) || !positive(arc_radius_sigma))
+    return "arc_radius_prior and arc_radius_sigma must be > 0";
+  if (!positive(range_sigma))
+    return "range_sigma must be > 0";
+  if (!std::isfinite(range_offset) || std::abs(range_offset) > 1.0)
+    return "range_offset must be finite and within +-1 m";
+  if (!(min_range >= 0.0) || !(max_range > min_range))
+    return "max_range must be > min_range >= 0";
+  if (!(detection_probability > 0.0 && detection_probability <= 1.0))
+    return "detection_probability must be in (0, 1]";
+  if (!(sensor_height >= 0.0))
+    return "sensor_height must be >= 0 (0: unknown)";
+  return "";
+}
+
+/** Buffers reused from one call to the next. */
+struct TrunkDetector::Impl
+{
+  std::vector<Eigen::Vector3d> levelled;
+  std::vector<Eigen::Vector2d> projected;
+};
+
+TrunkDetector::TrunkDetector(const TrunkDetectorConfig& config) : impl_(new Impl)
+{
+  setConfig(config);
+}
+
+TrunkDetector::~TrunkDetector() = default;
+
+void TrunkDetector::setConfig(const TrunkDetectorConfig& config)
+{
+  const std::string error = config.validate();
+  if (!error.empty())
+    throw std::invalid_argument("TrunkDetector: " + error);
+  config_ = config;
+}
+
+std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vector3f>& points,
+                                                     const Eigen::Matrix3d& level, TrunkDetectorStats* stats)
+{
+  TrunkDetectorStats local_stats;
+  TrunkDetectorStats* st = stats ? stats : &local_stats;
+  *st = TrunkDetectorStats();
+  st->input_points = static_cast<int>(points.size());
+  const TrunkDetectorConfig& cfg = config_;
+  std::vector<TrunkObservation> out;
+
+  std::vector<Eigen::Vector3d>& pts = impl_->levelled;
+  levelFinitePoints(points, level, &pts);
+  st->finite_points = static_cast<int>(pts.size());
+  if (pts.empty())
+    return out;
+  StageTimer timer;
+
+  // Ground, and the band above it where trunks are clear of ground vegetation and below the crowns.
+  GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope);
+  ground.build(pts);
+  std::vector<Eigen::Vector3f> band = selectHeightBand(pts, &ground, cfg.min_height, cfg.max_height);
+  st->reach = singleRingReach(cfg.arc_radius_prior, cfg.min_points, estimateAzimuthStep(band));
+  if (cfg.voxel_size > 0.0)
+    downsampleVoxels(&band, cfg.voxel_size);
+  st->band_points = static_cast<int>(band.size());
+  if (band.size() < static_cast<std::size_t>(cfg.min_points))
+    return out;
+  timer.lap(&st->ms_band);
+
+  const std::vector<std::vector<int>> clusters = clusterHorizontal(band, cfg.cluster_tolerance);
+  st->clusters = static_cast<int>(clusters.size());
+  const std::vector<TrunkCandidate> candidates = selectTrunkCandidates(band, clusters, cfg, st);
+  timer.lap(&st->ms_cluster);
+
+  Eigen::Vector2d tilt = Eigen::Vector2d::Zero();
+  if (cfg.level_by_trunks && cfg.method == TrunkMethod::kCircle)
+    tilt = estimateTiltFromTrunks(candidates, tiltParams(cfg));
+  st->tilt_pitch = std::atan(tilt.x());
+  st->tilt_roll = -std::atan(tilt.y());
+  timer.lap(&st->ms_tilt);
+
+  std::vector<Eigen::Vector2d>& p2 = impl_->projected;
+  for (const auto& c : candidates)
+  {
+    levelCandidate(c, tilt, &p2);
+    const int n = static_cast<int>(p2.size());
+    const TrunkFit fit = fitTrunk(p2, cfg);
+    const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
+    // Two trunks whose bark nearly touches make one cluster: when one circle explains it poorly, two may.
+    if (cfg.method == TrunkMethod::kCircle && isPoorSingleFit(p2, fit, rejection, cfg))
+    {
+      const TrunkPairFit pair = fitTrunkPair(p2, fit, cfg);
+      if (pair.ok)
+      {
+        ++st->split_clusters;
+        for (int k = 0; k < 2; ++k)
+        {
+          TrunkCandidate part;
+          std::vector<Eigen::Vector2d> part2;
+          part.z_lo = std::numeric_limits<double>::infinity();
+          part.z_hi = -std::numeric_limits<double>::infinity();
+          for (int i : pair.members[k])
+          {
+            const Eigen::Vector3d& q = c.points[static_cast<std::size_t>(i)];
+            part.points.push_back(q);
+            part2.push_back(p2[static_cast<std::size_t>(i)]);
+            part.z_lo = std::min(part.z_lo, q.z());
+            part.z_hi = std::max(part.z_hi, q.z());
+          }
+          if (part.z_hi - part.z_lo < cfg.min_vertical_extent || !isUpright(part, part2, cfg))
+            ++st->rejected_shape;
+          else
+            out.push_back(toTrunkObservation(pair.fits[k], static_cast<int>(part2.size()), part.zMid()));
+        }
+        continue;
+      }
+    }
+    if (rejection != TrunkRejection::kNone)
+    {
+      countRejection(rejection, st);
+      continue;
+    }
+    if (!isUpright(c, p2, cfg))
+    {
+      ++st->rejected_shape;
+      continue;
+    }
+    out.push_back(toTrunkObservation(fit, n, c.zMid()));
+  }
+  timer.lap(&st->ms_fit);
+  st->trunks = static_cast<int>(out.size());
+  return out;
+}
+
+std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, TrunkDetectorStats* stats)
+{
+  TrunkDetectorStats local_stats;
+  TrunkDetectorStats* st = stats ? stats : &local_stats;
+  *st = TrunkDetectorStats();
+  const TrunkDetectorConfig& cfg = config_;
+  std::vector<TrunkObservation> out;
+  st->input_points = static_cast<int>(scan.ranges.size());
+
+  const std::vector<ScanArc> arcs =
+      splitScanIntoArcs(scan, cfg.cluster_tolerance, cfg.range_offset, &st->finite_points);
+  st->clusters = static_cast<int>(arcs.size());
+  st->band_points = st->finite_points;
+
+  const double beam_spacing = std::abs(scan.angle_increment);
+  // The checks every fit of an arc passes last: the fit's own rejections, then the arc it subtends (a straight wall
+  // segment fits a huge circle or the prior, and its arc does not bulge towards the sensor).
+  const auto accept = [&](const TrunkFit& fit, int n) {
+    const TrunkRejection rejection = checkTrunkFit(fit, n, cfg);
+    if (rejection != TrunkRejection::kNone)
+      countRejection(rejection, st);
+    else if (fit.method != TrunkMethod::kCentroid && fit.arc_angle > cfg.max_arc_angle)
+      ++st->rejected_shape;
+    else
+      out.push_back(toTrunkObservation(fit, n, 0.0));
+  };
+  for (const ScanArc& arc : arcs)
+  {
+    // A far trunk gives an arc of one or two beams: too few to fit a circle, so the radius prior places its centre,
+    // and only an isolated, convex arc no wider than a trunk is taken for one (walls, cars and bushes break into
+    // short arcs too).
+    const int n = static_cast<int>(arc.points.size());
+    if (n < cfg.scan_min_beams || n > cfg.max_points)
+    {
+      ++st->rejected_size;
+      continue;
+    }
+    // A nearer object hides part of the arc: its silhouette does not end where the arc ends on that side, so the
+    // centre is fitted to the visible piece with the radius prior (fitPartialArc keeps it only when the points
+    // are consistent with a trunk's visible side). It must still be no wider than a trunk and bulge towards the
+    // sensor. When it has too few points or is too narrow to show its curvature (kArc), the radius prior and the
+    // one silhouette edge place the centre: then one side must be free and stand in front of its background (as
+    // both sides of a short arc must), and the fit must pin the centre to within half the prior radius (one
+    // standard deviation along its worst axis), which a few far beams beside an occluder do not.
+    const bool hidden_first = isArcSideOccluded(scan, arc, ArcSide::kFirst, cfg.cluster_tolerance);
+    const bool hidden_last = isArcSideOccluded(scan, arc, ArcSide::kLast, cfg.cluster_tolerance);
+    if (hidden_first || hidden_last)
+    {
+      if (cfg.method != TrunkMethod::kCircle || !isTrunkShapedArc(arc.points, cfg))
+      {
+        ++st->rejected_shape;
+        continue;
+      }
+      // On a side not hidden the arc ends at the trunk's silhouette, between its last beam and the next
+      // informative one (which passes beside the trunk).
+      std::vector<SilhouetteEdge> edges;
+      for (const ArcSide side : { ArcSide::kFirst, ArcSide::kLast })
+      {
+        if (side == ArcSide::kFirst ? hidden_first : hidden_last)
+          continue;
+        const int end = side == ArcSide::kFirst ? arc.first_beam : arc.last_beam;
+        double end_range = 0.0;
+        const int beam = firstInformativeBeamBeside(scan, arc, side, &end_range);
+        if (beam < 0)
+          continue;  // the field of view ends: the trunk may go on beyond it
+        const double a = scan.angle_min + scan.angle_increment * 0.5 * static_cast<double>(end + beam);
+        SilhouetteEdge edge;
+        edge.direction = Eigen::Vector2d(std::cos(a), std::sin(a));
+        edge.spacing = std::abs(scan.angle_increment) * static_cast<double>(std::abs(beam - end));
+        edges.push_back(edge);
+      }
+      const TrunkFit fit = fitPartialArc(arc.points, edges, cfg);
+      if (fit.ok && fit.method == TrunkMethod::kArc &&
+          ((hidden_first && hidden_last) ||
+           Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(fit.covariance.topLeftCorner<2, 2>()).eigenvalues()(1) >
+               std::pow(0.5 * cfg.arc_radius_prior, 2) ||
+           (!hidden_first && !isArcSideIsolated(scan, arc, ArcSide::kFirst, cfg.scan_min_jump, cfg.range_offset)) ||
+           (!hidden_last && !isArcSideIsolated(scan, arc, ArcSide::kLast, cfg.scan_min_jump, cfg.range_offset))))
+      {
+        ++st->rejected_clutter;
+        continue;
+      }
+      accept(fit, n);
+      continue;
+    }
+    const bool short_arc = n < cfg.min_fit_points;
+    TrunkFit fit = short_arc && cfg.method == TrunkMethod::kCircle ? fitShortArc(arc.points, beam_spacing, cfg) :
+                                                                     fitTrunk(arc.points, cfg);
+    // Two trunks whose bark nearly touches, side by side, make one arc: when one circle explains it poorly, two may.
+    if (!short_arc && cfg.method == TrunkMethod::kCircle &&
+        isPoorSingleFit(arc.points, fit, checkTrunkFit(fit, n, cfg), cfg))
+    {
+      const TrunkPairFit pair = fitTrunkPair(arc.points, fit, cfg);
+      if (pair.ok)
+      {
+        ++st->split_clusters;
+        for (int k = 0; k < 2; ++k)
+          accept(pair.fits[k], static_cast<int>(pair.members[k].size()));
+        continue;
+      }
+    }
+    if ((short_arc || fit.method == TrunkMethod::kArc) &&
+        !(isArcIsolated(scan, arc, cfg.scan_min_jump, cfg.range_offset) && isTrunkShapedArc(arc.points, cfg)))
+    {
+      ++st->rejected_clutter;
+      continue;
+    }
+    accept(fit, n);
+  }
+  st->trunks = static_cast<int>(out.size());
+  return out;
+}
+
+}  // namespace core
+}  // namespace rbpf_slam

@@ -1,0 +1,654 @@
+#include "rbpf_slam/sim/world_file.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <locale>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include <yaml-cpp/yaml.h>
+
+namespace rbpf_slam
+{
+namespace io
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDefaultBoundsMargin = 2.0;  // [m] around the trunk centres when no bounds are given
+const char* const kTreeLineFormat = "expected 'x y radius [height]'";
+
+// Numbers are parsed here with the classic locale rather than with strtod or yaml-cpp's conversions:
+// strtod follows the process locale (a decimal comma breaks it) and yaml-cpp's conversions differ
+// between versions (0.6 reads "-1" as a huge unsigned seed).
+bool parseDouble(const std::string& text, double* value)
+{
+  std::istringstream in(text);
+  in.imbue(std::locale::classic());
+  double v = 0.0;
+  in >> v;
+  if (in.fail())
+    return false;
+  in >> std::ws;
+  if (!in.eof() || !std::isfinite(v))
+    return false;
+  *value = v;
+  return true;
+}
+
+bool parseInteger(const std::string& text, long long* value)
+{
+  std::istringstream in(text);
+  in.imbue(std::locale::classic());
+  long long v = 0;
+  in >> v;
+  if (in.fail())
+    return false;
+  in >> std::ws;
+  if (!in.eof())
+    return false;
+  *value = v;
+  return true;
+}
+
+bool parseSeed(const std::string& text, std::uint64_t* value)
+{
+  if (text.empty() || !std::isdigit(static_cast<unsigned char>(text[0])))
+    return false;
+  std::istringstream in(text);
+  in.imbue(std::locale::classic());
+  unsigned long long v = 0;
+  in >> v;
+  if (in.fail())
+    return false;
+  in >> std::ws;
+  if (!in.eof())
+    return false;
+  *value = static_cast<std::uint64_t>(v);
+  return true;
+}
+
+std::string trimRight(const std::string& text)
+{
+  std::string::size_type end = text.size();
+  while (end > 0 && std::isspace(static_cast<unsigned char>(text[end - 1])))
+    --end;
+  return text.substr(0, end);
+}
+
+bool endsWithNoCase(const std::string& text, const std::string& suffix)
+{
+  if (text.size() < suffix.size())
+    return false;
+  for (std::string::size_type i = 0; i < suffix.size(); ++i)
+  {
+    const char c = text[text.size() - suffix.size() + i];
+    if (std::tolower(static_cast<unsigned char>(c)) != suffix[i])
+      return false;
+  }
+  return true;
+}
+
+/** A trunk from a tree list, and whether its line gave a height (else the world's default applies). */
+struct TreeRow
+{
+  core::TrunkSpec trunk;
+  bool has_height = false;
+};
+
+/** Checks the numbers of one tree; returns an empty string or the reason why they are no tree. */
+std::string checkTree(const std::vector<double>& values)
+{
+  if (values.size() < 3)
+    return "too few numbers";
+  if (values.size() > 4)
+    return "too many numbers";
+  if (values[2] <= 0.0)
+    return "radius must be > 0";
+  if (values.size() == 4 && values[3] <= 0.0)
+    return "height must be > 0";
+  return std::string();
+}
+
+TreeRow makeTree(const std::vector<double>& values)
+{
+  TreeRow row;
+  row.trunk.x = values[0];
+  row.trunk.y = values[1];
+  row.trunk.radius = values[2];
+  if (values.size() == 4)
+  {
+    row.trunk.height = values[3];
+    row.has_height = true;
+  }
+  return row;
+}
+
+
+/** The number rows of a plain-text list ('#' comments, blank lines skipped); @p check gives why a row is wrong. */
+template <typename Check>
+std::vector<std::vector<double>> readNumberRows(const std::string& path, const char* what, const char* format,
+                                                Check check)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw std::runtime_error(path + ": cannot open " + what);
+  std::vector<std::vector<double>> rows;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line))
+  {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    if (line_number == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0)
+      line.erase(0, 3);
+    std::istringstream fields(line.substr(0, line.find('#')));
+    std::vector<double> values;
+    std::string token;
+    std::string reason;
+    while (fields >> token && reason.empty())
+    {
+      double value = 0.0;
+      if (parseDouble(token, &value))
+        values.push_back(value);
+      else
+        reason = "'" + token + "' is not a finite number";
+    }
+    if (values.empty() && reason.empty())
+      continue;
+    if (reason.empty())
+      reason = check(values);
+    if (!reason.empty())
+      throw std::runtime_error(path + ":" + std::to_string(line_number) + ": " + format + ", got '" +
+                               trimRight(line) + "' (" + reason + ")");
+    rows.push_back(values);
+  }
+  if (in.bad())
+    throw std::runtime_error(path + ": read error in " + what);
+  return rows;
+}
+
+std::vector<TreeRow> readTreeRows(const std::string& path)
+{
+  std::vector<TreeRow> rows;
+  for (const std::vector<double>& values : readNumberRows(path, "tree list", kTreeLineFormat, checkTree))
+    rows.push_back(makeTree(values));
+  return rows;
+}
+
+// --- Box lists -----------------------------------------------------------------------------------
+
+const char* const kBoxLineFormat = "expected 'x y yaw_deg [length width height]'";
+
+/** Checks the numbers of one box; returns an empty string or the reason why they are no box. */
+std::string checkBox(const std::vector<double>& values)
+{
+  if (values.size() < 3)
+    return "too few numbers";
+  if (values.size() != 3 && values.size() != 6)
+    return values.size() > 6 ? "too many numbers" : "give all of length, width and height or none";
+  if (values.size() == 6 && (values[3] <= 0.0 || values[4] <= 0.0 || values[5] <= 0.0))
+    return "length, width and height must be > 0";
+  return std::string();
+}
+
+core::BoxSpec makeBox(const std::vector<double>& values)
+{
+  core::BoxSpec box;
+  box.x = values[0];
+  box.y = values[1];
+  box.yaw = values[2] * kPi / 180.0;
+  if (values.size() == 6)
+  {
+    box.length = values[3];
+    box.width = values[4];
+    box.height = values[5];
+  }
+  return box;
+}
+
+// --- YAML world files -----------------------------------------------------------------------------
+
+/** Reads the nodes of one YAML world file, every message naming the file and, where known, the line. */
+class YamlReader
+{
+public:
+  explicit YamlReader(std::string path) : path_(std::move(path)) {}
+
+  const std::string& path() const { return path_; }
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& message) const
+  {
+    throw std::runtime_error(where(node) + ": " + message);
+  }
+
+  [[noreturn]] void fail(const std::string& message) const { throw std::runtime_error(path_ + ": " + message); }
+
+  /**
+   * The entries of the map @p node (a null node is an empty map), each key checked against @p allowed:
+   * an unknown key (a typo) or a key given twice is an error rather than silently ignored.
+   */
+  std::vector<std::pair<std::string, YAML::Node>> entries(const YAML::Node& node, const std::string& name,
+                                                          const std::vector<std::string>& allowed) const
+  {
+    std::vector<std::pair<std::string, YAML::Node>> result;
+    if (node.IsNull())
+      return result;
+    if (!node.IsMap())
+      fail(node, "'" + name + "' must be a map, got " + describe(node));
+    std::set<std::string> seen;
+    for (YAML::const_iterator it = node.begin(); it != node.end(); ++it)
+    {
+      const YAML::Node key_node = it->first;
+      if (!key_node.IsScalar())
+        fail(key_node, "a key of '" + name + "' is not a name, got " + describe(key_node));
+      const std::string key = key_node.Scalar();
+      const std::string full = qualified(name, key);
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+      {
+        std::string list;
+        for (const std::string& a : allowed)
+          list += (list.empty() ? "" : ", ") + a;
+        fail(key_node, "unknown key '" + full + "' (expected one of: " + list + ")");
+      }
+      if (!seen.insert(key).second)
+        fail(key_node, "key '" + full + "' given twice");
+      result.emplace_back(key, it->second);
+    }
+    return result;
+  }
+
+  double number(const YAML::Node& node, const std::string& key) const
+  {
+    double value = 0.0;
+    if (!node.IsScalar() || !parseDouble(node.Scalar(), &value))
+      fail(node, "'" + key + "' must be a finite number, got " + describe(node));
+    return value;
+  }
+
+  double numberAtLeast(const YAML::Node& node, const std::string& key, double min, bool inclusive) const
+  {
+    const double value = number(node, key);
+    if (inclusive ? value < min : value <= min)
+    {
+      std::ostringstream text;
+      text.imbue(std::locale::classic());
+      text << "'" << key << "' must be " << (inclusive ? ">= " : "> ") << min << ", got " << node.Scalar();
+      fail(node, text.str());
+    }
+    return value;
+  }
+
+  int count(const YAML::Node& node, const std::string& key) const
+  {
+    long long value = 0;
+    if (!node.IsScalar() || !parseInteger(node.Scalar(), &value))
+      fail(node, "'" + key + "' must be an integer, got " + describe(node));
+    if (value < 0 || value > 1000000)
+      fail(node, "'" + key + "' must be an integer in [0, 1000000], got " + node.Scalar());
+    return static_cast<int>(value);
+  }
+
+  std::uint64_t seed(const YAML::Node& node, const std::string& key) const
+  {
+    std::uint64_t value = 0;
+    if (!node.IsScalar() || !parseSeed(node.Scalar(), &value))
+      fail(node, "'" + key + "' must be an integer >= 0, got " + describe(node));
+    return value;
+  }
+
+  bool boolean(const YAML::Node& node, const std::string& key) const
+  {
+    static const std::set<std::string> kTrue = { "true", "True", "TRUE", "yes", "Yes", "YES", "on", "On", "ON" };
+    static const std::set<std::string> kFalse = { "false", "False", "FALSE", "no", "No", "NO", "off", "Off", "OFF" };
+    if (node.IsScalar() && kTrue.count(node.Scalar()))
+      return true;
+    if (node.IsScalar() && kFalse.count(node.Scalar()))
+      return false;
+    fail(node, "'" + key + "' must be true or false, got " + describe(node));
+  }
+
+  /** A list of numbers of one of the given lengths. */
+  std::vector<double> numbers(const YAML::Node& node, const std::string& key, std::size_t min_size,
+                              std::size_t max_size, const std::string& form) const
+  {
+    if (!node.IsSequence() || node.size() < min_size || node.size() > max_size)
+      fail(node, "'" + key + "' must be " + form + ", got " + describe(node));
+    std::vector<double> values;
+    for (std::size_t i = 0; i < node.size(); ++i)
+    {
+      double value = 0.0;
+      if (!node[i].IsScalar() || !parseDouble(node[i].Scalar(), &value))
+        fail(node[i], "'" + key + "' must be " + form + " of finite numbers, got " + describe(node[i]));
+      values.push_back(value);
+    }
+    return values;
+  }
+
+  static std::string qualified(const std::string& parent, const std::string& key)
+  {
+    return parent.empty() ? key : parent + "." + key;
+  }
+
+private:
+  std::string where(const YAML::Node& node) const
+  {
+    const YAML::Mark mark = node.Mark();
+    return mark.line >= 0 ? path_ + ":" + std::to_string(mark.line + 1) : path_;
+  }
+
+  static std::string describe(const YAML::Node& node)
+  {
+    switch (node.Type())
+    {
+      case YAML::NodeType::Scalar:
+        return "'" + node.Scalar() + "'";
+      case YAML::NodeType::Sequence:
+        return "a list of " + std::to_string(node.size());
+      case YAML::NodeType::Map:
+        return "a map";
+      case YAML::NodeType::Null:
+        return "nothing";
+      default:
+        return "an undefined value";
+    }
+  }
+
+  std::string path_;
+};
+
+std::string folderOf(const std::string& path)
+{
+  const std::string::size_type slash = path.rfind('/');
+  if (slash == std::string::npos)
+    return std::string();
+  return path.substr(0, slash + 1);
+}
+
+struct TreeDefaults
+{
+  double height = 15.0;
+  double lean_sigma_deg = 0.0;
+  double taper = 0.0;
+  std::uint64_t seed = 1;
+};
+
+std::vector<TreeRow> readTrees(const YamlReader& reader, const YAML::Node& node)
+{
+  if (node.IsScalar())
+  {
+    const std::string& file = node.Scalar();
+    if (file.empty())
+      reader.fail(node, "'trees' must name a tree list file or be a list of trees");
+    return readTreeRows(file[0] == '/' ? file : folderOf(reader.path()) + file);
+  }
+  if (!node.IsSequence())
+    reader.fail(node, "'trees' must name a tree list file or be a list of [x, y, radius] / [x, y, radius, height]");
+  std::vector<TreeRow> rows;
+  for (std::size_t i = 0; i < node.size(); ++i)
+  {
+    const std::string key = "trees[" + std::to_string(i) + "]";
+    const std::vector<double> values = reader.numbers(node[i], key, 3, 4, "[x, y, radius] or [x, y, radius, height]");
+    const std::string reason = checkTree(values);
+    if (!reason.empty())
+      reader.fail(node[i], "'" + key + "': " + reason);
+    rows.push_back(makeTree(values));
+  }
+  return rows;
+}
+
+std::vector<core::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node& node)
+{
+  if (node.IsScalar())
+  {
+    const std::string& file = node.Scalar();
+    if (file.empty())
+      reader.fail(node, "'boxes' must name a box list file or be a list of boxes");
+    return loadBoxList(file[0] == '/' ? file : folderOf(reader.path()) + file);
+  }
+  if (!node.IsSequence())
+    reader.fail(node, "'boxes' must name a box list file or be a list of [x, y, yaw_deg] / "
+                      "[x, y, yaw_deg, length, width, height]");
+  std::vector<core::BoxSpec> boxes;
+  for (std::size_t i = 0; i < node.size(); ++i)
+  {
+    const std::string key = "boxes[" + std::to_string(i) + "]";
+    const std::vector<double> values =
+        reader.numbers(node[i], key, 3, 6, "[x, y, yaw_deg] or [x, y, yaw_deg, length, width, height]");
+    const std::string reason = checkBox(values);
+    if (!reason.empty())
+      reader.fail(node[i], "'" + key + "': " + reason);
+    boxes.push_back(makeBox(values));
+  }
+  return boxes;
+}
+
+TreeDefaults readTreeDefaults(const YamlReader& reader, const YAML::Node& node)
+{
+  TreeDefaults d;
+  for (const auto& entry : reader.entries(node, "tree", { "height", "lean_sigma_deg", "taper", "seed" }))
+  {
+    const std::string key = YamlReader::qualified("tree", entry.first);
+    if (entry.first == "height")
+      d.height = reader.numberAtLeast(entry.second, key, 0.0, false);
+    else if (entry.first == "lean_sigma_deg")
+    {
+      d.lean_sigma_deg = reader.numberAtLeast(entry.second, key, 0.0, true);
+      if (d.lean_sigma_deg >= 45.0)  // tan() grows without bound; no standing tree leans that much
+        reader.fail(entry.second, "'" + key + "' must be < 45, got " + entry.second.Scalar());
+    }
+    else if (entry.first == "taper")
+      d.taper = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else
+      d.seed = reader.seed(entry.second, key);
+  }
+  return d;
+}
+
+core::GroundSpec readGround(const YamlReader& reader, const YAML::Node& node)
+{
+  core::GroundSpec g;
+  for (const auto& entry : reader.entries(node, "ground", { "amplitude", "wavelength", "seed", "margin" }))
+  {
+    const std::string key = YamlReader::qualified("ground", entry.first);
+    if (entry.first == "amplitude")
+      g.amplitude = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else if (entry.first == "wavelength")
+      g.wavelength = reader.numberAtLeast(entry.second, key, 0.0, false);
+    else if (entry.first == "margin")
+      g.margin = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else
+      g.seed = reader.seed(entry.second, key);
+  }
+  return g;
+}
+
+core::ClutterSpec readClutter(const YamlReader& reader, const YAML::Node& node)
+{
+  core::ClutterSpec c;
+  const std::vector<std::string> keys = { "seed", "bushes", "rocks", "branches", "crowns", "crown_base", "clearance" };
+  for (const auto& entry : reader.entries(node, "clutter", keys))
+  {
+    const std::string key = YamlReader::qualified("clutter", entry.first);
+    if (entry.first == "seed")
+      c.seed = reader.seed(entry.second, key);
+    else if (entry.first == "bushes")
+      c.bushes = reader.count(entry.second, key);
+    else if (entry.first == "rocks")
+      c.rocks = reader.count(entry.second, key);
+    else if (entry.first == "branches")
+      c.branches = reader.count(entry.second, key);
+    else if (entry.first == "crowns")
+      c.crowns = reader.boolean(entry.second, key);
+    else if (entry.first == "crown_base")
+      c.crown_base = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else
+      c.clearance = reader.numberAtLeast(entry.second, key, 0.0, true);
+  }
+  return c;
+}
+
+/** Bounds of the trunk centres plus a margin; false when there are no trunks. */
+bool treeExtent(const std::vector<core::TrunkSpec>& trunks, core::ForestWorld* world)
+{
+  if (trunks.empty())
+    return false;
+  double min_x = trunks[0].x, max_x = trunks[0].x, min_y = trunks[0].y, max_y = trunks[0].y;
+  for (const core::TrunkSpec& t : trunks)
+  {
+    min_x = std::min(min_x, t.x);
+    max_x = std::max(max_x, t.x);
+    min_y = std::min(min_y, t.y);
+    max_y = std::max(max_y, t.y);
+  }
+  world->min_x = min_x - kDefaultBoundsMargin;
+  world->max_x = max_x + kDefaultBoundsMargin;
+  world->min_y = min_y - kDefaultBoundsMargin;
+  world->max_y = max_y + kDefaultBoundsMargin;
+  return true;
+}
+
+core::ForestWorld loadYamlWorld(const std::string& path)
+{
+  const YamlReader reader(path);
+  YAML::Node root;
+  try
+  {
+    root = YAML::LoadFile(path);
+  }
+  catch (const YAML::BadFile&)
+  {
+    reader.fail("cannot open world file");
+  }
+  catch (const YAML::ParserException& e)
+  {
+    throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                             ": YAML syntax error: " + e.msg);
+  }
+  if (root.IsNull())
+    reader.fail("empty world file ('trees' is required)");
+
+  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node, boxes_node;
+  bool has_trees = false;
+  bool has_bounds = false;
+  for (const auto& entry : reader.entries(root, "", { "trees", "boxes", "bounds", "tree", "ground", "clutter" }))
+  {
+    if (entry.first == "boxes")
+      boxes_node = entry.second;
+    else if (entry.first == "trees")
+    {
+      trees_node = entry.second;
+      has_trees = true;
+    }
+    else if (entry.first == "bounds")
+    {
+      bounds_node = entry.second;
+      has_bounds = true;
+    }
+    else if (entry.first == "tree")
+      tree_node = entry.second;
+    else if (entry.first == "ground")
+      ground_node = entry.second;
+    else
+      clutter_node = entry.second;
+  }
+  if (!has_trees)
+    reader.fail("'trees' is required (a tree list file or a list of trees)");
+
+  const std::vector<TreeRow> rows = readTrees(reader, trees_node);
+  const std::vector<core::BoxSpec> boxes = boxes_node.IsDefined() && !boxes_node.IsNull() ?
+                                               readBoxes(reader, boxes_node) :
+                                               std::vector<core::BoxSpec>();
+  const TreeDefaults tree = readTreeDefaults(reader, tree_node);
+  core::ForestWorld world;
+  world.boxes = boxes;
+  world.ground = readGround(reader, ground_node);
+  const core::ClutterSpec clutter = readClutter(reader, clutter_node);
+
+  core::Random random(tree.seed);
+  const double lean_sigma = std::tan(tree.lean_sigma_deg * kPi / 180.0);
+  for (const TreeRow& row : rows)
+  {
+    core::TrunkSpec trunk = row.trunk;
+    if (!row.has_height)
+      trunk.height = tree.height;
+    trunk.lean_x = random.gaussian(lean_sigma);
+    trunk.lean_y = random.gaussian(lean_sigma);
+    // Not capped: a thin trunk whose radius reaches 0 below its height ends in a point there (the ray
+    // caster stops a trunk where its radius reaches 0), and every trunk keeps the stated taper.
+    trunk.taper = tree.taper;
+    world.trunks.push_back(trunk);
+  }
+
+  if (has_bounds)
+  {
+    const std::vector<double> b = reader.numbers(bounds_node, "bounds", 4, 4, "[min_x, min_y, max_x, max_y]");
+    if (!(b[0] < b[2]) || !(b[1] < b[3]))
+      reader.fail(bounds_node, "'bounds' [min_x, min_y, max_x, max_y] must have min < max");
+    world.min_x = b[0];
+    world.min_y = b[1];
+    world.max_x = b[2];
+    world.max_y = b[3];
+  }
+  else if (!treeExtent(world.trunks, &world))
+  {
+    reader.fail("no trees and no 'bounds': the stand has no extent");
+  }
+
+  try
+  {
+    core::addClutter(clutter, &world);
+  }
+  catch (const std::invalid_argument& e)  // the checks above should have caught it; name the file anyway
+  {
+    reader.fail(e.what());
+  }
+  return world;
+}
+}  // namespace
+
+std::vector<core::BoxSpec> loadBoxList(const std::string& path)
+{
+  std::vector<core::BoxSpec> boxes;
+  for (const std::vector<double>& values : readNumberRows(path, "box list", kBoxLineFormat, checkBox))
+    boxes.push_back(makeBox(values));
+  return boxes;
+}
+
+std::vector<core::TrunkSpec> loadTreeList(const std::string& path)
+{
+  std::vector<core::TrunkSpec> trunks;
+  for (const TreeRow& row : readTreeRows(path))
+    trunks.push_back(row.trunk);
+  return trunks;
+}
+
+core::ForestWorld loadForestWorld(const std::string& path)
+{
+  if (endsWithNoCase(path, ".yaml") || endsWithNoCase(path, ".yml"))
+  {
+    try
+    {
+      return loadYamlWorld(path);
+    }
+    catch (const YAML::Exception& e)  // anything yaml-cpp throws that the reader did not turn into a message
+    {
+      throw std::runtime_error(path + ": " + e.what());
+    }
+  }
+  core::ForestWorld world;
+  world.trunks = loadTreeList(path);
+  world.ground.amplitude = 0.0;  // a bare tree list is the idealised stand: flat, no clutter
+  if (!treeExtent(world.trunks, &world))
+    throw std::runtime_error(path + ": no trees in tree list");
+  return world;
+}
+
+}  // namespace io
+}  // namespace rbpf_slam
