@@ -850,5 +850,41 @@ PoseMoments FastSlam::moments() const
   return poseMoments(poses, weights);
 }
 
+void FastSlam::predictAlong(const OdometryBuffer& odometry, double t_from, const Pose2& from_pose, double t_mid,
+                            const Pose2& odom_mid)
+{
+  const FastSlamConfig& fc = config_;
+  Pose2 from = from_pose;
+  if (fc.motion_model == MotionModel::kVelocity)
+  {
+    std::vector<ArcStep> block;
+    double block_start = t_from;
+    odometry.forEachBetween(t_from, t_mid, [&](double t, const Pose2& pose) {
+      block.push_back(arcStep(from, pose));
+      from = pose;
+      if (t - block_start >= fc.motion_noise_time)
+      {
+        predictArcs(block);
+        block.clear();
+        block_start = t;
+      }
+    });
+    block.push_back(arcStep(from, odom_mid));
+    predictArcs(block, partialStepNoiseScale((t_mid - block_start) / fc.motion_noise_time));
+    return;
+  }
+  odometry.forEachBetween(t_from, t_mid, [&](double, const Pose2& pose) {
+    const OdometryIncrement u = decomposeOdometry(from, pose);
+    if (u.trans >= fc.motion_step || std::abs(u.rot1) + std::abs(u.rot2) >= fc.motion_step_angle)
+    {
+      predict(u);
+      from = pose;
+    }
+  });
+  const OdometryIncrement u = decomposeOdometry(from, odom_mid);
+  predict(u, partialStepNoiseScale(std::max(u.trans / fc.motion_step,
+                                                     (std::abs(u.rot1) + std::abs(u.rot2)) / fc.motion_step_angle)));
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

@@ -14,6 +14,7 @@
 #include "rbpf_slam/core/fastslam/landmark_evidence.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/core/fastslam/landmark_observation.h"
+#include "rbpf_slam/core/filter/odometry_buffer.h"
 #include "rbpf_slam/core/filter/particle_filter.h"
 #include "rbpf_slam/core/filter/pose2.h"
 #include "rbpf_slam/core/filter/random.h"
@@ -304,6 +305,12 @@ public:
   void predict(const OdometryIncrement& u, double noise_scale = 1.0);
   /** @brief The velocity model's prediction of one block of arcs (applyVelocityBlock), after each particle's drift. */
   void predictArcs(const std::vector<ArcStep>& block, double noise_scale = 1.0);
+  /**
+   * @brief Predicts the motion from @p from at @p t_from to @p to at @p t_to along the odometry's own samples in
+   * @p odometry: steps of motion_step (odometry model) or blocks of motion_noise_time (velocity model); the last,
+   * partial one carries its share of a full one's noise.
+   */
+  void predictAlong(const OdometryBuffer& odometry, double t_from, const Pose2& from, double t_to, const Pose2& to);
   /**
    * @brief Weights the particles by the observations of one scan, updates their maps, resamples when Neff
    * is low. @p sensor is the sensor's pose on base_link (its planar part). @p evidence_share in (0, 1] is the share

@@ -10,118 +10,22 @@
 
 #include <Eigen/Core>
 
-#include "rbpf_slam/core/forest_map/constellation.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/fastslam/filter_health.h"
-#include "rbpf_slam/core/forest_map/forest_changes.h"
-#include "rbpf_slam/core/forest_map/gnss.h"
+#include "rbpf_slam/core/fastslam/trunk_sweep.h"
 #include "rbpf_slam/core/filter/odometry_buffer.h"
 #include "rbpf_slam/core/filter/sensor_pipeline.h"
-#include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/core/forest_map/constellation.h"
+#include "rbpf_slam/core/forest_map/forest_changes.h"
+#include "rbpf_slam/core/forest_map/gnss.h"
+#include "rbpf_slam/core/forest_map/gnss_anchoring.h"
+#include "rbpf_slam/core/forest_map/relocalization.h"
 
 namespace rbpf_slam
 {
 namespace core
 {
-/** @brief The lidar on base_link: planar pose and height (for the lever arm on a tilted body). */
-struct SensorMount
-{
-  double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0;
-};
-
-/**
- * @brief Which bearings a sweep covers in its period: it starts at @p start_angle and turns counter-clockwise
- * through @p span. A spinning lidar starts behind (-pi) and covers 2 pi; a 2D scanner covers angle_min ..
- * angle_min + (n - 1) * angle_increment.
- */
-struct SweepGeometry
-{
-  double start_angle = -M_PI;
-  double span = 2.0 * M_PI;
-};
-
-/**
- * @brief @p config with the sensor's height above the ground taken from its mount: where the configuration
- * leaves it unknown (0), the sensor's height @p mount_z on base_link stands for it (base_link on the ground).
- */
-TrunkDetectorConfig withMountHeight(TrunkDetectorConfig config, double mount_z);
-
-/** @brief [s] from a 2D scan's first beam to its last, @p time_increment apart; 0 when that is not given (not
- * finite or <= 0: every beam at the stamp) or the scan has fewer than 2 beams. */
-double scanPeriod(double time_increment, std::size_t beams);
-
-/** @brief The sweep geometry of a 2D scan: from angle_min through its last beam. */
-SweepGeometry scanGeometry(const PlanarScan& scan);
-
-/** @brief The trunks of one sweep as a detector gives them, with what it takes to carry them to one instant. */
-struct TrunkSweep
-{
-  double stamp = 0.0;   ///< [s] the sweep's first instant
-  double period = 0.0;  ///< [s] its duration (0: every trunk at the stamp)
-  double tilt_roll = 0.0, tilt_pitch = 0.0;  ///< [rad] the tilt the detector estimated and removed
-  SweepGeometry geometry;
-  SensorMount mount;  ///< the sensor on base_link
-  SensorScope scope;  ///< what the sensor could see (sensor frame; NaN where it does not say)
-  std::vector<TrunkObservation> trunks;  ///< sensor frame, levelled
-};
-
-/**
- * @brief What the detector @p config could see of the 2D scan @p scan: its bearings (angle_min to the last beam),
- * its ranges (range_min..range_max within the detector's min_range..max_range), the detector's detection
- * probability.
- */
-SensorScope scanScope(const PlanarScan& scan, const TrunkDetectorConfig& config);
-/**
- * @brief The same for a 3D sweep: all round, from the detector's min_range to the nearer of its max_range and
- * @p reach (the range to which the cloud's resolution lets it find a trunk; NaN: not known).
- */
-SensorScope sweepScope(const TrunkDetectorConfig& config, double reach = NAN);
-
-/** @brief The state of a global relocalization in a saved map. */
-struct RelocalizationStatus
-{
-  bool active = false;      ///< a search took place on this update
-  bool found = false;       ///< this update found the robot (the filter starts here)
-  int trunks = 0;           ///< distinct trunks gathered so far (seen at least twice)
-  int best_inliers = 0;     ///< of the best hypothesis
-  int second_inliers = 0;   ///< of the runner-up (0: none)
-  int hypotheses = 0;       ///< distinct hypotheses the particles were spread over (when found)
-  double travel = 0.0;      ///< [m] odometry travel since the search began
-  double seconds = 0.0;     ///< [s] CPU time of the search on this update
-  std::string reason;       ///< why not found yet
-  /// a search after tracking was lost (the health warned); the filter tracks on meanwhile
-  bool lost = false;
-  /// that search ended on this update: it found a pose distinct from the estimate and the particles were moved there
-  bool recovered = false;
-  /// that search ended on this update: it found the estimate's own pose (tracking was not lost)
-  bool confirmed = false;
-  /// that search ended on this update without a result: nothing found within a window of travel
-  bool gave_up = false;
-};
-
-/** @brief Parameters of the search for the start pose in a saved map. */
-struct RelocalizationConfig
-{
-  ConstellationConfig constellation;
-  double merge_distance = 0.5;  ///< [m] detections this close in the odometry frame are one trunk
-  int min_sightings = 2;        ///< a trunk takes part once seen this often
-  double window = 30.0;         ///< [m] of travel: trunks gathered longer ago are forgotten (odometry drifts)
-  double hypothesis_share = 0.5;  ///< particles go to every hypothesis with this share of the best's inliers
-  double spread_xy = 0.1;       ///< [m] the particles' spread around each hypothesis
-  double spread_theta = 0.02;   ///< [rad]
-  /// With a saved map and FastSlamConfig::relocalize_when_lost: the map is searched again when the filter's health
-  /// warns (its trees not re-observed: a lost pose), while the filter tracks on; a pose found farther than
-  /// recover_distance or recover_angle from the estimate replaces it (the particles spread over it and the
-  /// estimate, on the saved map).
-  double recover_distance = 1.0;  ///< [m]
-  /// ... and only when the found pose explains at least this many of the trunks gathered since the search began and
-  /// recover_margin more than the estimate does (the estimate is the alternative: a chance match in a dense map
-  /// must not replace it)
-  int recover_min_inliers = 8;
-  int recover_margin = 3;
-  double recover_angle = 0.2;     ///< [rad]
-};
-
 /** @brief One sweep after extraction and the filter update. */
 struct PipelineUpdate
 {
@@ -144,17 +48,6 @@ struct PipelineUpdate
   RelocalizationStatus relocalization;
 };
 
-/**
- * @brief The observations of one sweep at the instant @p t_ref: each trunk (sensor frame, levelled, seen
- * during the sweep that starts at @p stamp and lasts @p period) is moved by the lever arm of the tilt the
- * detector removed (mount.z * (tan pitch, -tan roll)), then carried from its own instant (bearing b at
- * (b - start_angle) / span of the sweep) to @p t_ref by the odometry between the two.
- */
-std::vector<LandmarkObservation> sweepObservations(const std::vector<TrunkObservation>& trunks, double stamp,
-                                                   double period, double tilt_roll, double tilt_pitch,
-                                                   const SensorMount& mount, const OdometryBuffer& odometry,
-                                                   double t_ref, const SweepGeometry& geometry = SweepGeometry());
-
 /** @brief The map of a timeline that a restart (time jumping back) ended: the best particle's trees then. */
 struct TimelineMap
 {
@@ -163,36 +56,6 @@ struct TimelineMap
   std::vector<Viewpoint> viewpoints;
   GeoAnchor anchor;
 };
-
-/** @brief A trunk seen in a sweep that the filter skipped, in the odometry frame. */
-struct LookPoint
-{
-  Eigen::Vector2d position = Eigen::Vector2d::Zero();  ///< [m] odometry frame
-  double radius = 0.0;                                  ///< [m]
-  int id = -1;
-};
-
-/**
- * @brief Fuses the looks skipped since the last update into @p obs (seen from @p sensor, odometry frame): each
- * observation takes the mean position and radius of itself and of the nearest skipped look of each sweep inside
- * the association gate @p gate (same id where ids are known), and keeps its own covariance. The looks from
- * nearby poses share most of their error, so they are counted as one look: the mean removes the part that
- * differs between them, the covariance stays that of one. Returns how many skipped looks were fused.
- */
-int fuseSkippedLooks(std::vector<LandmarkObservation>* obs, const Pose2& sensor,
-                     const std::vector<std::vector<LookPoint>>& skipped, double gate);
-
-/**
- * @brief The share of one independent look that a sweep carries (evidence counted once), from the sensor's motion
- * @p sensor_motion since the last update: its travel over evidence_view_change times the median range of the
- * sweep's trunks (the travel after which they are seen from a new view), or its turn over evidence_view_change,
- * whichever is more, at most 1. Sweeps of the same trunks from about the same place repeat the same errors (the fit
- * of the same visible arc, the same occluders, the same clutter): the filter weighs each sweep's likelihood by
- * this share (tempered likelihood: the observation covariance divided by it), so that standing still or creeping
- * adds no more confidence than the looks it brings. 1 when evidence_view_change is 0 or the sweep saw no trunk.
- */
-double evidenceShare(const FastSlamConfig& config, const std::vector<TrunkObservation>& trunks,
-                     const Pose2& sensor_motion);
 
 /**
  * @brief Trunk extraction and FastSLAM on stamped sweeps and wheel odometry, ROS-free: the one pipeline of the
@@ -260,7 +123,7 @@ public:
    * from the start, and this visit's own fit refines it (combineAnchors; an anchor of sigma 0 is kept as it is).
    * Not valid (the default): the anchor is fitted to the fixes.
    */
-  void setMapAnchor(const GeoAnchor& anchor);
+  void setMapAnchor(const GeoAnchor& anchor) { gnss_.setMapAnchor(anchor); }
   /**
    * @brief Where the saved map was looked at from (its file's viewpoints; none: not known). This visit adds its
    * own, from the estimate after each filter update (ViewpointLog: one per metre of new ground), for the map it
@@ -277,15 +140,18 @@ public:
    * (weigh_max_anchor_sigma), at most one fix per correlation_time weighs the particles. Returns why the fix was
    * refused ("" when taken): no fix, a bad value, a stamp before the last update.
    */
-  std::string addFix(const GnssFix& fix, const Eigen::Vector2d& antenna);
+  std::string addFix(const GnssFix& fix, const Eigen::Vector2d& antenna)
+  {
+    return gnss_.add(fix, antenna, initialized_ ? last_stamp_ : NAN);
+  }
   /** @brief The map frame's anchor: the saved map's combined with the one fitted to this visit's fixes (either
    * alone when the other is not there; not valid: none yet). */
-  GeoAnchor anchor() const;
+  GeoAnchor anchor() const { return gnss_.anchor(); }
   /** @brief Fixes that went into the anchor's fit, and fixes that weighed the particles. */
-  int gnssFixesUsed() const { return gnss_used_; }
-  int gnssFixesWeighed() const { return gnss_weighed_; }
+  int gnssFixesUsed() const { return gnss_.used(); }
+  int gnssFixesWeighed() const { return gnss_.weighed(); }
   /** @brief Fixes the innovation gate refused (kGnssGate2: inconsistent with the anchor and the filter's pose). */
-  int gnssFixesRejected() const { return gnss_rejected_; }
+  int gnssFixesRejected() const { return gnss_.rejected(); }
   /** @brief Localized in the map: always true without a saved map, or with a known start. */
   bool localized() const { return initialized_; }
 
@@ -301,14 +167,11 @@ public:
 private:
   PipelineUpdate update(TrunkSweep&& sweep, bool covered) override;
   void resetFilter() override;
+  /** @brief The update of a sweep not given to the filter (@p sweep's trunks moved into it): @p estimate stands. */
+  PipelineUpdate unfiltered(TrunkSweep&& sweep, double t_mid, const Pose2& odom_mid, const Pose2& estimate,
+                            bool covered) const;
   /** @brief Queues @p sweep; false (dropped) when it holds more trunks than max_trunks_per_sweep. */
   bool enqueueSweep(TrunkSweep sweep, double arrival);
-  /**
-   * @brief Predicts the filter from the last update's odometry up to @p odom_mid at @p t_mid along the odometry's
-   * own samples: steps of motion_step (odometry model) or blocks of motion_noise_time (velocity model); the last,
-   * partial one carries its share of the noise.
-   */
-  void predictMotion(const FastSlamConfig& fc, const Pose2& odom_mid, double t_mid);
   std::vector<TimelineMap> ended_;
 
   TrunkDetectorConfig detector_config_;
@@ -322,17 +185,9 @@ private:
   std::vector<Viewpoint> prior_viewpoints_;
   ViewpointLog viewpoints_;
   Pose2 prior_start_;
-  bool relocalize_ = false;
-  RelocalizationConfig relocalization_config_;
-  std::unique_ptr<ConstellationMatcher> matcher_;
-  struct Gathered
-  {
-    Eigen::Vector2d center;
-    double radius = 0.0;
-    int sightings = 0;
-    double travel = 0.0;  ///< odometry travel at the last sighting
-  };
-  std::vector<Gathered> gathered_;
+  bool relocalize_ = false;  ///< the start is searched in the saved map
+  /// With a saved map whose start is searched, or searched again when lost (relocalize_when_lost).
+  std::unique_ptr<Relocalizer> relocalizer_;
   /// The observations of the sweeps skipped since the last update (updateMinTravel), in the odometry frame: fused
   /// into the next update's observations of the same trunks.
   std::vector<std::vector<LookPoint>> between_;
@@ -341,39 +196,13 @@ private:
   /// A sweep that carries less than this share of a look (evidenceShare; e.g. standing still) is not given to the
   /// filter: the estimate follows the odometry, and its trunks are fused into the next update's.
   static constexpr double kMinEvidenceShare = 0.01;
-  double search_travel_ = 0.0;
-  bool search_started_ = false;
-  Pose2 search_last_odometry_;
-  /** @brief One sweep of the search; true when it was accepted, with the poses to start from in @p starts. */
-  bool relocalize(const TrunkSweep& sweep, const Pose2& odom_mid, RelocalizationStatus* status,
-                  std::vector<Pose2>* starts);
   /** @brief With a saved map: the search while tracking, begun when the health warns (relocalize_when_lost);
    * moves the particles when it finds the robot elsewhere. Sets @p u's relocalization while it runs. */
   void searchWhenLost(const TrunkSweep& sweep, const Pose2& odom_mid, PipelineUpdate* u);
   /** @brief The health monitor's rules: with a saved map, also whether its trees are re-observed. */
   HealthConfig healthConfig() const;
-  /** @brief Starts a new search (the trunks gathered so far forgotten). */
-  void restartSearch();
-  bool lost_search_ = false;      ///< a search after lost tracking is running
-  double lost_search_end_ = -1e300;  ///< [m] odometry travel when the last one ended
-  double travel_ = 0.0;           ///< [m] odometry travel of the timeline at the last update
-  bool last_unobserved_ = false;
-  std::vector<TrunkPoint> last_seen_;  ///< the trunks of the last search step (odometry frame)
-  GnssFusionConfig gnss_config_;
-  GeoAnchor map_anchor_;
-  GeoAnchorEstimator anchor_estimator_;
-  struct PendingFix
-  {
-    GnssFix fix;
-    Eigen::Vector2d antenna;
-  };
-  std::deque<PendingFix> pending_fixes_;
-  double last_weigh_stamp_ = -1e300;
-  double next_anchor_check_ = -1e300;  ///< [s] the anchor is not refitted for weighing before this fix stamp
-  int gnss_used_ = 0, gnss_weighed_ = 0, gnss_rejected_ = 0;
-  GeoAnchor gate_anchor_;  ///< the last anchor computed (or the saved map's): the fixes' innovation gate
-  /** @brief Uses the fixes up to the filter update at @p t_mid (odometry @p odom_mid). */
-  void useFixes(double t_mid, const Pose2& odom_mid);
+  double travel_ = 0.0;  ///< [m] odometry travel of the timeline at the last update
+  GnssAnchoring gnss_;
   Pose2 last_odometry_;
   Pose2 last_estimate_;
   double last_stamp_ = 0.0;
