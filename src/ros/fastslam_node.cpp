@@ -73,47 +73,20 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   timing.time_jump_threshold = config_.time_jump_threshold;
   timing.odometry_wait = config_.odom_timeout;  // wall seconds: the node's clock for waiting
   pipeline_.reset(new core::TrunkSlamPipeline(core::TrunkDetectorConfig(), filter_config, timing));
-  if (!config_.map_file.empty())
+  io::MapStart start;
+  start.map_file = config_.map_file.empty() ? "" : io::expandHome(config_.map_file);
+  start.search = config_.relocalize;
+  start.start = core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw);
+  try
   {
-    io::ForestMap saved;
-    try
-    {
-      io::ForestMapReadOptions options;
-      options.max_trees = static_cast<std::size_t>(filter_config.max_landmarks);
-      options.cancelled = [] { return !ros::ok(); };
-      saved = io::readForestMap(io::expandHome(config_.map_file), options);
-    }
-    catch (const std::exception& e)
-    {
-      throw invalidParameter(pnh_, "map_file", e.what());
-    }
-    pipeline_->setMapAnchor(saved.anchor);
-    pipeline_->setMapViewpoints(saved.viewpoints);
-    try
-    {
-      if (config_.relocalize)
-        pipeline_->setPriorMap(saved.trees, core::RelocalizationConfig());
-      else
-        pipeline_->setPriorMap(saved.trees, core::Pose2(config_.initial_x, config_.initial_y, config_.initial_yaw));
-    }
-    catch (const std::exception& e)
-    {
-      throw invalidParameter(pnh_, "map_file", e.what());
-    }
-    saved_trees_ = saved.trees;
-    saved_viewpoints_ = saved.viewpoints;
-    if (config_.relocalize)
-    {
-      ROS_INFO("%s: starting from the map %s (%zu trees); searching it for the start pose", name_.c_str(),
-               config_.map_file.c_str(), saved.trees.size());
-    }
-    else
-    {
-      ROS_INFO("%s: starting from the map %s (%zu trees), base_link at (%.2f, %.2f, %.1f deg) in it", name_.c_str(),
-               config_.map_file.c_str(), saved.trees.size(), config_.initial_x, config_.initial_y,
-               config_.initial_yaw * 180.0 / M_PI);
-    }
+    session_.reset(new io::FastSlamMapSession(pipeline_.get(), start, [] { return !ros::ok(); }));
   }
+  catch (const std::exception& e)
+  {
+    throw invalidParameter(pnh_, "map_file", e.what());
+  }
+  if (session_->fromSavedMap())
+    ROS_INFO("%s: %s", name_.c_str(), session_->startDescription().c_str());
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
@@ -461,15 +434,9 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, 
     odom_path_pub_.publish(boost::make_shared<nav_msgs::Path>(odom_path_));
 
   landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(toLandmarkArray(stamp, config_.map_frame, best.map)));
-  if (!saved_trees_.empty() && change_markers_pub_.getNumSubscribers() > 0)
-  {
-    // Felled and new trees since the saved map.
-    std::vector<core::Landmark> now;
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-      now.push_back(best.map[i]);
-    change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(changeMarkers(
-        stamp, config_.map_frame, core::detectChanges(saved_trees_, now, core::ChangeConfig(), saved_viewpoints_))));
-  }
+  if (!session_->saved().trees.empty() && change_markers_pub_.getNumSubscribers() > 0)
+    change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(
+        changeMarkers(stamp, config_.map_frame, session_->changes(session_->currentMap()))));
   if (landmarks_pub_.getNumSubscribers() > 0)
     landmarks_pub_.publish(
         visualization_msgs::MarkerArray::ConstPtr(landmarkMarkers(stamp, config_.map_frame, best.map)));
@@ -481,9 +448,7 @@ bool FastSlamRos::onSave(const std::string& key, const std::string& fallback, bo
   std::lock_guard<std::mutex> lock(mutex_);
   std::string path = fallback;
   pnh_.getParam(key, path);  // may have changed since the start
-  res.success = writeInventory(path, &res.message);
-  if (res.success && with_report)
-    res.success = writeChanges(path, &res.message);
+  res.success = writeMap(path, with_report, &res.message);
   if (res.success)
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   else
@@ -523,102 +488,52 @@ void FastSlamRos::onFix(const sensor_msgs::NavSatFix::ConstPtr& msg)
 
 void FastSlamRos::saveEndedMaps()
 {
-  for (core::TimelineMap& ended : pipeline_->takeEndedMaps())
+  std::string path = config_.map_path;
+  pnh_.getParam("map_path", path);
+  const std::string target = io::expandHome(path);
+  for (const io::MapFile& f : session_->endedMapFiles(target))
   {
-    std::string path = config_.map_path;
-    pnh_.getParam("map_path", path);
-    const std::string target = io::expandHome(path);
-    const std::size_t slash = target.rfind('/');
-    const std::string file = io::withoutExtension(target) + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
-    io::ForestMap map;
-    map.trees = std::move(ended.trees);
-    map.viewpoints = std::move(ended.viewpoints);
-    map.anchor = ended.anchor;
     try
     {
+      const std::size_t slash = target.rfind('/');
       if (slash != std::string::npos && !io::makeDirectories(target.substr(0, slash)))
         throw std::runtime_error("cannot create the directory of " + target + ": " + std::strerror(errno));
-      io::writeForestMap(file, map);
-      ROS_WARN("%s: the map before restart %d (%zu trees) is saved to %s", name_.c_str(), ended.timeline + 1,
-               map.trees.size(), file.c_str());
+      io::writeFileAtomic(f.path, f.content);
+      ROS_WARN("%s: the map before restart %d (%zu trees) is saved to %s", name_.c_str(), f.restart, f.trees,
+               f.path.c_str());
     }
     catch (const std::exception& e)
     {
-      ROS_ERROR("%s: the map before restart %d (%zu trees) could not be saved: %s", name_.c_str(), ended.timeline + 1,
-                map.trees.size(), e.what());
+      ROS_ERROR("%s: the map before restart %d (%zu trees) could not be saved to %s: %s", name_.c_str(), f.restart,
+                f.trees, f.path.c_str(), e.what());
     }
   }
 }
 
-bool FastSlamRos::writeChanges(const std::string& map_path, std::string* message)
-{
-  // Beside a map file FILE.csv: FILE.geojson (anchored maps) and, started from a saved map, FILE_changes.csv (and
-  // FILE_changes.geojson when anchored).
-  const std::string stem = io::withoutExtension(io::expandHome(map_path));
-  if (!pipeline_->localized())
-    return true;
-  io::ForestMap map;
-  map.anchor = pipeline_->anchor();
-  map.viewpoints = pipeline_->viewpoints();
-  const core::Particle& best = pipeline_->filter().best();
-  for (std::size_t i = 0; i < best.map.size(); ++i)
-    map.trees.push_back(best.map[i]);
-  std::vector<io::FileContent> files;
-  try
-  {
-    if (map.anchor.valid)
-      files.emplace_back(stem + ".geojson", io::treesGeoJson(map));
-    if (!saved_trees_.empty())
-    {
-      const std::vector<core::TreeChange> changes = core::detectChanges(saved_trees_, map.trees, core::ChangeConfig(), saved_viewpoints_);
-      files.emplace_back(stem + "_changes.csv", io::changesCsv(changes));
-      if (map.anchor.valid)
-        files.emplace_back(stem + "_changes.geojson", io::changesGeoJson(map.anchor, changes));
-      int n[3] = { 0, 0, 0 };
-      for (const core::TreeChange& c : changes)
-        ++n[static_cast<int>(c.kind)];
-      *message += "; changes since " + config_.map_file + ": " + std::to_string(n[0]) + " felled, " +
-                  std::to_string(n[1]) + " new, " + std::to_string(n[2]) + " changed radii in " + stem +
-                  "_changes.csv";
-    }
-    io::writeFilesAtomic(files);
-  }
-  catch (const std::exception& e)
-  {
-    *message = e.what();
-    return false;
-  }
-  return true;
-}
-
-bool FastSlamRos::writeInventory(const std::string& path, std::string* message)
+bool FastSlamRos::writeMap(const std::string& path, bool with_report, std::string* message)
 {
   const std::string target = io::expandHome(path);
   const std::size_t slash = target.rfind('/');
-  if (slash != std::string::npos && !io::makeDirectories(target.substr(0, slash)))
-  {
-    *message = "cannot create the directory of " + target + ": " + std::strerror(errno);
-    return false;
-  }
-  io::ForestMap map;
-  map.anchor = pipeline_->anchor();
-  if (pipeline_->initialized())
-  {
-    const core::Particle& best = pipeline_->filter().best();
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-      map.trees.push_back(best.map[i]);
-  }
-  const std::vector<core::Landmark>& trees = map.trees;
   try
   {
-    io::writeForestMap(target, map);
+    if (slash != std::string::npos && !io::makeDirectories(target.substr(0, slash)))
+      throw std::runtime_error("cannot create the directory of " + target + ": " + std::strerror(errno));
+    if (with_report && pipeline_->localized())
+    {
+      io::writeFilesAtomic(session_->mapFiles(target, message));
+      return true;
+    }
+    // The inventory: the tree table (and the anchor) alone.
+    io::ForestMap inventory = session_->currentMap();
+    inventory.viewpoints.clear();
+    io::writeForestMap(target, inventory);
+    *message = std::to_string(inventory.trees.size()) + " trees written to " + target;
   }
   catch (const std::exception& e)
   {
     *message = e.what();
     return false;
   }
-  *message = std::to_string(trees.size()) + " trees written to " + target;
   return true;
 }
 

@@ -74,6 +74,7 @@
 #include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/forest_map_file.h"
+#include "rbpf_slam/io/map_session.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
@@ -97,7 +98,6 @@ struct Options
   bool scan_given = false;  // fastslam: 2D scans instead of point clouds
   std::string landmarks_topic;  // fastslam: a detector's TrunkArrays instead of clouds or scans
   std::string map_path, save_map_path;  // fastslam: the tree map to start from, the tree map to write
-  std::string changes_prefix;  // fastslam with --map: the change report PREFIX.csv (+ PREFIX.geojson)
   double initial_x = 0.0, initial_y = 0.0, initial_yaw = 0.0;  // fastslam: base_link in that map at the start
   bool initial_given = false;
   std::string wheels_topic, imu_topic = "/imu/data";
@@ -122,9 +122,9 @@ void usage(const char* argv0)
                "            [--extraction-config YAML] [--method circle|centroid]\n"
                "            [--map FILE (a tree map to start from; its frame is the map frame) [--initial-pose X Y\n"
                "             YAW_DEG (base_link in that map at the first update; without it the start is searched\n"
-               "             from the trunks seen)] [--changes PREFIX (felled, new and changed trees since that map:\n"
-               "             PREFIX.csv, and PREFIX.geojson when the map has an anchor)]] [--save-map FILE (+ .geojson\n"
-               "             when anchored)] [--gps TOPIC (sensor_msgs/NavSatFix; default /gps/fix, used when the bag\n"
+               "             from the trunks seen)]] [--save-map FILE.csv (+ FILE.geojson when anchored; with --map,\n"
+               "             the felled, new and changed trees since that map in FILE_changes.csv (+ .geojson))]\n"
+               "            [--gps TOPIC (sensor_msgs/NavSatFix; default /gps/fix, used when the bag\n"
                "             has it: the map's anchor on the earth and a weak prior on the pose) | --no-gps]\n"
                "  grid:     [--scan TOPIC] [--resampling low_variance|multinomial]\n"
                "            [--every-scan (process every scan: linear_update, angular_update and temporal_update\n"
@@ -372,6 +372,196 @@ void loadYaml(const std::string& path, const Reader& reader)
                    path.c_str(), key.c_str());
 }
 
+/** @brief The frame the first message on @p topic names (clouds, scans, trunk arrays). @throws when none does. */
+std::string firstFrame(rosbag::Bag& bag, const std::string& bag_path, const std::string& topic)
+{
+  rosbag::View first(bag, rosbag::TopicQuery(topic));
+  for (const auto& m : first)
+  {
+    std::string frame;
+    if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
+      frame = cloud->header.frame_id;
+    else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
+      frame = scan->header.frame_id;
+    else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
+      frame = array->header.frame_id;
+    if (!frame.empty())
+      return frame;
+  }
+  throw std::runtime_error(bag_path + ": the messages on " + topic + " name no frame");
+}
+
+/** @brief The detector's and the filter's configuration from the files and options, as the node reads them. */
+void readFastSlamConfigs(const Options& o, core::TrunkDetectorConfig* dc, core::FastSlamConfig* fc)
+{
+  // sensor height 0 (unknown): the pipeline takes the mount's, as the nodelet does
+  loadYaml(o.extraction_config_path, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, dc); });
+  for (const std::string& path : o.config_paths)
+    loadYaml(path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, fc); });
+  if (!o.method.empty() && !core::parseTrunkMethod(o.method, &dc->method))
+    throw std::runtime_error("--method must be circle or centroid, not '" + o.method + "'");
+  if (o.particles > 0)
+    fc->particles = o.particles;
+  if (o.seed >= 0)
+  {
+    fc->seed = static_cast<std::uint64_t>(o.seed);
+    dc->seed = static_cast<std::uint64_t>(o.seed);
+  }
+}
+
+/**
+ * @brief The satellite fixes' topic: the bag's --gps topic (default /gps/fix when it is there; "" for none or
+ * --no-gps), the antenna on base_link from /tf_static into @p antenna.
+ */
+std::string gpsSource(const Options& o, rosbag::Bag& bag, const std::map<std::string, std::string>& topics,
+                      const core::FastSlamConfig& fc, core::SensorMount* antenna)
+{
+  if (o.no_gps || !fc.gnss.enabled)
+    return "";
+  if (o.gps_given)
+    requireTopic(topics, o.bag_path, o.gps_topic, "sensor_msgs/NavSatFix", "--gps");
+  const auto it = topics.find(o.gps_topic);
+  if (it == topics.end() || it->second != "sensor_msgs/NavSatFix")
+    return "";
+  std::string gps_frame;  // the first fix's (none: the antenna at base_link)
+  rosbag::View first(bag, rosbag::TopicQuery(o.gps_topic));
+  for (const auto& m : first)
+    if (const auto fix = m.instantiate<sensor_msgs::NavSatFix>())
+    {
+      gps_frame = fix->header.frame_id;
+      break;
+    }
+  if (!gps_frame.empty() && gps_frame != o.base_frame && !staticMount(bag, o.base_frame, gps_frame, antenna))
+    std::fprintf(stderr, "slam_bag: warning: no %s -> %s transform on /tf_static: the antenna is taken at %s\n",
+                 o.base_frame.c_str(), gps_frame.c_str(), o.base_frame.c_str());
+  return o.gps_topic;
+}
+
+/** @brief Gives the bag's messages to the FastSLAM pipeline as the node does, counting what it used and dropped. */
+struct FastSlamFeed
+{
+  core::TrunkSlamPipeline* pipeline = nullptr;
+  core::SensorMount mount, antenna;
+  std::string sensor_frame;
+  int sweeps = 0, gps_outages = 0;
+  DropLog drops;
+  core::PlanarScan planar;
+  CloudPoints cloud_points;
+
+  void operator()(const rosbag::MessageInstance& m, double clock)
+  {
+    if (const auto od = m.instantiate<nav_msgs::Odometry>())
+    {
+      const std::string bad = quaternionProblem(od->pose.pose.orientation);
+      if (!bad.empty())
+        return drops.drop(m.getTopic(), od->header.stamp.toSec(), "orientation " + bad);
+      admitted(pipeline->addOdometry(od->header.stamp.toSec(), odometryPose(*od), clock), m.getTopic(),
+               od->header.stamp.toSec(), &drops);
+    }
+    else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
+    {
+      const double stamp = scan->header.stamp.toSec();
+      const std::string why = toPlanarScan(*scan, &planar);
+      if (!why.empty())
+        return drops.drop(m.getTopic(), stamp, why);
+      // The beams' own times, as the extraction nodelet gives them (TrunkArray.sweep_period).
+      if (admitted(pipeline->addScan(stamp, scanPeriod(*scan), planar, mount, clock, clock), m.getTopic(), stamp,
+                   &drops))
+        ++sweeps;
+    }
+    else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
+    {
+      const double stamp = cloud->header.stamp.toSec();
+      const std::string why = readCloud(*cloud, &cloud_points);
+      if (!why.empty())
+        return drops.drop(m.getTopic(), stamp, why);
+      if (admitted(pipeline->addSweep(stamp, cloud_points.sweep_period, cloud_points.points, mount, clock, clock),
+                   m.getTopic(), stamp, &drops))
+        ++sweeps;
+    }
+    else if (const auto nav = m.instantiate<sensor_msgs::NavSatFix>())
+    {
+      if (nav->status.status < sensor_msgs::NavSatStatus::STATUS_FIX)
+      {
+        ++gps_outages;  // the receiver says it has no fix: an outage, not a bad message
+        return;
+      }
+      const std::string why = pipeline->addFix(toGnssFix(*nav, kUnknownGpsSigma), Eigen::Vector2d(antenna.x, antenna.y));
+      if (!why.empty())
+        drops.drop(m.getTopic(), nav->header.stamp.toSec(), why);
+    }
+    else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
+      feedTrunks(m.getTopic(), *array, clock);
+  }
+
+  void feedTrunks(const std::string& topic, const rbpf_slam::TrunkArray& array, double clock)
+  {
+    const double stamp = array.header.stamp.toSec();
+    if (array.header.frame_id != sensor_frame)
+      return drops.drop(topic, stamp, "frame '" + array.header.frame_id + "', not the first array's '" + sensor_frame +
+                                          "'");
+    core::TrunkSweep sweep;
+    const std::size_t bad = toTrunkSweep(array, core::Pose2(mount.x, mount.y, mount.yaw), mount.z, &sweep);
+    if (bad > 0 && sweep.trunks.empty())
+      return drops.drop(topic, stamp, "all " + std::to_string(bad) +
+                                          " detections with a non-finite value (not a look that saw no tree)");
+    if (bad > 0)
+      drops.drop(topic, stamp, std::to_string(bad) + " detections with a non-finite value (left out; no tree counts "
+                                                     "as missed in this array)");
+    if (admitted(pipeline->addTrunks(std::move(sweep), clock, clock), topic, stamp, &drops))
+      ++sweeps;
+  }
+};
+
+/** @brief What a FastSLAM run did, on stdout. */
+void printFastSlamSummary(const Options& o, const core::FastSlamConfig& fc, const core::TrunkSlamPipeline& pipeline,
+                          const io::FastSlamMapSession& session, const io::FastSlamRunRecord& record,
+                          const FastSlamFeed& feed, const std::string& gps_topic, int updates, int map_full,
+                          const std::string& map_summary)
+{
+  std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
+              "backwards or not finite), %d restarts (time jumped back)\n",
+              o.bag_path.c_str(), feed.sweeps, updates, feed.drops.count(), pipeline.restarts());
+  const core::Pose2 estimate = pipeline.localized() ? pipeline.filter().estimate() : core::Pose2(NAN, NAN, NAN);
+  std::printf("  final estimate (%s; map frame = %s): %.3f %.3f %.1f deg; "
+              "%zu landmarks in the best particle's map\n",
+              core::toString(fc.estimate),
+              session.fromSavedMap() ? "the frame of the map it started from" : "the odometry frame at the first update",
+              estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, pipeline.filter().best().map.size());
+  std::printf("  %s\n", record.healthSummary().c_str());
+  if (map_full > 0)
+    std::printf("  the map reached max_landmarks (%d): %d observations made no new landmark\n", fc.max_landmarks,
+                map_full);
+  if (!record.relocalizationSummary().empty())
+    std::printf("  %s\n", record.relocalizationSummary().c_str());
+  if (!record.lostSummary().empty())
+    std::printf("  %s\n", record.lostSummary().c_str());
+  const io::MapAnchor anchor = pipeline.anchor();
+  if (!gps_topic.empty())
+  {
+    if (anchor.valid)
+      std::printf("  satellite fixes on %s: %d used, %d without a fix, %d weighed the particles; map anchor (%s): "
+                  "latitude %.9f, longitude %.9f, heading of x %.3f deg from east, sigma %.2f m\n",
+                  gps_topic.c_str(), pipeline.gnssFixesUsed(), feed.gps_outages, pipeline.gnssFixesWeighed(),
+                  session.saved().anchor.valid ? "the saved map's, refined by the fixes" : "fitted to the fixes",
+                  anchor.latitude, anchor.longitude, anchor.yaw * 180.0 / M_PI, anchor.sigma);
+    else
+      std::printf("  satellite fixes on %s: %d used, %d without a fix; no anchor (the fixes spread less than %.1f m "
+                  "or number fewer than %d)\n",
+                  gps_topic.c_str(), pipeline.gnssFixesUsed(), feed.gps_outages, fc.gnss.anchor_min_spread,
+                  fc.gnss.anchor_min_fixes);
+    if (pipeline.gnssFixesRejected() > 0)
+      std::printf("  %d satellite fixes were inconsistent with the anchor and the filter's pose (beyond the "
+                  "innovation gate) and were not used\n",
+                  pipeline.gnssFixesRejected());
+  }
+  if (!map_summary.empty())
+    std::printf("  map: %s\n", map_summary.c_str());
+  std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
+              pipeline.secondsFilter(),
+              feed.sweeps / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
+}
+
 int runFastSlam(const Options& o)
 {
   rosbag::Bag bag;
@@ -383,179 +573,41 @@ int runFastSlam(const Options& o)
                landmarks ? "rbpf_slam/TrunkArray" : o.scan_given ? "sensor_msgs/LaserScan" : "sensor_msgs/PointCloud2",
                landmarks ? "--landmarks" : o.scan_given ? "--scan" : "--points");
   requireTopic(topics, o.bag_path, o.odom_topic, "nav_msgs/Odometry", "--odom");
-  // The lidar's mount on base_link from /tf_static (the first message names the lidar frame).
-  std::string lidar_frame;
-  {
-    rosbag::View first(bag, rosbag::TopicQuery(sensor_topic));
-    for (const auto& m : first)
-    {
-      if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
-        lidar_frame = cloud->header.frame_id;
-      else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
-        lidar_frame = scan->header.frame_id;
-      else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
-        lidar_frame = array->header.frame_id;
-      if (!lidar_frame.empty())
-        break;
-    }
-  }
-  if (lidar_frame.empty())
-    throw std::runtime_error(o.bag_path + ": the messages on " + sensor_topic + " name no frame");
-  core::SensorMount mount;
-  if (!staticMount(bag, o.base_frame, lidar_frame, &mount))
-    throw std::runtime_error(o.bag_path + ": no " + o.base_frame + " -> " + lidar_frame + " transform on /tf_static");
-
-  core::TrunkDetectorConfig dc;  // sensor height 0 (unknown): the pipeline takes the mount's, as the nodelet does
+  core::TrunkDetectorConfig dc;
   core::FastSlamConfig fc;
-  loadYaml(o.extraction_config_path, [&](const io::ParamSource& p) { io::readTrunkDetectorConfig(p, &dc); });
-  for (const std::string& path : o.config_paths)
-    loadYaml(path, [&](const io::ParamSource& p) { io::readFastSlamConfig(p, &fc); });
-  if (!o.method.empty() && !core::parseTrunkMethod(o.method, &dc.method))
-    throw std::runtime_error("--method must be circle or centroid, not '" + o.method + "'");
-  if (o.particles > 0)
-    fc.particles = o.particles;
-  if (o.seed >= 0)
-  {
-    fc.seed = static_cast<std::uint64_t>(o.seed);
-    dc.seed = static_cast<std::uint64_t>(o.seed);
-  }
+  readFastSlamConfigs(o, &dc, &fc);
   core::TrunkSlamPipeline pipeline(dc, fc);
-  io::MapAnchor anchor;
-  io::ForestMap saved;
-  if (!o.map_path.empty())
-  {
-    io::ForestMapReadOptions read_options;
-    read_options.max_trees = static_cast<std::size_t>(fc.max_landmarks);
-    read_options.cancelled = [] { return g_signal != 0; };
-    saved = io::readForestMap(o.map_path, read_options);
-    anchor = saved.anchor;
-    pipeline.setMapAnchor(saved.anchor);
-    pipeline.setMapViewpoints(saved.viewpoints);
-    if (o.initial_given)
-      pipeline.setPriorMap(saved.trees, core::Pose2(o.initial_x, o.initial_y, o.initial_yaw));
-    else
-      pipeline.setPriorMap(saved.trees, core::RelocalizationConfig());
-    if (!o.quiet && o.initial_given)
-      std::printf("slam_bag fastslam: starting from %s: %zu trees, base_link at (%.2f, %.2f, %.1f deg) in its frame\n",
-                  o.map_path.c_str(), saved.trees.size(), o.initial_x, o.initial_y, o.initial_yaw * 180.0 / M_PI);
-    else if (!o.quiet)
-      std::printf("slam_bag fastslam: starting from %s: %zu trees, the start pose searched from the trunks seen\n",
-                  o.map_path.c_str(), saved.trees.size());
-  }
-
-  // Satellite fixes: the bag's --gps topic (default /gps/fix when it is there), the antenna from /tf_static.
-  std::string gps_topic;
-  core::SensorMount antenna;
-  if (!o.no_gps && fc.gnss.enabled)
-  {
-    if (o.gps_given)
-      requireTopic(topics, o.bag_path, o.gps_topic, "sensor_msgs/NavSatFix", "--gps");
-    const auto it = topics.find(o.gps_topic);
-    if (it != topics.end() && it->second == "sensor_msgs/NavSatFix")
-    {
-      gps_topic = o.gps_topic;
-      rosbag::View first(bag, rosbag::TopicQuery(gps_topic));
-      std::string gps_frame;
-      for (const auto& m : first)
-        if (const auto fix = m.instantiate<sensor_msgs::NavSatFix>())
-        {
-          gps_frame = fix->header.frame_id;
-          break;
-        }
-      if (!gps_frame.empty() && gps_frame != o.base_frame && !staticMount(bag, o.base_frame, gps_frame, &antenna))
-        std::fprintf(stderr, "slam_bag: warning: no %s -> %s transform on /tf_static: the antenna is taken at %s\n",
-                     o.base_frame.c_str(), gps_frame.c_str(), o.base_frame.c_str());
-    }
-  }
+  FastSlamFeed feed;
+  feed.pipeline = &pipeline;
+  feed.sensor_frame = firstFrame(bag, o.bag_path, sensor_topic);
+  // The sensor's mount on base_link from /tf_static (the first message names the sensor's frame).
+  if (!staticMount(bag, o.base_frame, feed.sensor_frame, &feed.mount))
+    throw std::runtime_error(o.bag_path + ": no " + o.base_frame + " -> " + feed.sensor_frame +
+                             " transform on /tf_static");
+  io::MapStart start;
+  start.map_file = o.map_path;
+  start.search = !o.initial_given;
+  start.start = core::Pose2(o.initial_x, o.initial_y, o.initial_yaw);
+  io::FastSlamMapSession session(&pipeline, start, [] { return g_signal != 0; });
+  if (!o.quiet && session.fromSavedMap())
+    std::printf("slam_bag fastslam: %s\n", session.startDescription().c_str());
+  const std::string gps_topic = gpsSource(o, bag, topics, fc, &feed.antenna);
 
   Outputs out(o.out_dir);
   io::FastSlamRunRecord record;  // the run folder, as the node writes it
-  int clouds = 0, updates = 0, gps_outages = 0;
-  DropLog drops;
-  core::PlanarScan planar;
-  CloudPoints cloud_points;
-  const auto feed = [&](const rosbag::MessageInstance& m, double clock) {
-    if (const auto od = m.instantiate<nav_msgs::Odometry>())
-    {
-      const std::string bad = quaternionProblem(od->pose.pose.orientation);
-      if (!bad.empty())
-        return drops.drop(m.getTopic(), od->header.stamp.toSec(), "orientation " + bad);
-      admitted(pipeline.addOdometry(od->header.stamp.toSec(), odometryPose(*od), clock), m.getTopic(),
-               od->header.stamp.toSec(), &drops);
-    }
-    else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>())
-    {
-      const double stamp = scan->header.stamp.toSec();
-      const std::string why = toPlanarScan(*scan, &planar);
-      if (!why.empty())
-        return drops.drop(m.getTopic(), stamp, why);
-      // The beams' own times, as the extraction nodelet gives them (TrunkArray.sweep_period).
-      if (admitted(pipeline.addScan(stamp, scanPeriod(*scan), planar, mount, clock, clock), m.getTopic(), stamp,
-                   &drops))
-        ++clouds;
-    }
-    else if (const auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
-    {
-      const double stamp = cloud->header.stamp.toSec();
-      const std::string why = readCloud(*cloud, &cloud_points);
-      if (!why.empty())
-        return drops.drop(m.getTopic(), stamp, why);
-      if (admitted(pipeline.addSweep(stamp, cloud_points.sweep_period, cloud_points.points, mount, clock, clock),
-                   m.getTopic(), stamp, &drops))
-        ++clouds;
-    }
-    else if (const auto nav = m.instantiate<sensor_msgs::NavSatFix>())
-    {
-      if (nav->status.status < sensor_msgs::NavSatStatus::STATUS_FIX)
-      {
-        ++gps_outages;  // the receiver says it has no fix: an outage, not a bad message
-        return;
-      }
-      const std::string why = pipeline.addFix(toGnssFix(*nav, kUnknownGpsSigma), Eigen::Vector2d(antenna.x, antenna.y));
-      if (!why.empty())
-        drops.drop(m.getTopic(), nav->header.stamp.toSec(), why);
-    }
-    else if (const auto array = m.instantiate<rbpf_slam::TrunkArray>())
-    {
-      const double stamp = array->header.stamp.toSec();
-      if (array->header.frame_id != lidar_frame)
-        return drops.drop(m.getTopic(), stamp, "frame '" + array->header.frame_id + "', not the first array's '" +
-                                                   lidar_frame + "'");
-      core::TrunkSweep sweep;
-      const std::size_t bad = toTrunkSweep(*array, core::Pose2(mount.x, mount.y, mount.yaw), mount.z, &sweep);
-      if (bad > 0 && sweep.trunks.empty())
-        return drops.drop(m.getTopic(), stamp, "all " + std::to_string(bad) +
-                                                   " detections with a non-finite value (not a look that saw no tree)");
-      if (bad > 0)
-        drops.drop(m.getTopic(), stamp, std::to_string(bad) + " detections with a non-finite value (left out; no tree "
-                                        "counts as missed in this array)");
-      if (admitted(pipeline.addTrunks(std::move(sweep), clock, clock), m.getTopic(), stamp, &drops))
-        ++clouds;
-    }
-  };
+  int updates = 0, map_full = 0;
   // The map each restart ended, saved beside this run's (map.restartN.csv in the folder, or beside --save-map).
+  const std::string ended_beside = out.enabled() ? o.out_dir + "/map.csv" : o.save_map_path;
   const auto keepEndedMaps = [&]() {
-    for (core::TimelineMap& ended : pipeline.takeEndedMaps())
+    for (const io::MapFile& f : session.endedMapFiles(ended_beside.empty() ? "map.csv" : ended_beside))
     {
-      const std::string name = "map.restart" + std::to_string(ended.timeline + 1) + ".csv";
-      std::string path;
-      if (out.enabled())
-        path = o.out_dir + "/" + name;
-      else if (!o.save_map_path.empty())
-        path = io::withoutExtension(o.save_map_path) + ".restart" + std::to_string(ended.timeline + 1) + ".csv";
-      std::fprintf(stderr, "slam_bag: warning: the map before restart %d holds %zu trees%s%s\n", ended.timeline + 1,
-                   ended.trees.size(), path.empty() ? "; not saved (no --out or --save-map)" : "; saved to ",
-                   path.c_str());
-      if (path.empty())
-        continue;
-      io::ForestMap map;
-      map.trees = std::move(ended.trees);
-      map.viewpoints = std::move(ended.viewpoints);
-      map.anchor = ended.anchor;
-      out.add(path, io::forestMapCsv(map));
+      std::fprintf(stderr, "slam_bag: warning: the map before restart %d holds %zu trees%s%s\n", f.restart, f.trees,
+                   ended_beside.empty() ? "; not saved (no --out or --save-map)" : "; saved to ",
+                   ended_beside.empty() ? "" : f.path.c_str());
+      if (!ended_beside.empty())
+        out.add(f.path, f.content);
     }
   };
-  int map_full = 0;
   const auto process = [&](double clock, bool flush) {
     keepEndedMaps();
     for (const core::PipelineUpdate& u : pipeline.process(clock, flush))
@@ -569,96 +621,29 @@ int runFastSlam(const Options& o)
   std::vector<std::string> replayed{ sensor_topic, o.odom_topic };
   if (!gps_topic.empty())
     replayed.push_back(gps_topic);
-  replay(bag, replayed, feed, process);
-  const int resets = pipeline.restarts();
-  anchor = pipeline.anchor();  // the saved map's, or the one fitted to the fixes
-  if (clouds == 0)
+  replay(bag, replayed, std::ref(feed), process);
+  if (feed.sweeps == 0)
     throw std::runtime_error(o.bag_path + ": no usable message on " + sensor_topic + " (" +
-                             std::to_string(drops.count()) + " dropped); nothing written");
+                             std::to_string(feed.drops.count()) + " dropped); nothing written");
   if (updates == 0)
     throw std::runtime_error(o.bag_path + ": no filter update (no odometry on " + o.odom_topic +
                              " covers the sensor's messages?); nothing written");
-
   if (!pipeline.localized())
     throw std::runtime_error(o.bag_path + ": " + record.relocalizationSummary() + "; nothing written");
-  const core::Particle& best = pipeline.filter().best();
+  std::string map_summary;
   if (!o.save_map_path.empty())
-  {
-    io::ForestMap map;
-    map.anchor = anchor;
-    map.viewpoints = pipeline.viewpoints();
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-      map.trees.push_back(best.map[i]);
-    out.add(o.save_map_path, io::forestMapCsv(map));
-    if (anchor.valid)  // the inventory for GIS tools beside it: FILE.csv -> FILE.geojson
-      out.add(io::withoutExtension(o.save_map_path) + ".geojson", io::treesGeoJson(map));
-  }
-  std::vector<core::TreeChange> changes;
-  if (!o.changes_prefix.empty())
-  {
-    std::vector<core::Landmark> now;
-    for (std::size_t i = 0; i < best.map.size(); ++i)
-      now.push_back(best.map[i]);
-    changes = core::detectChanges(saved.trees, now, core::ChangeConfig(), saved.viewpoints);
-    out.add(o.changes_prefix + ".csv", io::changesCsv(changes));
-    if (anchor.valid)
-      out.add(o.changes_prefix + ".geojson", io::changesGeoJson(anchor, changes));
-  }
+    for (io::FileContent& f : session.mapFiles(o.save_map_path, &map_summary))
+      out.add(f.first, f.second);
   if (out.enabled())
   {
     for (const io::FileContent& f : record.files(o.out_dir, pipeline.filter()))
       out.add(f.first, f.second);
-    out.stream("timing.json") << timingJson(clouds, updates, pipeline.secondsExtraction(), pipeline.secondsFilter(),
-                                            fc.particles, fc.seed);
+    out.stream("timing.json") << timingJson(feed.sweeps, updates, pipeline.secondsExtraction(),
+                                            pipeline.secondsFilter(), fc.particles, fc.seed);
   }
   out.commit();
   if (!o.quiet)
-  {
-    std::printf("slam_bag fastslam: %s: %d clouds, %d filter updates, %d messages dropped (unreadable, stamps going "
-                "backwards or not finite), %d restarts (time jumped back)\n",
-                o.bag_path.c_str(), clouds, updates, drops.count(), resets);
-    const core::Pose2 estimate = pipeline.localized() ? pipeline.filter().estimate() : core::Pose2(NAN, NAN, NAN);
-    std::printf("  final estimate (%s; map frame = %s): %.3f %.3f %.1f deg; "
-                "%zu landmarks in the best particle's map\n",
-                core::toString(fc.estimate),
-                o.map_path.empty() ? "the odometry frame at the first update" : "the frame of the map it started from", estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, best.map.size());
-    std::printf("  %s\n", record.healthSummary().c_str());
-    if (map_full > 0)
-      std::printf("  the map reached max_landmarks (%d): %d observations made no new landmark\n", fc.max_landmarks,
-                  map_full);
-    if (!record.relocalizationSummary().empty())
-      std::printf("  %s\n", record.relocalizationSummary().c_str());
-    if (!record.lostSummary().empty())
-      std::printf("  %s\n", record.lostSummary().c_str());
-    if (!gps_topic.empty())
-    {
-      if (anchor.valid)
-        std::printf("  satellite fixes on %s: %d used, %d without a fix, %d weighed the particles; map anchor (%s): "
-                    "latitude %.9f, longitude %.9f, heading of x %.3f deg from east, sigma %.2f m\n",
-                    gps_topic.c_str(), pipeline.gnssFixesUsed(), gps_outages, pipeline.gnssFixesWeighed(),
-                    saved.anchor.valid ? "the saved map's, refined by the fixes" : "fitted to the fixes", anchor.latitude, anchor.longitude,
-                    anchor.yaw * 180.0 / M_PI, anchor.sigma);
-      else
-        std::printf("  satellite fixes on %s: %d used, %d without a fix; no anchor (the fixes spread less than %.1f m "
-                    "or number fewer than %d)\n", gps_topic.c_str(), pipeline.gnssFixesUsed(), gps_outages,
-                    fc.gnss.anchor_min_spread,
-                    fc.gnss.anchor_min_fixes);
-      if (pipeline.gnssFixesRejected() > 0)
-        std::printf("  %d satellite fixes were inconsistent with the anchor and the filter's pose (beyond the "
-                    "innovation gate) and were not used\n", pipeline.gnssFixesRejected());
-    }
-    if (!o.changes_prefix.empty())
-    {
-      int n[3] = { 0, 0, 0 };
-      for (const core::TreeChange& c : changes)
-        ++n[static_cast<int>(c.kind)];
-      std::printf("  changes since the saved map: %d felled, %d new, %d changed radii; written to %s.csv%s\n", n[0],
-                  n[1], n[2], o.changes_prefix.c_str(), anchor.valid ? " and .geojson" : " (no anchor: no GeoJSON)");
-    }
-    std::printf("  time: extraction %.2f s, filter %.2f s (%.0f clouds/s)\n", pipeline.secondsExtraction(),
-                pipeline.secondsFilter(),
-                clouds / std::max(1e-9, pipeline.secondsExtraction() + pipeline.secondsFilter()));
-  }
+    printFastSlamSummary(o, fc, pipeline, session, record, feed, gps_topic, updates, map_full, map_summary);
   return 0;
 }
 
@@ -989,7 +974,8 @@ int main(int argc, char** argv)
       else if (a == "--save-map")
         o.save_map_path = argv[++i];
       else if (a == "--changes")
-        o.changes_prefix = argv[++i];
+        throw std::invalid_argument("--changes is gone: with --map, --save-map FILE.csv writes the changes since that "
+                                    "map beside it (FILE_changes.csv)");
       else if (a == "--initial-pose")
       {
         if (i + 3 >= argc)
@@ -1012,8 +998,6 @@ int main(int argc, char** argv)
       throw std::invalid_argument("--odometry-only goes with --filter grid");
     if (o.filter != "fastslam" && (!o.map_path.empty() || !o.save_map_path.empty()))
       throw std::invalid_argument("--map and --save-map go with --filter fastslam (a grid map is map.yaml + map.pgm)");
-    if (!o.changes_prefix.empty() && o.map_path.empty())
-      throw std::invalid_argument("--changes goes with --map FILE (the changes since that map)");
     if ((o.gps_given || o.no_gps) && o.filter != "fastslam")
       throw std::invalid_argument("--gps and --no-gps go with --filter fastslam");
     if (o.gps_given && o.no_gps)
@@ -1041,12 +1025,10 @@ int main(int argc, char** argv)
     if (S_ISDIR(st.st_mode))
       throw std::runtime_error(o.bag_path + ": a folder, not a bag file");
     checkOutputDir(o.out_dir);
-    for (const std::string& file : { o.save_map_path, o.changes_prefix })
+    if (!o.save_map_path.empty())
     {
-      if (file.empty())
-        continue;
-      const std::size_t slash = file.find_last_of('/');
-      checkOutputDir(slash == std::string::npos ? "." : file.substr(0, std::max<std::size_t>(slash, 1)));
+      const std::size_t slash = o.save_map_path.find_last_of('/');
+      checkOutputDir(slash == std::string::npos ? "." : o.save_map_path.substr(0, std::max<std::size_t>(slash, 1)));
     }
     return o.filter == "grid" ? runGrid(o) : runFastSlam(o);
   }

@@ -285,8 +285,8 @@ def test_the_start_is_found_in_a_saved_map_and_an_unknown_stand_is_refused(tmp_p
     anchored = tmp_path / 'anchored_map.csv'  # the same map placed on the earth
     with open(saved) as f:
         anchored.write_text('# anchor: latitude=61.5 longitude=24.25 altitude=100 yaw=0.3 sigma=1\n' + f.read())
-    changes, after = str(tmp_path / 'changes'), str(tmp_path / 'after.csv')
-    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', str(anchored), '--out', out, '--changes', changes,
+    changes, after = str(tmp_path / 'after_changes'), str(tmp_path / 'after.csv')  # the changes beside the map
+    r = subprocess.run([_tool('slam_bag'), '--bag', bag, '--map', str(anchored), '--out', out,
                         '--save-map', after], stdout=subprocess.PIPE, universal_newlines=True, check=True)
     assert 'the start pose searched from the trunks seen' in r.stdout
     # Nothing changed in this stand: no tree is felled; the files a GIS reads are valid GeoJSON in WGS84.

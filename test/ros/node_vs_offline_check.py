@@ -116,9 +116,11 @@ class NodeVsOffline(unittest.TestCase):
     def test_fastslam_node_runs_the_offline_pipeline(self):
         bag = self.record('forest', ['--world', os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml')],
                           '0 0\n8 0\n')
+        offline_map = os.path.join(self.dir, 'offline_map.csv')
         offline = self.offline(bag, ['--filter', 'fastslam', '--extraction-config',
                                      os.path.join(ROOT, 'config', 'trunk_extraction.yaml'),
-                                     '--config', os.path.join(ROOT, 'config', 'fastslam.yaml')])
+                                     '--config', os.path.join(ROOT, 'config', 'fastslam.yaml'),
+                                     '--save-map', offline_map])
         node = self.play(bag, ['/points', '/odom', '/tf', '/tf_static'], 'fastslam', len(offline))
         self.compare('fastslam', node, offline)
         # The node's run folder (~save_run) holds what slam_bag --out writes: the same estimate, the same files.
@@ -130,6 +132,33 @@ class NodeVsOffline(unittest.TestCase):
         for name in ('estimate.tum', 'odometry.tum', 'estimate_best_history.tum', 'updates.csv', 'map.csv'):
             self.assertTrue(os.path.isfile(os.path.join(folder, name)), name)
         self.compare('fastslam run folder', read_tum(os.path.join(folder, 'estimate.tum')), offline)
+        # ~save_map writes the map slam_bag --save-map writes: the same trees and the same viewpoints.
+        node_map = os.path.join(self.dir, 'node_map.csv')
+        rospy.set_param('fastslam/map_path', node_map)
+        reply = rospy.ServiceProxy('fastslam/save_map', Trigger)()
+        self.assertTrue(reply.success, reply.message)
+        self.compare_maps(node_map, offline_map)
+
+    def compare_maps(self, node_path, offline_path):
+        def read(path):
+            comments, trees = [], {}
+            with open(path) as f:
+                for line in f:
+                    if line.startswith('#'):
+                        comments.append(line.split(':')[0])
+                    elif line.strip() and not line.startswith('id,'):
+                        v = line.strip().split(',')
+                        trees[int(v[0])] = (float(v[1]), float(v[2]), float(v[3]), int(v[7]), v[8])
+            return comments, trees
+        node_comments, node_trees = read(node_path)
+        offline_comments, offline_trees = read(offline_path)
+        self.assertGreater(len(offline_trees), 3)
+        self.assertEqual(node_comments, offline_comments, 'the anchor and viewpoint lines differ')
+        self.assertEqual(sorted(node_trees), sorted(offline_trees), 'the maps hold different trees')
+        for i, a in node_trees.items():
+            b = offline_trees[i]
+            self.assertLess(max(abs(a[0] - b[0]), abs(a[1] - b[1]), abs(a[2] - b[2])), TOLERANCE, (i, a, b))
+            self.assertEqual(a[3:], b[3:], (i, a, b))
 
     def test_grid_node_runs_the_offline_pipeline(self):
         bag = self.record('indoor', ['--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml')],

@@ -20,6 +20,7 @@
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 #include "rbpf_slam/io/forest_map_file.h"
+#include "rbpf_slam/io/map_session.h"
 #include "rbpf_slam/io/run_output.h"
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/transform_guard.h"
@@ -103,9 +104,9 @@ private:
   void publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate);
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
-  bool writeInventory(const std::string& path, std::string* message);
-  /** @brief Beside the map file @p map_path: its GeoJSON (anchored) and the change report (started from a saved map). */
-  bool writeChanges(const std::string& map_path, std::string* message);
+  /** @brief The map's files as the session names them (@p with_report: the GeoJSON and the changes beside it; else
+   * the tree table alone, the inventory) at @p path. */
+  bool writeMap(const std::string& path, bool with_report, std::string* message);
   /** @brief Says what the pipeline's stamp rule made of a message: drops (the first of each kind, then throttled)
    * and restarts. Lock held. */
   void report(core::StampVerdict verdict, const char* stream, const ros::Time& stamp);
@@ -139,8 +140,8 @@ private:
   /** @brief Publishes the filter's health at 1 Hz of data time and at every change of level; warns on a change. */
   void publishHealth(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
-  std::vector<core::Landmark> saved_trees_;  ///< the trees of the map it started from (for the change report)
-  std::vector<core::Viewpoint> saved_viewpoints_;  ///< where that map was looked at from (new trees need it)
+  /// The run's tree map: the saved map it started from, the current map and its files (as slam_bag's).
+  std::unique_ptr<io::FastSlamMapSession> session_;
   ros::Publisher change_markers_pub_;
   io::FastSlamRunRecord record_;  ///< the run folder's content (its tables only with ~run_folder set at start)
   TransformGuard tf_guard_;       ///< map -> odom: this node's to publish, or another's (named)
