@@ -1,5 +1,5 @@
 """Fits an odometry accuracy class (the filter's rot1-trans-rot2 motion noise, alpha1..alpha4) to a bag's odometry
-against its reference path: the logic of ``calibrate_odometry`` (the script's docstring is the user's help).
+against its reference path: the logic of ``calibrate_odometry`` (USAGE, below, is the user's help).
 
 The model is the filter's (src/core/particle_filter.cpp, trunk_slam_pipeline.cpp): the odometry between two
 updates is cut into steps along its own samples (a step ends at the first sample that is motion_step metres or
@@ -37,6 +37,58 @@ from rbpf_slam import atomic, evaluate as ev
 from rbpf_slam.atomic import UserError
 
 PROG = 'calibrate_odometry'
+#: The command's help (``calibrate_odometry --help``).
+USAGE = """\
+Estimates an odometry accuracy class (the filter's rot1-trans-rot2 motion noise alpha1..alpha4) from a bag with
+odometry and a reference path, and prints it as YAML in the style of config/odometry/*.yaml.
+
+  rosrun rbpf_slam calibrate_odometry BAG [--odom TOPIC] [--reference TOPIC] [--motion-step M]
+      [--motion-step-angle RAD] [--window M] [-o FILE.yaml] [--name TEXT] [-q]
+
+The odometry is nav_msgs/Odometry on --odom (default /odom). The reference is any path evaluate_bag_run reads
+(nav_msgs/Odometry, PoseStamped, PoseWithCovarianceStamped, PointStamped, or NavSatFix converted to a local
+east-north plane); without --reference the first of /ground_truth/odom, /gps/fix, /gps, /fix in the bag (else its
+only NavSatFix topic), as evaluate_bag_run picks it. A reference whose orientation is missing (all zero) or the
+same throughout (a GPS written as Odometry) is taken as positions only.
+
+The filter cuts the odometry between two updates into steps along its own samples (a step ends at the first
+sample motion_step metres or motion_step_angle radians (|rot1| + |rot2|) from its start) and gives each step
+independent Gaussian noise:
+  sigma_rot1 = alpha1 |rot1| + alpha2 trans,  sigma_trans = alpha3 trans + alpha4 (|rot1| + |rot2|),
+  sigma_rot2 = alpha1 |rot2| + alpha2 trans.
+Pass the motion_step and motion_step_angle the class is for (default 0.2 m, 0.2 rad; a car: 0.5, 0.2): the
+alphas belong to them.
+
+The drive is cut into non-overlapping windows of --window metres of odometry travel (default 1 m with a
+reference that has headings; 10 m with one of positions only, there alternately 10 and 20 m, so that the
+reference's own noise, the same in every window, is told from the odometry's, which grows with the window).
+Windows end at reference stamps (the odometry is interpolated there) and are cut by the odometry's travel, not the
+reference's: the model is the truth given the odometry, and a noisy reference's own travel would bias the
+distances. Each window's odometry is cut into the filter's steps, which gives the predicted variance of its errors
+as a function of the alphas (to first order in the noise):
+  * reference with headings: the heading change error wrap(dtheta_ref - dtheta_odo) (the sum over the steps of
+    sigma_rot1^2 + sigma_rot2^2) and the distance error |dp_ref| - |dp_odo| (sigma_trans^2 along the chord, plus
+    the lateral shift of the rest of the window by each step's rot noise); no noise of the reference;
+  * positions only: the distance error, and the error of the course change between two consecutive windows' chords
+    (the heading noise of the first window, less its own chord's turn, plus the second's chord's turn), each plus
+    the reference's own noise: from the NavSatFix covariance where every fix states one, else a free parameter
+    sigma_ref (per axis, independent per fix), fitted and reported.
+The alphas (>= 0) maximise the Gaussian likelihood of all errors, taken as independent (exact between windows with
+headings; it leaves out the heading-distance correlation within a window and the shared fixes of neighbouring
+GPS windows). A position-only reference pins alpha1 and alpha2 (from the course changes) and the sum of the
+distance noise, but only loosely how alpha3, alpha4 and sigma_ref share it: see their standard errors.
+
+The output is the class: comments saying what it is, the command that made it and the fit (windows, metres and
+radians driven, the mean errors -- a distance scale error and a heading drift per metre, biases that the class
+takes as noise --, the alphas with approximate standard errors, and the share of errors inside the fitted model's
+95 % interval, which should be about 95 %), then motion: {alpha1 .. alpha4} (3 significant digits), motion_step and
+motion_step_angle. Printed on stdout, and with -o written to FILE atomically.
+
+Refused, with one line on stderr, exit code 1 and no file written: a bag that is missing or not readable, no
+odometry topic, no reference (the line names the topics looked for and those in the bag), odometry and reference
+not overlapping in time, fewer than 20 windows or less than 10 windows' length of reference travel, and less than
+one full turn (2 pi rad) in total, without which alpha1 and alpha4 (the noise from turning) cannot be fitted.
+"""
 ODOMETRY_TYPE = 'nav_msgs/Odometry'
 #: Fewer windows than this are refused (four alphas, and a check of 95 % coverage, need more).
 MIN_WINDOWS = 20
@@ -723,7 +775,7 @@ def main(argv=None, doc=None):
 
 
 def _main(argv, doc):
-    p = argparse.ArgumentParser(prog=PROG, description=doc or __doc__,
+    p = argparse.ArgumentParser(prog=PROG, description=doc or USAGE,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument('bag', help='the bag with the odometry and the reference')
     p.add_argument('--odom', default='/odom', metavar='TOPIC', help='odometry, nav_msgs/Odometry (default /odom)')

@@ -3,16 +3,26 @@
 * :func:`package_file`: a file of the package (``config/...``): in the source tree beside this module when run
   from it, else where ROS finds the package (``share/rbpf_slam`` of an install space).
 * :func:`data_dir`: a data set's folder: the one given, else ``$RBPF_SLAM_DATA/<name>``.
+* :func:`program`: a compiled program of the package; :func:`script`: one of its Python entry points.
 """
 import os
 
 DATA_ENV = 'RBPF_SLAM_DATA'
 
 
-def package_dir():
-    """The package's folder (the one holding config/ and launch/)."""
+def source_dir():
+    """The source tree this module runs from (the folder holding package.xml, config/ and scripts/), else None
+    (an installed module)."""
     here = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..'))
     if os.path.isfile(os.path.join(here, 'package.xml')) and os.path.isdir(os.path.join(here, 'config')):
+        return here
+    return None
+
+
+def package_dir():
+    """The package's folder (the one holding config/ and launch/)."""
+    here = source_dir()
+    if here:
         return here
     try:
         import rospkg
@@ -52,3 +62,13 @@ def program(name):
             return path
     raise ValueError('%s: expected the built program (scripts/bootstrap builds it, or source a workspace), got none'
                      % name)
+
+
+def script(name):
+    """A Python entry point of the package (e.g. 'carmen_to_bag'), to run as ``[sys.executable, script(name)]``:
+    the source tree's scripts/NAME when this module runs from one, else the installed one (lib/rbpf_slam, found as
+    :func:`program` finds programs); ValueError when there is none."""
+    here = source_dir()
+    if here and os.path.isfile(os.path.join(here, 'scripts', name)):
+        return os.path.join(here, 'scripts', name)
+    return program(name)

@@ -225,3 +225,13 @@ def test_significant_digits_are_yaml_floats():
     for v, text in ((0.0, '0.0'), (0.123456, '0.123'), (1.23456e-5, '0.0000123'), (12.345, '12.3'), (0.05, '0.05'), (120.4, '120.0')):
         assert cal.significant(v) == text
         assert isinstance(yaml.safe_load('a: %s' % text)['a'], float)
+
+
+def test_the_help_is_the_command_s_usage(capsys):
+    """calibrate_odometry --help (scripts/calibrate_odometry runs rbpf_slam.calibrate.main) prints USAGE."""
+    with pytest.raises(SystemExit) as e:
+        cal.main(['--help'])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith('usage: calibrate_odometry [-h]')
+    assert cal.USAGE.splitlines()[0] in out and 'Refused, with one line on stderr' in out

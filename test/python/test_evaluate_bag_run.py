@@ -263,3 +263,25 @@ def test_bad_references_are_one_line_and_write_nothing(tmp_path):
     marks = _bag(tmp_path / 'marks.bag', landmarks=TREES)
     r = run('evaluate_bag_run', '--bag', marks, '--run', run_dir)
     assert_fails_cleanly(r, 'evaluate_bag_run', run_dir, 'nothing to score', left=left)
+
+
+def test_the_printed_table_of_a_summary():
+    """rbpf_slam.evaluate_bag_run.table: the reference lines, the path figures in mm (a missing one as '-'), the map."""
+    from rbpf_slam import evaluate_bag_run as ebr
+    summary = {'notes': ['reference: /gps/fix'], 'fit': 'none', 'reference_poses': 10, 'reference_total': 12,
+               'estimate': {'path_rms': 0.0123, 'final_error': 0.02, 'max_error': 0.03, 'rpe_translation': 0.004},
+               'odometry': {'path_rms': 0.5},
+               'map': {'features': 5, 'trees': 4, 'matched': 3, 'recall': 0.75, 'duplicates': 1, 'spurious': 1,
+                       'mean_error': None},
+               'health_warned_updates': [2, 40], 'seconds_processing': 0.25, 'sweeps': 7}
+    assert ebr.table(summary).splitlines() == [
+        'reference: /gps/fix',
+        'compared: 10 of 12 reference poses inside the estimate\'s time span',
+        '(no fit)                 estimate   odometry',
+        'ATE / path RMS [mm]          12.3      500.0',
+        'final error [mm]             20.0          -',
+        'max error [mm]               30.0          -',
+        'RPE trans. [mm]               4.0          -',
+        'map: 5 features for 4 true landmarks: 3 matched (recall 75 %), 1 duplicates, 1 spurious',
+        'health warned in 2 of 40 updates',
+        'processing 250.0 ms (7 sweeps)']

@@ -1,6 +1,5 @@
 """fastslam_experiments with a stand-in for fastslam_benchmark: worlds, tables, plot."""
-import importlib.machinery
-import importlib.util
+import importlib
 import json
 import os
 import stat
@@ -30,12 +29,7 @@ for m in methods:
 
 
 def _load():
-    path = os.path.join(ROOT, 'scripts', 'fastslam_experiments')
-    loader = importlib.machinery.SourceFileLoader('fastslam_experiments', path)
-    spec = importlib.util.spec_from_loader('fastslam_experiments', loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return importlib.import_module('rbpf_slam.fastslam_experiments')
 
 
 def test_world_has_the_paper_settings_and_n_trees(tmp_path):
@@ -65,3 +59,20 @@ def test_tables_and_plot_from_the_benchmark_summaries(tmp_path):
     with open(os.path.join(out, 'experiments.json')) as f:
         data = json.load(f)
     assert data['trees']['centroid_t200']['final_error_m']['median'] > data['trees']['centroid_t16']['final_error_m']['median']
+
+
+def test_a_table_row_and_the_summaries_it_reads(tmp_path):
+    m = _load()
+    st = lambda v: {'median': v, 'worst': 2 * v}  # noqa: E731
+    s = {'final_error_m': st(0.1), 'final_error_dead_reckoning_m': st(1.6), 'ate_m': st(0.05),
+         'ate_dead_reckoning_m': st(0.8), 'filter_rate_hz': st(1000.0), 'rate_hz': st(200.0), 'failed': 1, 'seeds': 3}
+    assert m.row('100', 'circle', s) == ('| 100 | circle | 0.100 / 0.200 | 1.600 / 3.200 | 0.050 / 0.100 | 0.800 / 1.600 '
+                                         '| 1000 / 2000 | 200 / 400 | 1 of 3 |')
+    assert (m.HEADER % 'trees').count('|---') == 9
+    for sub, v in (('fastslam1_circle_p5', 1.0), ('fastslam1_circle_p50', 2.0)):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / 'summary.json').write_text(json.dumps({'v': v}))
+    assert m.read_summaries(str(tmp_path), [5, 50], ['circle'], 'fastslam1') == {('circle', 5): {'v': 1.0},
+                                                                                ('circle', 50): {'v': 2.0}}
+    (tmp_path / 'summary.json').write_text('{"v": 3.0}')  # a single variant writes into the folder itself
+    assert m.read_summaries(str(tmp_path), [5], ['circle'], 'fastslam1') == {('circle', 5): {'v': 3.0}}

@@ -10,8 +10,7 @@
 - trajectory_eval scores the run's TUM files against the bag's reference (the package's one evaluator).
 """
 import filecmp
-import importlib.machinery
-import importlib.util
+import importlib
 import json
 import os
 import re
@@ -37,12 +36,7 @@ TRAJECTORY_EVAL = [sys.executable, os.path.join(ROOT, 'scripts', 'trajectory_eva
 
 
 def _plot_module():
-    path = os.path.join(ROOT, 'scripts', 'plot_grid_run')
-    loader = importlib.machinery.SourceFileLoader('plot_grid_run', path)
-    spec = importlib.util.spec_from_loader('plot_grid_run', loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return importlib.import_module('rbpf_slam.plot_grid_run')
 
 
 def corridor_hokuyo(scan_ts, laser_x):

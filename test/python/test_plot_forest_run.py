@@ -1,6 +1,5 @@
 """plot_forest_run on a synthetic fastslam_benchmark --out folder."""
-import importlib.machinery
-import importlib.util
+import importlib
 import json
 import math
 import os
@@ -12,12 +11,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 
 def _load():
-    path = os.path.join(ROOT, 'scripts', 'plot_forest_run')
-    loader = importlib.machinery.SourceFileLoader('plot_forest_run', path)
-    spec = importlib.util.spec_from_loader('plot_forest_run', loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return importlib.import_module('rbpf_slam.plot_forest_run')
 
 
 def _write_run(d):
@@ -50,7 +44,7 @@ def test_bad_tum_names_the_file(tmp_path):
     with open(str(tmp_path / 'seed3_truth.tum'), 'w') as f:
         f.write('0 1 2\n')
     with pytest.raises(ValueError, match='seed3_truth.tum'):
-        _load().main([str(tmp_path)])
+        _load()._main([str(tmp_path)])
 
 
 def test_a_map_not_in_the_landmark_csv_names_the_file(tmp_path):
@@ -58,7 +52,7 @@ def test_a_map_not_in_the_landmark_csv_names_the_file(tmp_path):
     with open(str(tmp_path / 'seed3_map.csv'), 'w') as f:  # the radius columns of an earlier map.csv
         f.write('id,x,y,radius,sigma_x,sigma_y,sigma_radius,observations,provisional\n0,1,2,0.2,0,0,0,9,0\n')
     with pytest.raises(ValueError, match='seed3_map.csv: not a landmark CSV'):
-        _load().main([str(tmp_path)])
+        _load()._main([str(tmp_path)])
 
 
 def _write_summary(d, finals):
@@ -164,4 +158,13 @@ def test_report_without_summary_uses_the_tum_files(tmp_path):
 def test_report_of_a_missing_seed_names_it(tmp_path):
     _write_run(str(tmp_path))
     with pytest.raises(ValueError, match='seed 9'):
-        _load().main([str(tmp_path), '--report', '--seed', '9'])
+        _load()._main([str(tmp_path), '--report', '--seed', '9'])
+
+
+def test_figures_of_the_report_and_the_median_seed():
+    m = _load()
+    assert m._fmt(None) == 'n/a' and m._fmt(float('nan')) == 'n/a'
+    assert m._fmt(0.0512, ' m') == '0.051 m' and m._fmt(3, digits=None) == '3' and m._fmt(0.5, ' %', 100, 1) == '50.0 %'
+    summary = {'first_seed': 2, 'final_error_m': {'values': [0.3, 0.1, 0.2]}}
+    assert m.median_seed(summary, [2, 3, 4]) == 4
+    assert m.median_seed(None, [5, 6]) == 5

@@ -1,6 +1,5 @@
 """real_data_benchmark: its command line and data checks, and the table helpers on synthetic figures (no SLAM run)."""
-import importlib.machinery
-import importlib.util
+import importlib
 import math
 import os
 import subprocess
@@ -13,11 +12,7 @@ SCRIPT = os.path.join(ROOT, 'scripts', 'real_data_benchmark')
 
 
 def _load():
-    loader = importlib.machinery.SourceFileLoader('real_data_benchmark', SCRIPT)
-    spec = importlib.util.spec_from_loader('real_data_benchmark', loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return importlib.import_module('rbpf_slam.real_data_benchmark')
 
 
 def _run(args, tmp_path, data_env=None):
@@ -161,3 +156,11 @@ def test_the_known_ids_overlay_is_the_only_difference():
     cmd = m.slam_command(m.DATA_SETS['mrclam_known_ids'], 'b.bag', 3, 'run', 'overlay.yaml')
     assert cmd[-2:] == ['--config', 'overlay.yaml'] and cmd[cmd.index('--seed') + 1] == '3'
     assert all(os.path.isfile(cmd[i + 1]) for i, c in enumerate(cmd[:-2]) if c == '--config')
+
+
+def test_lists_and_seeds_of_the_command_line():
+    m = _load()
+    assert m.parse_list('3, 1,3', ['1', '2', '3'], 'robot') == ['1', '3']
+    with pytest.raises(Exception, match="unknown robot 9 \\(known: 1, 2, 3\\)"):
+        m.parse_list('1,9', ['1', '2', '3'], 'robot')
+    assert m._seeds_text(4, 1) == 'seed 4' and m._seeds_text(0, 5) == 'seeds 0-4'

@@ -104,3 +104,9 @@ def test_a_file_in_neither_layout_is_one_line_naming_file_and_line(tmp_path):
                          left=['ref.bag', 'bad.txt'])
     r = run('trajectory_eval', '--help')
     assert r.returncode == 0 and '--pair index' in r.stdout and 't x y theta' in r.stdout
+
+
+def test_a_missing_figure_is_a_dash_as_wide_as_the_number():
+    from rbpf_slam import trajectory_eval as te
+    assert te._num(None, '%9.3f') == '        -' and te._num(1.5, '%9.3f') == '    1.500'
+    assert te._num(None, '%10.4f') == ' ' * 9 + '-' and te._num(-0.25, '%10.4f') == '   -0.2500'

@@ -1,0 +1,28 @@
+"""rbpf_slam.soak_benchmark (scripts/soak_benchmark): the nodes it starts, memory sampling, a refused command line."""
+import argparse
+import os
+import shutil
+
+from rbpf_slam import soak_benchmark as sb
+
+
+def test_the_nodes_of_each_filter():
+    grid = sb.nodes_for(argparse.Namespace(filter='grid', particles=30))
+    assert grid == [('grid_slam', ['rosrun', 'rbpf_slam', 'grid_slam', '__name:=grid_slam', '_particles:=30'])]
+    assert sb.nodes_for(argparse.Namespace(filter='grid', particles=0))[0][1][-1] == '__name:=grid_slam'
+    fast = sb.nodes_for(argparse.Namespace(filter='fastslam', particles=0))
+    assert [name for name, _ in fast] == ['trunk_extraction', 'fastslam']
+    assert fast[1][1] == ['rosrun', 'rbpf_slam', 'fastslam', '__name:=fastslam']
+
+
+def test_resident_memory_of_a_process():
+    assert sb.rss_mb(os.getpid()) > 1.0
+    assert sb.rss_mb(2 ** 22 + 12345) is None  # above the largest pid Linux gives
+
+
+def test_a_trunk_drive_needs_fastslam(capsys):
+    try:
+        assert sb.main(['--filter', 'grid', '--trunk-drive', 'loop']) == 1
+    finally:  # the run's log folder, made before the command line is checked
+        shutil.rmtree(os.path.join(os.sep + 'tmp', 'rbpf_slam_soak_%d' % os.getpid()), ignore_errors=True)
+    assert capsys.readouterr().err == 'soak_benchmark: --trunk-drive goes with --filter fastslam\n'
