@@ -15,14 +15,9 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("motion/alpha2", &c->motion.alpha2);
   p.get("motion/alpha3", &c->motion.alpha3);
   p.get("motion/alpha4", &c->motion.alpha4);
-  p.get("motion/heading_drift", &c->motion.heading_drift);
-  p.get("motion/scale_drift", &c->motion.scale_drift);
-  p.get("motion/drift_distance", &c->motion.drift_distance);
   p.get("motion_step", &c->motion_step);
   p.get("motion_step_angle", &c->motion_step_angle);
   p.get("motion_noise_time", &c->motion_noise_time);
-  p.get("update_min_travel", &c->update_min_travel);
-  p.get("update_min_turn", &c->update_min_turn);
   p.get("range_sigma_floor", &c->range_sigma_floor);
   p.get("bearing_sigma_floor", &c->bearing_sigma_floor);
   p.get("min_range", &c->min_range);
@@ -33,7 +28,6 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("use_radius", &c->use_radius);
   p.get("use_known_ids", &c->use_known_ids);
   p.get("radius_sigma_floor", &c->radius_sigma_floor);
-  p.get("prior_sigma_floor", &c->prior_sigma_floor);
   p.get("min_trunk_gap", &c->min_trunk_gap);
   p.get("relocalize_when_lost", &c->relocalize_when_lost);
   p.get("max_trunks_per_sweep", &c->max_trunks_per_sweep);
@@ -54,7 +48,6 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("provisional_weighs", &c->provisional_weighs);
   p.get("drop_unconfirmed_leaving_scope", &c->drop_unconfirmed_leaving_scope);
   readResamplingPolicy(p, &c->resampling);
-  p.get("relocalization_spread", &c->relocalization_spread);
   p.get("roughening", &c->roughening);
   p.get("roughening_sigma_xy", &c->roughening_sigma_xy);
   p.get("roughening_sigma_theta", &c->roughening_sigma_theta);
@@ -71,7 +64,6 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   if (!core::parsePoseEstimate(estimate, &c->estimate))
     throw std::runtime_error("parameter 'estimate' must be mean or best, not '" + estimate + "'");
   p.get("mixture_fraction", &c->mixture_fraction);
-  p.get("mixture_balance", &c->mixture_balance);
   p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())

@@ -54,14 +54,10 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   p.get("rbpf/max_iterations", &c->matcher.max_iterations);
   p.get("rbpf/beam_step", &c->matcher.beam_step);
   p.get("rbpf/climb_beam_step", &c->matcher.climb_beam_step);
-  p.get("rbpf/sub_cell", &c->matcher.sub_cell);
-  p.get("rbpf/climb_on_observed", &c->matcher.climb_on_observed);
-  p.get("rbpf/free_check", &c->matcher.free_check);
   p.get("rbpf/coarse_kernel", &c->matcher.coarse_kernel);
   p.get("rbpf/coarse_sigma", &c->matcher.coarse_sigma);
   p.get("rbpf/coarse_beam_step", &c->matcher.coarse_beam_step);
   p.get("rbpf/coarse_refinements", &c->matcher.coarse_refinements);
-  p.get("rbpf/prior_weight", &c->matcher.prior_weight);
   p.get("rbpf/prior_floor_xy", &c->matcher.prior_floor_xy);
   p.get("rbpf/prior_floor_theta", &c->matcher.prior_floor_theta);
   p.get("linear_update", &c->linear_update);

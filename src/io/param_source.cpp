@@ -34,7 +34,7 @@ void readResamplingPolicy(const ParamSource& p, core::ResamplingPolicy* policy)
   std::string name = core::resamplingMethodName(policy->method);
   if (p.get("resampling", &name) && !core::parseResamplingMethod(name, &policy->method))
     throw std::runtime_error("invalid parameter: resampling must be low_variance or multinomial (got '" + name + "')");
-  p.getRenamed("resample_neff_ratio", "resample_threshold", &policy->neff_ratio);
+  p.get("resample_neff_ratio", &policy->neff_ratio);
 }
 
 struct YamlParamSource::Impl

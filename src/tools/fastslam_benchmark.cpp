@@ -5,7 +5,7 @@
 //
 //   rosrun rbpf_slam fastslam_benchmark [--world FILE] [--drive straight|loop|FILE] [--particles N]
 //                                       [--seeds K] [--method circle|centroid] [--first-seed S]
-//                                       [--proposal fastslam1|fastslam2] [--mixture F] [--mixture-balance]
+//                                       [--proposal fastslam1|fastslam2] [--mixture F]
 //                                       [--odometry-noise K] [--sim-config FILE] [--config FILE]...
 //                                       [--extraction-config FILE] [--start X Y YAW_DEG] [--gate M] [--fail-ate M]
 //
@@ -103,7 +103,6 @@ int main(int argc, char** argv)
   int seeds = 20, first_seed = 1;
   bool ideal = false;  // diagnostic: odometry without noise, mismatch or latency
   double mixture = 0.0;
-  bool mixture_balance = false;
   double odometry_noise = 1.0;  // --odometry-noise K: the simulated wheel noise and scale mismatch times K
   std::string out_dir;          // --out DIR: TUM trajectories, maps and summary.json
   std::string sim_config_path, detector_config_path;
@@ -175,8 +174,6 @@ int main(int argc, char** argv)
       mixture = std::atof(argv[++i]);
       mixture_given = true;
     }
-    else if (a == "--mixture-balance")
-      mixture_balance = true;
     else if (a == "--odometry-noise" && has)
       odometry_noise = std::atof(argv[++i]);
     else
@@ -184,7 +181,7 @@ int main(int argc, char** argv)
       std::fprintf(stderr,
                    "usage: %s [--world FILE] [--drive straight|loop|FILE] [--particles N[,N...]] [--seeds K] "
                    "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
-                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--mixture-balance] [--odometry-noise K]\n"
+                   "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--odometry-noise K]\n"
                    "       [--sim-config FILE] [--config FILE]... [--extraction-config FILE] [--start X Y YAW_DEG]\n"
                    "       [--gate M] [--fail-ate M]\n"
                    "A run fails when its final error exceeds 1 m (with --fail-ate M: its ATE exceeds M m) or the robot "
@@ -268,7 +265,6 @@ int main(int argc, char** argv)
             throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
           v.filter.particles = std::atoi(np.c_str());
           v.filter.mixture_fraction = mixture;
-          v.filter.mixture_balance = mixture_balance || base_filter.mixture_balance;
           const std::string err = v.filter.validate();
           if (!err.empty())
             throw std::runtime_error(err);

@@ -364,8 +364,6 @@ void loadYaml(const std::string& path, const Reader& reader)
   {
     throw std::runtime_error(path + ": " + e.what());
   }
-  for (const auto& notice : yaml.notices())
-    std::fprintf(stderr, "slam_bag: warning: %s: %s\n", path.c_str(), notice.c_str());
   for (const auto& key : yaml.unusedKeys())
     if (std::find(io::nodeOnlyKeys().begin(), io::nodeOnlyKeys().end(), key) == io::nodeOnlyKeys().end())
       std::fprintf(stderr, "slam_bag: warning: %s: key '%s' is not one of this filter's (misspelt?); ignored\n",

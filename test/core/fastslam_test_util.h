@@ -24,14 +24,13 @@ inline core::LandmarkObservation observe(const core::Pose2& s, double x, double 
   return o;
 }
 
-/** A filter of @p particles without motion noise or drift, whose landmarks are confirmed at their first sighting
+/** A filter of @p particles without motion noise, whose landmarks are confirmed at their first sighting
  * and which counts every update as a look from a new view. */
 inline core::FastSlamConfig quietConfig(int particles = 1)
 {
   core::FastSlamConfig c;
   c.particles = particles;
   c.motion.alpha1 = c.motion.alpha2 = c.motion.alpha3 = c.motion.alpha4 = 0.0;
-  c.motion.heading_drift = c.motion.scale_drift = 0.0;
   c.confirm_observations = 1;
   // Every update a look from a new view: these tests place the sensor by hand and test one look's arithmetic (the
   // view rule has its own tests in test_landmark_evidence.cpp and test_pipelines.cpp).

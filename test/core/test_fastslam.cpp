@@ -49,6 +49,17 @@ TEST(ParticleFilter, OdometryMotionMomentsMatchTheModel)
   EXPECT_NEAR(std::sqrt(vt), std::sqrt(2.0) * 0.02, 0.001);
 }
 
+TEST(FastSlam, WithoutNoiseEveryParticleFollowsTheOdometry)
+{
+  FastSlam f(quietConfig(50));
+  OdometryIncrement u;
+  u.trans = 0.2;
+  for (int i = 0; i < 100; ++i)
+    f.predict(u);
+  EXPECT_LT(std::sqrt(f.poseCovariance()(2, 2)), 1e-12);
+  EXPECT_NEAR(f.meanPose().x, 20.0, 1e-9);
+}
+
 TEST(ParticleFilter, LowVarianceResamplingPreservesTheWeights)
 {
   const std::vector<double> w{ 0.5, 0.25, 0.125, 0.125 };

@@ -152,29 +152,6 @@ TEST(GridRbpf, CoarseToFineWidensTheCaptureRange)
   std::cout << "recovered of 32 starts: coarse-to-fine " << coarse_ok << ", fine only " << fine_ok << std::endl;
 }
 
-TEST(GridRbpf, MotionPriorHoldsTheMatchNearTheOdometry)
-{
-  // The true pose scores best, the prior is centred 0.3 m away with sigma 0.05 m: a strong prior keeps the
-  // match near its centre, none lets it reach the truth.
-  const OccupancyGrid map = roomMap();
-  const Pose2 truth(0.3, -0.4, 0.35);
-  std::vector<std::pair<double, double>> ends;
-  GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
-  MatchPrior prior;
-  prior.centre = Pose2(truth.x + 0.15, truth.y, truth.theta);
-  prior.sigma_xy = 0.01;
-  prior.sigma_theta = 0.01;
-  ScanMatcherConfig c;
-  const ScanMatch free_match = ScanMatcher(c).match(map, prior.centre, Pose2(), ends, &prior);
-  EXPECT_NEAR(free_match.pose.x, truth.x, 0.03);  // prior_weight 0: the prior is ignored
-  c.prior_weight = 100.0;
-  const ScanMatch held = ScanMatcher(c).match(map, prior.centre, Pose2(), ends, &prior);
-  EXPECT_GT(held.pose.x, truth.x + 0.1);
-  EXPECT_NEAR(held.pose.y, truth.y, 0.05);
-  c.prior_weight = -1.0;
-  EXPECT_NE(c.validate(), "");
-}
-
 namespace
 {
 struct RbpfRun
@@ -331,37 +308,11 @@ TEST(GridRbpf, ParsesTheMode)
   EXPECT_NE(c.validate().find("beam_step"), std::string::npos);
 }
 
-TEST(GridRbpf, SubCellHitPointsMatchFinerThanACell)
+TEST(GridRbpf, TrackedHitPointsLieWhereTheBeamsEnd)
 {
-  // Scans from poses off the cells' grid: matched against cell centres the pose is off by up to half a cell;
-  // against the cells' mean hit points it is found to a fraction of a cell.
   OccupancyGridConfig tracking;
   tracking.track_hits = true;
   const OccupancyGrid map = roomMap(tracking);
-  ScanMatcherConfig centres;
-  centres.refinements = 6;
-  ScanMatcherConfig hits = centres;
-  hits.sub_cell = true;
-  double err_centres = 0.0, err_hits = 0.0;
-  Random pick(11);
-  const int n = 20;
-  for (int i = 0; i < n; ++i)
-  {
-    const Pose2 truth(pick.uniform(-1.0, 1.0), pick.uniform(-1.0, 1.0), pick.uniform(-0.5, 0.5));
-    std::vector<std::pair<double, double>> ends;
-    GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
-    const Pose2 start(truth.x + 0.02, truth.y - 0.015, truth.theta + 0.01);
-    const Pose2 a = ScanMatcher(centres).match(map, start, Pose2(), ends).pose;
-    const Pose2 b = ScanMatcher(hits).match(map, start, Pose2(), ends).pose;
-    err_centres += std::pow(a.x - truth.x, 2) + std::pow(a.y - truth.y, 2);
-    err_hits += std::pow(b.x - truth.x, 2) + std::pow(b.y - truth.y, 2);
-  }
-  err_centres = std::sqrt(err_centres / n);
-  err_hits = std::sqrt(err_hits / n);
-  std::cout << "match position error RMS: cell centres " << err_centres << " m, mean hit points " << err_hits
-            << " m\n";
-  EXPECT_LT(err_hits, 0.6 * err_centres);
-  EXPECT_LT(err_hits, 0.01);
   // The room's south wall lies at y = -3 m, on the edge of its cells (centres at -2.975 m): their mean hit points
   // lie on it.
   int ix, iy;
@@ -375,57 +326,6 @@ TEST(GridRbpf, SubCellHitPointsMatchFinerThanACell)
   OccupancyGrid untracked = roomMap();  // without track_hits: the centre
   untracked.hitPoint(ix, iy, &hx, &hy);
   EXPECT_NEAR(hy, -3.0 + 0.5 * map.resolution(), 0.001);
-}
-
-namespace
-{
-// A straight corridor 3 m wide along x, its walls mapped only up to x = 6 m; a 181-beam scan from x = 2 m
-// that sees the walls out to 25 m.
-ScanData corridorScan(double x0, double reach)
-{
-  ScanData scan;
-  scan.angle_min = -M_PI / 2;
-  scan.angle_increment = M_PI / 180;
-  scan.range_min = 0.02;
-  scan.range_max = 30.0;
-  for (int i = 0; i < 181; ++i)
-  {
-    const double a = scan.angle_min + i * scan.angle_increment;
-    const double s = std::sin(a);
-    double r = std::abs(s) > 1e-9 ? 1.5 / std::abs(s) : std::numeric_limits<double>::infinity();
-    if (x0 + r * std::cos(a) > reach)
-      r = std::numeric_limits<double>::infinity();
-    scan.ranges.push_back(static_cast<float>(r));
-  }
-  return scan;
-}
-}  // namespace
-
-TEST(GridRbpf, ClimbOnObservedSpaceDoesNotSlideBackAlongACorridor)
-{
-  OccupancyGrid map;
-  ScanLimits limits;
-  limits.range_max = 30.0;
-  limits.no_return_free_range = 0.0;
-  for (double x = -6.0; x <= 0.0; x += 0.5)  // scans that reach 6 m down the corridor
-    map.insertScan(Pose2(x, 0.0, 0.0), corridorScan(x, 6.0), limits);
-  const Pose2 truth(2.0, 0.0, 0.0);
-  std::vector<std::pair<double, double>> ends;
-  GridSlam::scanEndPoints(corridorScan(truth.x, 25.0), limits, 1, &ends);
-  ScanMatcherConfig config;
-  config.linear_step = 0.1;
-  const ScanMatch pulled = ScanMatcher(config).match(map, truth, Pose2(), ends);
-  config.climb_on_observed = true;
-  const ScanMatch neutral = ScanMatcher(config).match(map, truth, Pose2(), ends);
-  std::cout << "match along the corridor from the true pose: " << pulled.pose.x - truth.x << " m (end points past the "
-            << "map pull), " << neutral.pose.x - truth.x << " m (the climb on observed space)\n";
-  EXPECT_LT(pulled.pose.x - truth.x, -0.1);  // slid back onto the mapped part
-  EXPECT_NEAR(neutral.pose.x, truth.x, 0.06);  // within about a cell: along the walls nothing holds it
-  EXPECT_LT(std::abs(neutral.pose.x - truth.x), 0.5 * std::abs(pulled.pose.x - truth.x));
-  EXPECT_NEAR(neutral.pose.y, truth.y, 0.03);
-  // The match is scored on all end points, as without the option.
-  EXPECT_DOUBLE_EQ(neutral.log_likelihood,
-                   ScanMatcher(ScanMatcherConfig()).evaluate(map, neutral.pose, Pose2(), ends).log_likelihood);
 }
 
 TEST(GridRbpf, ThreadsGiveTheSameResult)

@@ -346,18 +346,6 @@ int filtered(const std::vector<PipelineUpdate>& updates)
 }
 }  // namespace
 
-TEST(TrunkSlamPipeline, ATravelGateAloneTakesOneSweepPerItsDistance)
-{
-  FastSlamConfig fc;
-  fc.particles = 10;
-  fc.evidence_view_change = 0.0;
-  fc.update_min_travel = 0.45;  // no turn threshold: travel alone decides
-  fc.update_min_turn = 0.0;
-  const std::vector<PipelineUpdate> done = driveBy(fc, 30, 1.0);  // 0.1 m per sweep, 2.9 m in all
-  ASSERT_EQ(done.size(), 30u);
-  EXPECT_EQ(filtered(done), 6);  // the first, then every 0.5 m
-}
-
 TEST(TrunkSlamPipeline, StandingStillAddsNoEvidence)
 {
   FastSlamConfig fc;

@@ -52,17 +52,13 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.matcher.refinements, defaults.matcher.refinements);
   EXPECT_EQ(read.matcher.max_iterations, defaults.matcher.max_iterations);
   EXPECT_EQ(read.matcher.beam_step, defaults.matcher.beam_step);
-  EXPECT_EQ(read.matcher.free_check, defaults.matcher.free_check);
   EXPECT_EQ(read.matcher.coarse_kernel, defaults.matcher.coarse_kernel);
   EXPECT_EQ(read.matcher.coarse_sigma, defaults.matcher.coarse_sigma);
   EXPECT_EQ(read.matcher.coarse_beam_step, defaults.matcher.coarse_beam_step);
   EXPECT_EQ(read.matcher.coarse_refinements, defaults.matcher.coarse_refinements);
-  EXPECT_EQ(read.matcher.prior_weight, defaults.matcher.prior_weight);
   EXPECT_EQ(read.matcher.prior_floor_xy, defaults.matcher.prior_floor_xy);
   EXPECT_EQ(read.matcher.prior_floor_theta, defaults.matcher.prior_floor_theta);
   EXPECT_EQ(read.matcher.climb_beam_step, defaults.matcher.climb_beam_step);
-  EXPECT_EQ(read.matcher.sub_cell, defaults.matcher.sub_cell);
-  EXPECT_EQ(read.matcher.climb_on_observed, defaults.matcher.climb_on_observed);
   EXPECT_EQ(read.threads, defaults.threads);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
@@ -95,7 +91,7 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("rbpf:\n  coarse_kernel: 9\n", "rbpf/coarse_kernel");
   expectError("rbpf:\n  climb_beam_step: 0\n", "rbpf/climb_beam_step");
   expectError("threads: 0\n", "threads");
-  expectError("rbpf:\n  prior_weight: -1\n", "rbpf/prior_weight");
+  expectError("rbpf:\n  prior_floor_xy: 0\n", "rbpf/prior_floor_xy");
   expectError("proposal_motion_weight: -2\n", "proposal_motion_weight");
   expectError("likelihood_gain: -1\n", "likelihood_gain");
   expectError("grid:\n  log_odds_free: 0.1\n", "log_odds_free");
@@ -111,11 +107,8 @@ TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
   EXPECT_EQ(c.mode, core::GridSlamMode::kRbpf);
   EXPECT_EQ(c.particles, 30);
   EXPECT_GT(c.matcher.coarse_kernel, 0);
-  EXPECT_EQ(c.matcher.prior_weight, 0.0);  // the motion prior is research, off (docs/grid_slam.md)
   EXPECT_EQ(c.proposal_motion_weight, 1.0);
   EXPECT_EQ(c.threads, 2);
-  EXPECT_FALSE(c.matcher.sub_cell);           // measured, off (docs/grid_slam.md)
-  EXPECT_FALSE(c.matcher.climb_on_observed);  // likewise
   EXPECT_TRUE(params.unusedKeys().empty());
   // The overlay sets no travel threshold: laid over grid_slam.yaml the node keeps its thresholds (1 m, 0.5 rad),
   // laid over every-scan settings it keeps every scan.

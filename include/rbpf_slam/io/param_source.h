@@ -28,34 +28,11 @@ public:
   virtual bool get(const std::string& key, std::string* value) const = 0;
   /** @brief A seed: an int, negative values reinterpreted as unsigned (as `~seed` on the command line). */
   bool getSeed(const std::string& key, std::uint64_t* seed) const;
-
-  /**
-   * @brief Reads @p key, or the deprecated @p old_key when only that one is given; a deprecated key that is
-   * present leaves a notice (notices()) for the caller to print.
-   */
-  template <typename T>
-  bool getRenamed(const std::string& key, const std::string& old_key, T* value) const
-  {
-    T old_value = *value;
-    const bool has_old = get(old_key, &old_value);
-    const bool has_new = get(key, value);
-    if (has_old)
-      notices_.push_back("parameter '" + old_key + "' is deprecated, use '" + key + "'" +
-                         (has_new ? " (both are given: '" + old_key + "' is ignored)" : ""));
-    if (has_old && !has_new)
-      *value = old_value;
-    return has_new || has_old;
-  }
-  /** @brief Deprecated keys met so far, one sentence each. */
-  const std::vector<std::string>& notices() const { return notices_; }
-
-private:
-  mutable std::vector<std::string> notices_;
 };
 
 /**
  * @brief The resampling keys every particle filter shares: `resampling` (low_variance | multinomial) and
- * `resample_neff_ratio` (FastSLAM's former `resample_threshold` is still read, with a notice).
+ * `resample_neff_ratio`.
  * @throws std::runtime_error for an unknown method name.
  */
 void readResamplingPolicy(const ParamSource& params, core::ResamplingPolicy* policy);

@@ -110,8 +110,6 @@ Config readCoreConfig(const RosParamSource& params, void (*reader)(const io::Par
   Config c;
   reader(params, &c);
   c.seed = readSeed(params);
-  for (const std::string& notice : params.notices())
-    ROS_WARN("%s: %s", params.nodeHandle().getNamespace().c_str(), notice.c_str());
   return c;
 }
 

@@ -32,8 +32,6 @@ constexpr double kDualMaxShift = 3.0;
 // one of them a new landmark counts as re-created (a trunk is not planted where one was just removed).
 constexpr std::size_t kDeletedMemory = 256;
 constexpr double kRecreatedDistance = 1.0;
-// A particle's distance scale error stays inside the bound OdometryMotionNoise::validate() sets on its deviation.
-constexpr double kMaxScaleDrift = 0.49;
 
 Eigen::Vector3d poseDifference(const Pose2& a, const Pose2& b)
 {
@@ -199,8 +197,6 @@ std::string FastSlamConfig::validate() const
     return "motion_step and motion_step_angle must be > 0";
   if (!(motion_noise_time > 0.0) || !std::isfinite(motion_noise_time))
     return "motion_noise_time must be > 0";
-  if (!(update_min_travel >= 0.0) || !(update_min_turn >= 0.0))
-    return "update_min_travel and update_min_turn must be >= 0";
   if (!(range_sigma_floor > 0.0) || !(bearing_sigma_floor > 0.0))
     return "range_sigma_floor and bearing_sigma_floor must be > 0";
   if (!(min_range >= 0.0) || !(max_range >= 0.0) || (max_range > 0.0 && !(max_range > min_range)))
@@ -213,8 +209,6 @@ std::string FastSlamConfig::validate() const
     return "association_gate must be > 0";
   if (!(radius_sigma_floor > 0.0))
     return "radius_sigma_floor must be > 0";
-  if (!(prior_sigma_floor >= 0.0) || !std::isfinite(prior_sigma_floor))
-    return "prior_sigma_floor must be a finite number >= 0";
   if (!(min_trunk_gap >= 0.0))
     return "min_trunk_gap must be >= 0";
   if (!(evidence_hit > 0.0) || !(evidence_miss >= 0.0) || !(evidence_max > 0.0))
@@ -232,8 +226,6 @@ std::string FastSlamConfig::validate() const
     return "roughening sigmas must be >= 0";
   if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
     return "mixture_fraction must be in [0, 1)";
-  if (!(relocalization_spread >= 0.0))
-    return "relocalization_spread must be >= 0 (0: off)";
   return gnss.validate();
 }
 
@@ -262,49 +254,14 @@ void FastSlam::initialize(const Pose2& start)
     p.log_weight = -std::log(static_cast<double>(config_.particles));
     p.motion_covariance.setZero();
     p.history.reset();
-    p.heading_drift = 0.0;
-    p.scale_drift = 0.0;
-    if (drifting())
-    {
-      p.heading_drift = random_.gaussian(config_.motion.heading_drift);
-      p.scale_drift = std::max(-kMaxScaleDrift, std::min(kMaxScaleDrift, random_.gaussian(config_.motion.scale_drift)));
-    }
   }
   best_ = 0;
   next_id_ = 0;
   deleted_positions_.clear();
 }
 
-OdometryIncrement FastSlam::driftedIncrement(Particle* p, const OdometryIncrement& u)
-{
-  const OdometryMotionNoise& n = config_.motion;
-  OdometryIncrement v = u;
-  // The odometry measured (1 + scale) times the distance, and turned heading_drift per metre on its own; the
-  // drift's turn is split over both rotations (it builds up along the step).
-  v.trans = u.trans / (1.0 + p->scale_drift);
-  const double turn = p->heading_drift * std::abs(v.trans);
-  v.rot1 -= 0.5 * turn;
-  v.rot2 -= 0.5 * turn;
-  walkDrift(p, u.trans);
-  return v;
-}
-
-void FastSlam::walkDrift(Particle* p, double distance)
-{
-  const OdometryMotionNoise& n = config_.motion;
-  if (n.drift_distance > 0.0 && distance != 0.0)
-  {
-    const double walk = std::sqrt(std::abs(distance) / n.drift_distance);
-    if (n.heading_drift > 0.0)
-      p->heading_drift += random_.gaussian(n.heading_drift * walk);
-    if (n.scale_drift > 0.0)
-      p->scale_drift = std::max(-kMaxScaleDrift, std::min(kMaxScaleDrift, p->scale_drift + random_.gaussian(n.scale_drift * walk)));
-  }
-}
-
 void FastSlam::predict(const OdometryIncrement& u, double noise_scale)
 {
-  const bool drift = drifting();
   OdometryMotionNoise noise = config_.motion;
   noise.alpha1 *= noise_scale;
   noise.alpha2 *= noise_scale;
@@ -313,55 +270,38 @@ void FastSlam::predict(const OdometryIncrement& u, double noise_scale)
   if (gaussianPose())
   {
     for (auto& p : particles_)
-      propagatePoseGaussian(&p.pose, &p.motion_covariance, drift ? driftedIncrement(&p, u) : u, noise);
+      propagatePoseGaussian(&p.pose, &p.motion_covariance, u, noise);
     return;
   }
   for (auto& p : particles_)
-    p.pose = sampleOdometryMotion(p.pose, drift ? driftedIncrement(&p, u) : u, noise, random_);
+    p.pose = sampleOdometryMotion(p.pose, u, noise, random_);
 }
 
 void FastSlam::predictArcs(const std::vector<ArcStep>& block, double noise_scale)
 {
   if (block.empty())
     return;
-  const bool drift = drifting();
-  double distance = 0.0;
-  for (const ArcStep& a : block)
-    distance += std::abs(a.distance);
-  std::vector<Eigen::Vector2d> offsets(block.size(), Eigen::Vector2d::Zero());
   // FastSLAM 2.0 carries the block's pose as a Gaussian: the block's motion from the origin and the Jacobian of its
-  // end in the two draws (central differences), in the block's start frame; the same for every particle unless each
-  // drifts its own way.
+  // end in the two draws (central differences), in the block's start frame; the same for every particle.
   Pose2 local;
   Eigen::Matrix<double, 3, 2> J_local;
-  const auto linearise = [&]() {
-    local = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, 0.0, 0.0, &offsets);
+  if (gaussianPose())
+  {
+    local = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, 0.0, 0.0);
     const double h = 1e-3;
     for (int k = 0; k < 2; ++k)
     {
       const Pose2 up = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, k == 0 ? h : 0.0,
-                                          k == 1 ? h : 0.0, &offsets);
+                                          k == 1 ? h : 0.0);
       const Pose2 down = applyVelocityBlock(Pose2(), block, config_.motion, noise_scale, k == 0 ? -h : 0.0,
-                                            k == 1 ? -h : 0.0, &offsets);
+                                            k == 1 ? -h : 0.0);
       J_local.col(k) = Eigen::Vector3d(up.x - down.x, up.y - down.y, wrapAngle(up.theta - down.theta)) / (2.0 * h);
     }
-  };
-  if (gaussianPose() && !drift)
-    linearise();
+  }
   for (auto& p : particles_)
   {
-    if (drift)
-    {
-      // The odometry measured (1 + scale) times the distance and turned heading_drift per metre on its own.
-      for (std::size_t i = 0; i < block.size(); ++i)
-        offsets[i] = Eigen::Vector2d(block[i].distance * (1.0 / (1.0 + p.scale_drift) - 1.0),
-                                     -p.heading_drift * std::abs(block[i].distance));
-      walkDrift(&p, distance);
-    }
     if (gaussianPose())
     {
-      if (drift)
-        linearise();
       // The pose's covariance moves with the block's rigid motion; the draws add theirs, turned into the map frame.
       const Pose2 start = p.pose;
       const Pose2 end = start * local;
@@ -374,7 +314,7 @@ void FastSlam::predictArcs(const std::vector<ArcStep>& block, double noise_scale
       p.pose = end;
       continue;
     }
-    p.pose = sampleVelocityBlock(p.pose, block, config_.motion, noise_scale, random_, drift ? &offsets : nullptr);
+    p.pose = sampleVelocityBlock(p.pose, block, config_.motion, noise_scale, random_);
   }
 }
 
@@ -410,43 +350,22 @@ Eigen::Vector2d sensorPosition(const Pose2& sensor)
 void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor_in_base,
                               FastSlamUpdateStats* stats)
 {
-  bool gaussian = gaussianPose();
-  // The landmarks the sensor may see from the particle's pose, then which observation each one took; while
-  // relocalising, the gate spans the whole cloud's uncertainty.
-  Eigen::Matrix3d gate_covariance = p->motion_covariance;
-  if (relocalizing_)
-    gate_covariance += cloud_covariance_;
-  association_.selectCandidates(p->map, p->pose, sensor_in_base, scope_,
-                                gaussian || relocalizing_ ? &gate_covariance : nullptr);
+  const bool gaussian = gaussianPose();
+  // The landmarks the sensor may see from the particle's pose, then which observation each one took.
+  const Eigen::Matrix3d gate_covariance = p->motion_covariance;
+  association_.selectCandidates(p->map, p->pose, sensor_in_base, scope_, gaussian ? &gate_covariance : nullptr);
   if (config_.use_known_ids)
-    association_.addNamedCandidates(p->map, p->pose, sensor_in_base, obs,
-                                    gaussian || relocalizing_ ? &gate_covariance : nullptr);
+    association_.addNamedCandidates(p->map, p->pose, sensor_in_base, obs, gaussian ? &gate_covariance : nullptr);
   association_.associate(p->map, obs, scratch_.R);
-  if (relocalizing_)
-  {
-    bool matched = false;
-    for (std::size_t i = 0; i < obs.size() && !matched; ++i)
-      matched = association_.match(i) >= 0;
-    if (matched)
-    {
-      // The kernel around the particle (centre shrunk towards the cloud's mean so that the spread is kept), to
-      // be conditioned on the matched observations.
-      const double h = kernelBandwidth(), a = std::sqrt(1.0 - h * h);
-      p->pose = Pose2(a * p->pose.x + (1.0 - a) * cloud_mean_.x, a * p->pose.y + (1.0 - a) * cloud_mean_.y,
-                      wrapAngle(cloud_mean_.theta + a * wrapAngle(p->pose.theta - cloud_mean_.theta)));
-      p->motion_covariance += h * h * cloud_covariance_;
-      gaussian = true;
-    }
-  }
   double log_w = 0.0;
   double dual_weight = std::numeric_limits<double>::quiet_NaN();
   if (gaussian)
-    drawPoseAndRepredict(p, obs, sensor_in_base, &log_w, &dual_weight);
+    drawPoseAndRepredict(p, obs, sensor_in_base, &dual_weight);
   // The maps are updated from the drawn pose.
   updateMap(p, obs, p->pose * sensor_in_base, &log_w, stats);
-  // No landmark is missed while the pose is too uncertain to say where it should have been seen.
+  // A sweep that did not report all it saw misses no landmark.
   const std::size_t deleted =
-      relocalizing_ || !sweep_complete_
+      !sweep_complete_
           ? 0
           : evidence_.applyMisses(&p->map, association_, scope_, stats ? &deleted_positions_ : nullptr,
                                   sensorPosition(p->pose * sensor_in_base));
@@ -459,22 +378,20 @@ void FastSlam::updateParticle(Particle* p, const std::vector<LandmarkObservation
 }
 
 void FastSlam::drawPoseAndRepredict(Particle* p, const std::vector<LandmarkObservation>& obs,
-                                    const Pose2& sensor_in_base, double* log_w, double* dual_weight)
+                                    const Pose2& sensor_in_base, double* dual_weight)
 {
   const FastSlamConfig& c = config_;
   bool dual = false;
   double log_prior = 0.0;
-  const double correction = drawPose(p, obs, sensor_in_base, &dual, &log_prior);
+  drawPose(p, obs, sensor_in_base, &dual, &log_prior);
   scratch_.dual_flags.push_back(dual ? 1 : 0);
   const bool mixture = c.mixture_fraction > 0.0;
-  // p(z | x, m) at the drawn pose: the mixture's weights, and those of a FastSLAM 1.0 sample from the
-  // Gaussian prior; FastSLAM 2.0 keeps the likelihood under the prior.
-  const bool at_drawn_pose = mixture && (c.mixture_balance || c.proposal == PoseProposal::kFastSlam1);
+  // p(z | x, m) at the drawn pose: the weights of a FastSLAM 1.0 sample from the Gaussian prior of the mixture;
+  // FastSLAM 2.0 keeps the likelihood under the prior.
+  const bool at_drawn_pose = mixture && c.proposal == PoseProposal::kFastSlam1;
   association_.repredict(p->map, p->pose * sensor_in_base, obs, scratch_.R, at_drawn_pose);
-  if (mixture && c.mixture_balance)
-    *log_w += correction;
   // Thrun's dual weighting: a dual sample weighs p(x | u), its set being normalised apart (in update()).
-  if (dual && !c.mixture_balance)
+  if (dual)
     *dual_weight = log_prior;
 }
 
@@ -588,7 +505,7 @@ void FastSlam::updateMap(Particle* p, const std::vector<LandmarkObservation>& ob
   }
 }
 
-double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
+void FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
                           double* log_prior)
 {
   const FastSlamConfig& c = config_;
@@ -607,7 +524,7 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
     if (k < 0)
       continue;
     ++matched;
-    if ((c.proposal == PoseProposal::kFastSlam2 || relocalizing_) && !degenerate)
+    if (c.proposal == PoseProposal::kFastSlam2 && !degenerate)
       conditionPoseOnLandmark(&mu, &cov, p->map[candidates[static_cast<std::size_t>(k)].index],
                               Eigen::Vector2d(obs[i].range, obs[i].bearing), w.R[i], sensor);
   }
@@ -661,16 +578,6 @@ double FastSlam::drawPose(Particle* p, const std::vector<LandmarkObservation>& o
   p->pose = x;
   p->motion_covariance.setZero();
   *log_prior = mixture ? logGaussian(x, prior, prior_cov) : 0.0;
-  if (!mixture)
-    return 0.0;
-  // Weight of the mixture: p(x | u) / ((1 - f) q(x) + f q_dual(x)), p(z | x, m) being added by the caller.
-  const double log_q = logGaussian(x, mu, cov);
-  const double log_mix = have_dual ? logSumExp(std::log(1.0 - c.mixture_fraction) + log_q,
-                                                std::log(c.mixture_fraction) + logGaussian(x, mu_d, cov_d))
-                                   : log_q;
-  if (!std::isfinite(log_mix))
-    return 0.0;
-  return *log_prior - log_mix;
 }
 
 FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& observations, const Pose2& sensor,
@@ -696,18 +603,14 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
     scratch_.log_new[i] = -0.5 * config_.association_gate - kLog2Pi - 0.5 * std::log(R.determinant());
   }
   scratch_.dual_flags.clear();
-  // Relocalisation: is the cloud too wide for the particles' own gates?
-  relocalizing_ = false;
+  // The cloud's spread before the update (the claimed uncertainty of the health's NIS).
   if (particles_.size() > 1)
   {
     const PoseMoments m = moments();
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m.covariance.topLeftCorner<2, 2>());
     stats.pose_spread = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
-    relocalizing_ = config_.relocalization_spread > 0.0 && stats.pose_spread > config_.relocalization_spread;
-    cloud_mean_ = m.mean;
     cloud_covariance_ = m.covariance;
   }
-  stats.relocalizing = relocalizing_;
   for (std::size_t i = 0; i < particles_.size(); ++i)
     updateParticle(&particles_[i], observations, sensor, i == best_before ? &stats : nullptr);
   stats.dual = static_cast<int>(std::count(scratch_.dual_flags.begin(), scratch_.dual_flags.end(), 1));
@@ -715,7 +618,7 @@ FastSlamUpdateStats FastSlam::update(const std::vector<LandmarkObservation>& obs
   std::vector<double> log_w(particles_.size());
   for (std::size_t i = 0; i < particles_.size(); ++i)
     log_w[i] = particles_[i].log_weight;
-  if (config_.mixture_fraction > 0.0 && !config_.mixture_balance && scratch_.dual_flags.size() == particles_.size())
+  if (config_.mixture_fraction > 0.0 && scratch_.dual_flags.size() == particles_.size())
   {
     // Thrun et al.'s dual weighting: the dual and the regular samples are normalised apart and hold the mass
     // f and 1 - f (all of it when the other set is empty).
@@ -809,12 +712,6 @@ double FastSlam::weighPosition(const Eigen::Vector2d& position, const Eigen::Mat
     }
   }
   return 1.0 / (sum2 * static_cast<double>(particles_.size()));
-}
-
-double FastSlam::kernelBandwidth() const
-{
-  const double n = static_cast<double>(particles_.size()), d = 3.0;
-  return std::min(1.0, std::pow(4.0 / (n * (d + 2.0)), 1.0 / (d + 4.0)));
 }
 
 std::vector<Pose2> FastSlam::bestHistory() const

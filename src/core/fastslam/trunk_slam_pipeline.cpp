@@ -73,10 +73,9 @@ void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Po
   for (Landmark l : trees)
   {
     l.evidence = l.provisional ? 0.0 : filter_config_.evidence_max;
-    // The saved covariance, no surer than the floor in any direction.
+    // The saved covariance made symmetric and positive semidefinite (negative eigenvalues clipped to 0).
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
-    const double floor2 = filter_config_.prior_sigma_floor * filter_config_.prior_sigma_floor;
-    l.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseMax(floor2).asDiagonal() * eig.eigenvectors().transpose();
+    l.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
     l.visit_radius = NAN;  // this run has not seen it yet
     l.visit_radius_variance = 0.0;
     l.visit_observations = 0;
@@ -272,15 +271,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   const Pose2 mount_pose(sw.mount.x, sw.mount.y, sw.mount.yaw);
   const double share = first ? 1.0 : evidenceShare(fc, sw.trunks, between(last_odometry_ * mount_pose,
                                                                            odom_mid * mount_pose));
-  bool skip = !first && share < kMinEvidenceShare;
-  if (!first && (fc.update_min_travel > 0.0 || fc.update_min_turn > 0.0))
-  {
-    const Pose2 d = between(last_odometry_, odom_mid);
-    const bool travelled = fc.update_min_travel > 0.0 && std::hypot(d.x, d.y) >= fc.update_min_travel;
-    const bool turned = fc.update_min_turn > 0.0 && std::abs(d.theta) >= fc.update_min_turn;
-    skip = skip || (!travelled && !turned);
-  }
-  if (skip)
+  if (!first && share < kMinEvidenceShare)
   {
     // Too little motion for a new look at the trunks: the estimate follows the odometry from the last update, and
     // the sweep's trunks wait (odometry frame) to be fused into the next update's.

@@ -19,10 +19,6 @@ std::string OdometryMotionNoise::validate() const
     return "alpha3 must be >= 0";
   if (!ok(alpha4))
     return "alpha4 must be >= 0";
-  if (!ok(heading_drift) || !ok(scale_drift) || !ok(drift_distance))
-    return "heading_drift, scale_drift and drift_distance must be >= 0";
-  if (scale_drift >= 0.5)
-    return "scale_drift must be < 0.5";
   return "";
 }
 
@@ -93,20 +89,15 @@ ArcStep arcStep(const Pose2& a, const Pose2& b)
 }
 
 Pose2 applyVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& n,
-                         double scale, double z_v, double z_w, const std::vector<Eigen::Vector2d>* offsets)
+                         double scale, double z_v, double z_w)
 {
   Pose2 out = pose;
   for (std::size_t i = 0; i < block.size(); ++i)
   {
     const ArcStep& a = block[i];
     const double d = std::abs(a.distance), t = std::abs(a.turn);
-    double distance = a.distance + z_v * scale * (n.alpha3 * d + n.alpha4 * t);
-    double turn = a.turn + z_w * scale * (n.alpha1 * t + n.alpha2 * d);
-    if (offsets)
-    {
-      distance += (*offsets)[i].x();
-      turn += (*offsets)[i].y();
-    }
+    const double distance = a.distance + z_v * scale * (n.alpha3 * d + n.alpha4 * t);
+    const double turn = a.turn + z_w * scale * (n.alpha1 * t + n.alpha2 * d);
     // The odometry's own increment, then the change from its nominal arc to the noisy one (in the arc's end
     // frame): the mean stays the odometry's even where it is not exactly an arc.
     out = out * a.delta * (arcIncrement(a.distance, a.turn).inverse() * arcIncrement(distance, turn));
@@ -116,11 +107,11 @@ Pose2 applyVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, c
 }
 
 Pose2 sampleVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& n,
-                          double scale, Random& random, const std::vector<Eigen::Vector2d>* offsets)
+                          double scale, Random& random)
 {
   const double z_v = random.gaussian(1.0);
   const double z_w = random.gaussian(1.0);
-  return applyVelocityBlock(pose, block, n, scale, z_v, z_w, offsets);
+  return applyVelocityBlock(pose, block, n, scale, z_v, z_w);
 }
 
 double normalizeLogWeights(std::vector<double>* log_weights, std::vector<double>* weights)

@@ -16,9 +16,7 @@ RbpfGridSlam::RbpfGridSlam(const GridSlamConfig& config) : GridSlam(config), mat
 void RbpfGridSlam::resetMaps()
 {
   const std::size_t n = static_cast<std::size_t>(config_.particles);
-  OccupancyGridConfig grid = config_.grid;
-  grid.track_hits = grid.track_hits || config_.matcher.sub_cell;  // the matcher reads the cells' hit points
-  maps_.assign(n, OccupancyGrid(grid));
+  maps_.assign(n, OccupancyGrid(config_.grid));
   histories_.assign(n, nullptr);
   best_index_ = 0;
 }
@@ -49,12 +47,12 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   log_weights_.resize(n);
   std::vector<int> matched(n, 0);
   // The odometry's spread for this increment (rot1 and rot2 noise both turn the heading; rot1 noise also moves
-  // the end point sideways), floored: the matcher's motion prior and the motion factor of the weight.
-  MatchPrior prior;
+  // the end point sideways), floored: the motion factor of the weight.
+  double sigma_xy = 0.0, sigma_theta = 0.0;
   {
     const OdometryNoiseSigmas s = odometryNoiseSigmas(u, config_.motion);
-    prior.sigma_xy = std::max(std::hypot(s.trans, u.trans * s.rot1), config_.matcher.prior_floor_xy);
-    prior.sigma_theta = std::max(std::hypot(s.rot1, s.rot2), config_.matcher.prior_floor_theta);
+    sigma_xy = std::max(std::hypot(s.trans, u.trans * s.rot1), config_.matcher.prior_floor_xy);
+    sigma_theta = std::max(std::hypot(s.rot1, s.rot2), config_.matcher.prior_floor_theta);
   }
   // The random draws first, in particle order: the odometry sample and the jitter around the match (drawn
   // whether or not the match is trusted), so the result does not depend on the threads.
@@ -73,9 +71,7 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   const auto match_range = [&](std::size_t first, std::size_t stride) {
     for (std::size_t i = first; i < n; i += stride)
     {
-      MatchPrior own = prior;
-      own.centre = predicted_[i];
-      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, &own);
+      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_);
       trusted_[i] = used > 0 && static_cast<double>(matches_[i].matched) >= min_matched;
       if (!trusted_[i])  // weighed at the odometry sample, which the particle keeps
       {
@@ -116,8 +112,8 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
       const Pose2 mean = applyOdometry(p.pose, u);
       const double dx = pose.x - mean.x, dy = pose.y - mean.y, dt = wrapAngle(pose.theta - mean.theta);
       motion_log = -config_.proposal_motion_weight *
-                   ((dx * dx + dy * dy) / (2.0 * prior.sigma_xy * prior.sigma_xy) +
-                    dt * dt / (2.0 * prior.sigma_theta * prior.sigma_theta));
+                   ((dx * dx + dy * dy) / (2.0 * sigma_xy * sigma_xy) +
+                    dt * dt / (2.0 * sigma_theta * sigma_theta));
     }
     p.pose = pose;
     matched[i] = m.matched;

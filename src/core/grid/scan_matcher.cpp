@@ -56,8 +56,6 @@ std::string ScanMatcherConfig::validate() const
     return "rbpf/climb_beam_step must be >= 1";
   if (coarse_refinements < 0)
     return "rbpf/coarse_refinements must be >= 0";
-  if (!(std::isfinite(prior_weight) && prior_weight >= 0.0))
-    return "rbpf/prior_weight must be >= 0";
   if (!(std::isfinite(prior_floor_xy) && prior_floor_xy > 0.0 && std::isfinite(prior_floor_theta) &&
         prior_floor_theta > 0.0))
     return "rbpf/prior_floor_xy and rbpf/prior_floor_theta must be > 0";
@@ -123,33 +121,19 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
   m.pose = pose;
   m.evaluations = 1;
   const Pose2 s = pose * sensor;
-  const double c = std::cos(s.theta), sn = std::sin(s.theta);
   const double res = map.resolution(), inv = 1.0 / res;
   const double inv_match = 1.0 / (2.0 * level.sigma * level.sigma);
   const double inv_like = 1.0 / (2.0 * config_.likelihood_sigma * config_.likelihood_sigma);
   const double no_hit = -config_.no_hit_distance * config_.no_hit_distance * inv_like;
   const int k = level.kernel;
-  const double free_delta = std::sqrt(2.0) * res;
   const int occ = map.rawOccupiedThreshold();
   const auto& rotated = rotate(level, s.theta, end_points, cache);
   for (std::size_t j = 0; j < rotated.size(); ++j)
   {
-    const auto& e = end_points[j * static_cast<std::size_t>(level.beam_step)];
     const double x = s.x + rotated[j].first;
     const double y = s.y + rotated[j].second;
     const double fx = x * inv, fy = y * inv;
     const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
-    // GMapping's free-cell test: the point sqrt(2) cells back along the beam, with the same window offset, must
-    // not be occupied (a wall seen from the wrong side does not match).
-    int gx = 0, gy = 0;
-    if (config_.free_check)
-    {
-      const double r = std::hypot(e.first, e.second);
-      const double back = r > 0.0 ? std::max(0.0, 1.0 - free_delta / r) : 0.0;
-      const double bx = e.first * back, by = e.second * back;
-      gx = static_cast<int>(std::floor((s.x + c * bx - sn * by) * inv)) - cx;
-      gy = static_cast<int>(std::floor((s.y + sn * bx + c * by) * inv)) - cy;
-    }
     double best = std::numeric_limits<double>::infinity();
     // Most windows lie in one tile: look it up once (a missing tile has no occupied cell).
     const int tx = (cx - k) >> OccupancyGrid::kTileBits, ty = (cy - k) >> OccupancyGrid::kTileBits;
@@ -163,34 +147,7 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
     }
     double ax[2 * kMaxKernel + 1], ay[2 * kMaxKernel + 1];
     axisDistances(cx, cy, fx, fy, res, k, ax, ay);
-    if (config_.sub_cell)
-    {
-      // Distances to each occupied cell's mean hit point instead of its centre.
-      const double bx = cx - fx, by = cy - fy;
-      for (int dy = -k; dy <= k; ++dy)
-        for (int dx = -k; dx <= k; ++dx)
-        {
-          int v, at;
-          if (tile && !config_.free_check && !tile->hit_at.empty())
-          {
-            const int i = OccupancyGrid::cellIndexInTile(cx + dx, cy + dy);
-            v = (*tile)[static_cast<std::size_t>(i)];
-            at = tile->hit_at[static_cast<std::size_t>(i)];
-          }
-          else
-          {
-            v = map.rawLogOdds(cx + dx, cy + dy);
-            if (v <= occ || (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ))
-              continue;
-            at = map.hitBytes(cx + dx, cy + dy);
-          }
-          const double ex = (bx + dx + OccupancyGrid::hitFraction(at >> 8)) * res;
-          const double ey = (by + dy + OccupancyGrid::hitFraction(at & 255)) * res;
-          const double d2 = ex * ex + ey * ey;
-          best = (v > occ && d2 < best) ? d2 : best;
-        }
-    }
-    else if (tile && !config_.free_check)
+    if (tile)
     {
       // In one tile the window's cells are rows of the tile's row-major array (branch-free inner loop).
       const OccupancyGrid::Cell* centre = tile->cells.data() + OccupancyGrid::cellIndexInTile(cx, cy);
@@ -210,8 +167,6 @@ ScanMatch ScanMatcher::evaluateAt(const Level& level, const OccupancyGrid& map, 
         for (int dx = -k; dx <= k; ++dx)
         {
           if (map.rawLogOdds(cx + dx, cy + dy) <= occ)
-            continue;
-          if (config_.free_check && map.rawLogOdds(cx + dx + gx, cy + dy + gy) > occ)
             continue;
           best = std::min(best, ax[dx + k] + ay[dy + k]);
         }
@@ -282,13 +237,10 @@ ScanMatch ScanMatcher::evaluateCoarse(const Level& level, const OccupancyGrid& m
 }
 
 ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                             const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
-                             int* evaluations) const
+                             const std::vector<std::pair<double, double>>& end_points, int* evaluations) const
 {
-  // Objective: the level's score minus the prior's penalty; the result keeps the score itself.
   Rotated cache;
   ScanMatch best = evaluateAt(level, map, start, sensor, end_points, &cache);
-  double best_objective = best.score - penalty(best.pose, prior);
   ++*evaluations;
   double lin = level.linear_step, ang = level.angular_step;
   int refinements = 0, iterations = 0;
@@ -302,7 +254,6 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
                              Pose2(p.x, p.y, wrapAngle(p.theta + ang)),
                              Pose2(p.x, p.y, wrapAngle(p.theta - ang)) };
     ScanMatch step = best;
-    double step_objective = best_objective;
     int taken = -1;
     for (int j = 0; j < 6; ++j)
     {
@@ -310,18 +261,15 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
         continue;
       const ScanMatch m = evaluateAt(level, map, moves[j], sensor, end_points, &cache);
       ++*evaluations;
-      const double o = m.score - penalty(moves[j], prior);
-      if (o > step_objective)
+      if (m.score > step.score)
       {
         step = m;
-        step_objective = o;
         taken = j;
       }
     }
-    if (step_objective > best_objective)
+    if (step.score > best.score)
     {
       best = step;
-      best_objective = step_objective;
       back = taken ^ 1;  // moves come in pairs (+, -)
     }
     else
@@ -335,58 +283,8 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
   return best;
 }
 
-double ScanMatcher::penalty(const Pose2& pose, const MatchPrior* prior) const
-{
-  if (!prior || config_.prior_weight <= 0.0)
-    return 0.0;
-  const double sxy = std::max(prior->sigma_xy, config_.prior_floor_xy);
-  const double st = std::max(prior->sigma_theta, config_.prior_floor_theta);
-  const double dx = pose.x - prior->centre.x, dy = pose.y - prior->centre.y;
-  const double dt = wrapAngle(pose.theta - prior->centre.theta);
-  return config_.prior_weight * ((dx * dx + dy * dy) / (2.0 * sxy * sxy) + dt * dt / (2.0 * st * st));
-}
-
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                              const std::vector<std::pair<double, double>>& end_points) const
-{
-  return match(map, start, sensor, end_points, nullptr);
-}
-
-ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                             const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const
-{
-  if (config_.climb_on_observed)
-  {
-    // The climb moves on the end points that fall in observed space at its start: one beyond the map's edge
-    // (a corridor's unmapped far end) would pull the match back onto the mapped part. The match is then scored
-    // on all of them.
-    std::vector<std::pair<double, double>> known;
-    known.reserve(end_points.size());
-    const Pose2 s = start * sensor;
-    const double c = std::cos(s.theta), sn = std::sin(s.theta), inv = 1.0 / map.resolution();
-    const int k = config_.kernel;
-    for (const auto& e : end_points)
-    {
-      const int cx = static_cast<int>(std::floor((s.x + c * e.first - sn * e.second) * inv));
-      const int cy = static_cast<int>(std::floor((s.y + sn * e.first + c * e.second) * inv));
-      bool observed = false;
-      for (int dy = -k; dy <= k && !observed; ++dy)
-        for (int dx = -k; dx <= k && !observed; ++dx)
-          observed = map.rawLogOdds(cx + dx, cy + dy) != 0;
-      if (observed)
-        known.push_back(e);
-    }
-    ScanMatch climbed = climbLevels(map, start, sensor, known, prior);
-    ScanMatch best = evaluate(map, climbed.pose, sensor, end_points);
-    best.evaluations = climbed.evaluations + 1;
-    return best;
-  }
-  return climbLevels(map, start, sensor, end_points, prior);
-}
-
-ScanMatch ScanMatcher::climbLevels(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                                   const std::vector<std::pair<double, double>>& end_points,
-                                   const MatchPrior* prior) const
 {
   int evaluations = 0;
   Pose2 from = start;
@@ -395,7 +293,7 @@ ScanMatch ScanMatcher::climbLevels(const OccupancyGrid& map, const Pose2& start,
   {
     const Level coarse{ true, config_.coarse_kernel, config_.coarse_sigma, config_.coarse_beam_step,
                         config_.coarse_refinements, config_.linear_step, config_.angular_step };
-    from = climb(coarse, map, start, sensor, end_points, prior, &evaluations).pose;
+    from = climb(coarse, map, start, sensor, end_points, &evaluations).pose;
     // The fine climb starts with the coarse one's last step size.
     const double last = std::ldexp(1.0, -config_.coarse_refinements);
     fine.linear_step *= last;
@@ -407,13 +305,13 @@ ScanMatch ScanMatcher::climbLevels(const OccupancyGrid& map, const Pose2& start,
     // Climb on every climb_beam_step-th end point; score the end pose on all of them (the weight's figures).
     Level sparse = fine;
     sparse.beam_step *= config_.climb_beam_step;
-    const Pose2 end = climb(sparse, map, from, sensor, end_points, prior, &evaluations).pose;
+    const Pose2 end = climb(sparse, map, from, sensor, end_points, &evaluations).pose;
     Rotated cache;
     best = evaluateAt(fine, map, end, sensor, end_points, &cache);
     ++evaluations;
   }
   else
-    best = climb(fine, map, from, sensor, end_points, prior, &evaluations);
+    best = climb(fine, map, from, sensor, end_points, &evaluations);
   best.evaluations = evaluations;
   return best;
 }

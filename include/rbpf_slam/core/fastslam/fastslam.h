@@ -87,12 +87,6 @@ struct FastSlamConfig
   /// (partialStepNoiseScale), so the noise does not depend on how often the sensor looks.
   MotionModel motion_model = MotionModel::kOdometry;
   double motion_noise_time = 1.0;  ///< [s]
-  /// The filter takes a sweep only once the robot has driven update_min_travel [m] or turned update_min_turn
-  /// [rad] since its last update (0, 0: every sweep); in between, the estimate follows the odometry and the skipped
-  /// sweeps' trunks are fused into the next update's (fuseSkippedLooks). Without it, each sweep is weighed by the
-  /// share of a look it carries (evidence_view_change, evidenceShare()).
-  double update_min_travel = 0.0;
-  double update_min_turn = 0.0;
 
   // Observation noise floor (added in quadrature to each observation's own covariance): the detector's
   // covariance is that of its fit and does not know of the sensor's systematic errors.
@@ -119,9 +113,6 @@ struct FastSlamConfig
   /// not), or starts it; a landmark named by an id is never deleted by the miss rule.
   bool use_known_ids = false;
   double radius_sigma_floor = 0.02;  ///< [m] added to the radius variances in that term
-  /// [m] a tree of a saved map starts with at least this standard deviation of its centre (the filter's own
-  /// covariance treats the sweeps of one tree as independent and ends far too sure; 0: as saved)
-  double prior_sigma_floor = 0.0;
   double min_trunk_gap = 0.1;  ///< [m] no new landmark whose trunk would come nearer than this to a known one
   /// Tracking in a saved map (TrunkSlamPipeline::setPriorMap): search the map again by constellation when the health
   /// warns that its trees are not re-observed (a lost pose), and move the particles where it finds the robot.
@@ -166,20 +157,7 @@ struct FastSlamConfig
   /// update from the dual proposal instead, the pose that best explains the matched observations in the
   /// particle's own map; the weights are those of the mixture (see FastSlam). 0: off.
   double mixture_fraction = 0.0;
-  /// Weights of the mixture: false = Thrun et al.'s dual weighting (a dual sample weighs p(x | u), the dual and
-  /// the regular samples are normalised apart and hold f and 1 - f of the mass); true = the balance heuristic
-  /// (every sample weighs p(z | x, m) p(x | u) over the mixture's density).
-  bool mixture_balance = false;
 
-  /// Relocalisation [m]: when the particles' position spread (the standard deviation along the cloud's widest
-  /// axis) exceeds this, the pose is too uncertain for each particle's own gate to find the landmarks it comes
-  /// back to. Association then gates with the cloud's covariance added to each particle's innovation
-  /// covariance; a particle that matches a landmark draws its pose from a kernel around it (the regularised
-  /// particle filter's: bandwidth h = (4 / (N (d + 2)))^(1 / (d + 4)), d = 3, centres shrunk towards the mean
-  /// so that the cloud's spread is kept) conditioned on its matched observations, as FastSLAM 2.0 draws, and
-  /// weighs by their likelihood under that prior; no landmark loses evidence for a miss while the pose is that
-  /// uncertain. 0: off.
-  double relocalization_spread = 0.0;
   /// The published pose: the weighted mean of the particles, or the best particle (the one of the largest weight
   /// before resampling, followed through its copies).
   PoseEstimate estimate = PoseEstimate::kMean;
@@ -206,10 +184,6 @@ struct Particle
   /// The particle's own pose after each update, newest first; ancestors shared with the particles that descend
   /// from the same ones (a resampled copy shares its original's history).
   HistoryNode<Pose2>::Ptr history;
-  /// The particle's own systematic odometry errors (OdometryMotionNoise's heading_drift [rad/m] and scale_drift
-  /// [-]): the odometry increments are corrected by them before the motion noise is drawn.
-  double heading_drift = 0.0;
-  double scale_drift = 0.0;
 };
 
 /** @brief Counters of one update() for diagnostics. */
@@ -225,7 +199,9 @@ struct FastSlamUpdateStats
   double neff = 0.0;   ///< before resampling
   bool resampled = false;
   double pose_spread = 0.0;  ///< [m] the particles' position spread before the update (widest axis, 1 sigma)
-  bool relocalizing = false; ///< the update gated with the cloud's covariance (relocalization_spread)
+  /// Always false: the filter no longer gates with the cloud's covariance (kept for the column of updates.csv and
+  /// the health's share, so that their layout does not change).
+  bool relocalizing = false;
   int matched_confirmed = 0; ///< observations matched to confirmed landmarks (best particle)
   int matched_prior = 0;     ///< ... to landmarks of a saved map (seen before this run)
   int recreated = 0;         ///< new landmarks within a gate's reach of one deleted before (best particle)
@@ -280,9 +256,8 @@ void propagatePoseGaussian(Pose2* mean, Eigen::Matrix3d* covariance, const Odome
  * Mixture MCL: with mixture_fraction f > 0 each particle draws its pose with probability f from the dual
  * proposal N(mu_d, S_d), the observation-only pose fit (Gauss-Newton on the matched landmarks of its map,
  * needs two), else from its regular proposal q (the motion prior, or the FastSLAM 2.0 proposal). Weights:
- * Thrun et al.'s dual weighting by default (dual samples weigh p(x | u), regular ones as usual, the two sets
- * normalised apart to f and 1 - f), or with mixture_balance p(z | x, m) p(x | u) / ((1 - f) q(x) + f q_d(x))
- * at the drawn x for every particle (the mixture's own density, one scale for both kinds).
+ * Thrun et al.'s dual weighting (dual samples weigh p(x | u), regular ones as usual, the two sets normalised
+ * apart to f and 1 - f).
  */
 class FastSlam
 {
@@ -299,11 +274,11 @@ public:
    */
   void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta);
   /**
-   * @brief Samples every particle's motion for one odometry increment (after its own drift), the noise's standard
-   * deviations multiplied by @p noise_scale (partialStepNoiseScale).
+   * @brief Samples every particle's motion for one odometry increment, the noise's standard deviations
+   * multiplied by @p noise_scale (partialStepNoiseScale).
    */
   void predict(const OdometryIncrement& u, double noise_scale = 1.0);
-  /** @brief The velocity model's prediction of one block of arcs (applyVelocityBlock), after each particle's drift. */
+  /** @brief The velocity model's prediction of one block of arcs (applyVelocityBlock). */
   void predictArcs(const std::vector<ArcStep>& block, double noise_scale = 1.0);
   /**
    * @brief Predicts the motion from @p from at @p t_from to @p to at @p t_to along the odometry's own samples in
@@ -360,12 +335,6 @@ public:
   }
 
 private:
-  /** @brief Whether the particles carry odometry drifts. */
-  bool drifting() const { return config_.motion.heading_drift > 0.0 || config_.motion.scale_drift > 0.0; }
-  /** @brief @p u as particle @p p's drifting odometry would have measured it; walks its drifts on. */
-  OdometryIncrement driftedIncrement(Particle* p, const OdometryIncrement& u);
-  /** @brief Walks particle @p p's drifts on over @p distance metres. */
-  void walkDrift(Particle* p, double distance);
   /** @brief Buffers of one update, kept between calls so that an update allocates nothing. */
   struct Scratch
   {
@@ -382,21 +351,18 @@ private:
                       FastSlamUpdateStats* stats);
   /** @brief Pose carried as a Gaussian between updates (FastSLAM 2.0 or the mixture). */
   bool gaussianPose() const { return config_.proposal == PoseProposal::kFastSlam2 || config_.mixture_fraction > 0.0; }
-  /** @brief The regularised particle filter's kernel bandwidth for this many particles (3 dimensions). */
-  double kernelBandwidth() const;
   /**
    * @brief Pose draw step of a Gaussian-pose particle: draws the pose (drawPose), predicts the candidates
-   * again from it, and adds the mixture's weight correction to @p log_w or sets @p dual_weight (the weight of
-   * a dual sample under Thrun et al.'s dual weighting).
+   * again from it, and sets @p dual_weight (the weight of a dual sample under Thrun et al.'s dual weighting).
    */
   void drawPoseAndRepredict(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor,
-                            double* log_w, double* dual_weight);
+                            double* dual_weight);
   /**
-   * @brief Draws the pose of a Gaussian-pose particle for the matched observations; returns the log of
-   * the weight's correction (target over proposal density) for the mixture, 0 otherwise.
+   * @brief Draws the pose of a Gaussian-pose particle for the matched observations; @p log_prior is set to
+   * log p(x | u) at the drawn pose for the mixture (0 otherwise).
    */
-  double drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
-                  double* log_prior);
+  void drawPose(Particle* p, const std::vector<LandmarkObservation>& obs, const Pose2& sensor, bool* dual,
+                double* log_prior);
   /**
    * @brief Map update step: each observation, in order, updates its matched landmark (EKF, radius, evidence),
    * or is ignored (it lost the matching, or would duplicate a known trunk), or starts a new landmark; its
@@ -417,9 +383,7 @@ private:
   Scratch scratch_;
   VisibilityScope scope_;
   bool sweep_complete_ = true;  ///< this update's sweep reported all it saw (SensorScope::complete)
-  bool relocalizing_ = false;                              ///< this update gates with the cloud's covariance
   Eigen::Matrix3d cloud_covariance_ = Eigen::Matrix3d::Zero();  ///< of the particles, before this update
-  Pose2 cloud_mean_;
   std::vector<Eigen::Vector2d> deleted_positions_;  ///< confirmed landmarks the best particle lost, newest last
   DataAssociation association_;
   LandmarkEvidence evidence_;

@@ -55,7 +55,7 @@ struct HealthStatus
   int created = 0;
   int recreated = 0;               ///< new landmarks where confirmed ones were deleted
   int deleted = 0;
-  double relocalizing_share = 0.0; ///< share of updates gated with the cloud's covariance
+  double relocalizing_share = 0.0; ///< always 0 (FastSlamUpdateStats::relocalizing; kept for the diagnostics' keys)
   double pose_spread = 0.0;        ///< [m] of the last update
   /// Mean squared Mahalanobis distance of the window's matches (2 for a filter whose errors are within its
   /// uncertainty; far above: the pose is further off than the particles' spread says).

@@ -38,8 +38,8 @@ struct PipelineUpdate
   std::vector<TrunkObservation> trunks;  ///< as extracted (sensor frame, levelled)
   FastSlamUpdateStats stats;
   HealthStatus health;                ///< the filter's health over its last updates, this one included
-  /// false: the robot had not moved update_min_travel or turned update_min_turn since the last filter update; the
-  /// sweep was not given to the filter and the estimate is the last one moved by the odometry since
+  /// false: the sweep carried too little of a new look (evidenceShare below kMinEvidenceShare, e.g. standing
+  /// still); it was not given to the filter and the estimate is the last one moved by the odometry since
   bool filtered = true;
   /// false: still searching where the robot is in a saved map (setPriorMap without a start): no estimate yet
   bool localized = true;
@@ -188,7 +188,7 @@ private:
   bool relocalize_ = false;  ///< the start is searched in the saved map
   /// With a saved map whose start is searched, or searched again when lost (relocalize_when_lost).
   std::unique_ptr<Relocalizer> relocalizer_;
-  /// The observations of the sweeps skipped since the last update (updateMinTravel), in the odometry frame: fused
+  /// The observations of the sweeps skipped since the last update (kMinEvidenceShare), in the odometry frame: fused
   /// into the next update's observations of the same trunks.
   std::vector<std::vector<LookPoint>> between_;
   /// Skipped sweeps kept for fusion (a robot that stands still for minutes keeps the first ones).

@@ -29,16 +29,6 @@ struct OdometryMotionNoise
   double alpha2 = 0.02;  ///< [rad/m] rotation noise from translation
   double alpha3 = 0.02;  ///< [m/m] translation noise from translation
   double alpha4 = 0.01;  ///< [m/rad] translation noise from rotation
-  // Systematic odometry errors (a left/right tyre mismatch, a steering encoder's offset, a wheel radius off
-  // by a few per cent) grow with the distance driven, not with its square root as the random walk above does:
-  // each particle carries its own drift, drawn from these standard deviations when the filter starts, so that
-  // the cloud's spread grows as a real drift does through stretches without landmarks, and the particles
-  // whose drift matches the robot's survive. 0 switches a drift off.
-  double heading_drift = 0.0;  ///< [rad/m] heading gained per metre driven (e.g. 0.005: a 0.6 % tyre mismatch, 1.2 m track)
-  double scale_drift = 0.0;    ///< [-] relative error of the distance driven (e.g. 0.01: a tyre's radius under load)
-  /// [m] each particle's drifts wander as a random walk that changes them by their standard deviation over this
-  /// distance (tyre pressure and load change): the cloud keeps a range of drifts after resampling. 0: constant.
-  double drift_distance = 200.0;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
@@ -99,16 +89,14 @@ Pose2 arcIncrement(double distance, double turn);
  * whole block, each arc's length gets z_v (alpha3 |distance| + alpha4 |turn|) and its turn
  * z_w (alpha1 |turn| + alpha2 |distance|): the alphas are those of a rate (m/s per m/s, ...) and their meaning is
  * that of the odometry model's (1: rotation from rotation, 2: rotation from translation, 3: translation from
- * translation, 4: translation from rotation). @p scale multiplies the standard deviations (partialStepNoiseScale);
- * @p offsets (when given, one per arc) are added to each arc's (distance, turn) before the noise (a particle's drift).
+ * translation, 4: translation from rotation). @p scale multiplies the standard deviations (partialStepNoiseScale).
  * Returns the pose after the block for the given draws.
  */
 Pose2 applyVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& noise,
-                         double scale, double z_v, double z_w,
-                         const std::vector<Eigen::Vector2d>* offsets = nullptr);
+                         double scale, double z_v, double z_w);
 /** @brief applyVelocityBlock with z_v, z_w drawn from @p random. */
 Pose2 sampleVelocityBlock(const Pose2& pose, const std::vector<ArcStep>& block, const OdometryMotionNoise& noise,
-                          double scale, Random& random, const std::vector<Eigen::Vector2d>* offsets = nullptr);
+                          double scale, Random& random);
 
 /**
  * @brief Turns log-weights into normalised weights (in place, the max subtracted first so nothing

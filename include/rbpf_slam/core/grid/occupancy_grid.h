@@ -29,8 +29,7 @@ struct OccupancyGridConfig
   // Export: occupied above, free below (log-odds 0 = p 0.5 = never observed, or evidence that cancelled).
   float occupied_log_odds = 0.0f;  ///< cells with log-odds > this are occupied in trinary exports
   float free_log_odds = 0.0f;      ///< cells with log-odds < this are free in trinary exports
-  /// Keep each cell's mean hit point (Tile::hit_at; two bytes more per cell). The rbpf matcher's sub_cell
-  /// option turns it on for its maps.
+  /// Keep each cell's mean hit point (Tile::hit_at; two bytes more per cell; hitPoint()).
   bool track_hits = false;
 
   /** @brief Empty when valid, else a message naming the bad parameter. */

@@ -39,16 +39,6 @@ struct ScanMatcherConfig
   /// The fine climb moves on every n-th of those end points; the pose it ends at is scored on all of them (the
   /// match's score, likelihood and matched count). 1 = the climb uses them all.
   int climb_beam_step = 1;
-  /// GMapping's test: a window cell counts only if the cell at the same offset from the point sqrt(2) cells back
-  /// along the beam is not occupied.
-  bool free_check = false;
-  /// Distances to the mean hit point of each occupied cell (OccupancyGrid::hitPoint, as GMapping keeps it)
-  /// instead of its centre: matches finer than a cell.
-  bool sub_cell = false;
-  /// The climb moves on the end points whose window holds an observed cell at its start (the match is then
-  /// scored on all of them). Without it a scan whose far end reaches past the map's edge scores higher the
-  /// further it slides back onto the mapped part (a long corridor).
-  bool climb_on_observed = false;
   /// Coarse-to-fine: before the fine climb above, a climb on the map's coarse level (cells of 4 x 4 cells,
   /// OccupancyGrid::coarseCount): each end point looks for the nearest occupied coarse cell in a
   /// (2 coarse_kernel + 1)^2 window of coarse cells and scores exp(-d^2 / 2 coarse_sigma^2) with d to its centre;
@@ -59,26 +49,13 @@ struct ScanMatcherConfig
   int coarse_beam_step = 2;
   int coarse_refinements = 2;
 
-  /// Motion prior (the proposal's other factor, p(x | x', u)): the climb maximises score - prior_weight *
-  /// (|dxy|^2 / (2 sigma_xy^2) + dtheta^2 / (2 sigma_theta^2)), d measured from the odometry sample it starts at,
-  /// sigmas those of the motion model for this increment (at least the floors; GridSlam computes them once per
-  /// scan for this prior and for the weight's motion factor). Without it, a scan whose far
-  /// end points fall in unmapped space slides back onto the mapped part (seen on Intel: 1 m per scan in a
-  /// corridor). 0 = off.
-  double prior_weight = 0.0;
+  /// Lower bounds of the motion model's standard deviations of one scan's increment (position, heading) in the
+  /// weight's motion factor (GridSlamConfig::proposal_motion_weight); read by RbpfGridSlam, not by the matcher.
   double prior_floor_xy = 0.05;     ///< [m]
   double prior_floor_theta = 0.05;  ///< [rad]
 
   /** @brief Empty when valid, else a message naming the bad parameter. */
   std::string validate() const;
-};
-
-/** @brief The motion prior of one match: centre and standard deviations (see ScanMatcherConfig::prior_weight). */
-struct MatchPrior
-{
-  Pose2 centre;
-  double sigma_xy = 1.0;     ///< [m]
-  double sigma_theta = 1.0;  ///< [rad]
 };
 
 /** @brief What one match found. */
@@ -110,9 +87,6 @@ public:
    */
   ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
                   const std::vector<std::pair<double, double>>& end_points) const;
-  /** @brief As above, the climb penalised by @p prior (used when config().prior_weight > 0). */
-  ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const;
 
 private:
   /** @brief The window, score sigma and beam stride of one level of the climb. */
@@ -148,12 +122,7 @@ private:
   ScanMatch evaluateCoarse(const Level& level, const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
                            const std::vector<std::pair<double, double>>& end_points, Rotated* cache) const;
   ScanMatch climb(const Level& level, const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                  const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior,
-                  int* evaluations) const;
-  double penalty(const Pose2& pose, const MatchPrior* prior) const;
-  /** @brief The coarse (if on) and fine climbs from @p start on @p end_points. */
-  ScanMatch climbLevels(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                        const std::vector<std::pair<double, double>>& end_points, const MatchPrior* prior) const;
+                  const std::vector<std::pair<double, double>>& end_points, int* evaluations) const;
   Level fineLevel() const;
 
   /** @brief exp(-x) for x = d^2 / (2 sigma^2) >= 0 by linear interpolation in a table (inline: it runs once per
