@@ -42,7 +42,6 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   FastSlamRosConfig c;
   readSlamRosConfig(params, &c);
-  readKey(params, "odom_timeout", &c.odom_timeout);
   readKey(params, "inventory_path", &c.inventory_path);
   readKey(params, "run_folder", &c.run_folder);
   readKey(params, "map_file", &c.map_file);
@@ -51,7 +50,6 @@ FastSlamRosConfig readRosConfig(const RosParamSource& params)
   readKey(params, "initial_yaw", &c.initial_yaw);
   readKey(params, "map_path", &c.map_path);
   readKey(params, "relocalize", &c.relocalize);
-  requireNonNegative(params.nodeHandle(), "odom_timeout", c.odom_timeout);
   if (!std::isfinite(c.initial_x) || !std::isfinite(c.initial_y) || !std::isfinite(c.initial_yaw))
     throw invalidParameter(params.nodeHandle(), "initial_x", "initial_x, initial_y and initial_yaw must be finite");
   return c;

@@ -24,22 +24,19 @@
 #include "rbpf_slam/ros/params.h"
 #include "rbpf_slam/ros/ros_param_source.h"
 #include "rbpf_slam/ros/scan_conversions.h"
+#include "rbpf_slam/ros/tf_odometry.h"
 
 namespace rbpf_slam
 {
 namespace
 {
-constexpr std::size_t kMaxPending = 50;  ///< scans waiting for their odometry TF
-
 GridSlamRosConfig readRosConfig(const RosParamSource& params)
 {
   GridSlamRosConfig c;
   const ros::NodeHandle& pnh = params.nodeHandle();
   readSlamRosConfig(params, &c);
-  readKey(params, "tf_timeout", &c.tf_timeout);
   readKey(params, "map_update_interval", &c.map_update_interval);
   readKey(params, "map_path", &c.map_path);
-  requireNonNegative(pnh, "tf_timeout", c.tf_timeout);
   requireNonNegative(pnh, "map_update_interval", c.map_update_interval);
   return c;
 }
@@ -79,10 +76,13 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   warnUnknownKeys(params);
   core::PipelineTiming timing;
   timing.time_jump_threshold = config_.time_jump_threshold;
+  timing.odometry_wait = config_.odom_timeout;  // wall seconds: the node's clock for waiting
+  timing.max_pending = 50;
   pipeline_.reset(new core::GridSlamPipeline(filter_config_, timing));
 
   tf_buffer_.reset(new tf2_ros::Buffer());
   tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
+  odometry_.reset(new TfOdometry(tf_buffer_.get(), config_.odom_frame, config_.base_frame));
 
   path_.header.frame_id = config_.map_frame;
   map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
@@ -120,7 +120,7 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
              "jumped back; the map is restarted (reset %d, after %zu scans)",
              name_.c_str(), msg->header.stamp.toSec(), (last_scan_stamp_ - msg->header.stamp).toSec(),
              config_.time_jump_threshold, pipeline_->restarts(), updates_);
-    pending_.clear();
+    fed_until_ = -1e300;
     path_.poses.clear();
     last_map_stamp_ = ros::Time();
     saveEndedMaps();
@@ -140,13 +140,29 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     return;
   }
   last_scan_stamp_ = msg->header.stamp;
-  pending_.push_back({ msg, ros::WallTime::now() });
-  if (pending_.size() > kMaxPending)
+  core::ScanData scan;
+  const std::string why = toScanData(*msg, &scan);
+  core::Pose2 sensor;
+  std::string error;
+  // The scanner's mount at the scan's stamp, or the newest (a mount that TF has not reached the stamp of yet).
+  if (!why.empty() || (!lookup(config_.base_frame, msg->header.frame_id, msg->header.stamp, &sensor, &error) &&
+                       !lookup(config_.base_frame, msg->header.frame_id, ros::Time(0), &sensor, &error)))
   {
-    ROS_WARN_THROTTLE(5.0, "%s: %zu scans wait for TF %s -> %s; dropping the oldest", name_.c_str(), pending_.size(),
-                      config_.odom_frame.c_str(), config_.base_frame.c_str());
-    pending_.pop_front();
+    const std::string reason = why.empty() ? "no transform " + config_.base_frame + " -> " + msg->header.frame_id : why;
+    ++dropped_;
+    if (warned_reasons_.insert(reason).second)  // the first of each reason always, repeats at most every 5 s
+      ROS_WARN("%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(), msg->header.stamp.toSec(),
+               reason.c_str(), dropped_);
+    else
+      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(),
+                        msg->header.stamp.toSec(), reason.c_str(), dropped_);
+    return;
   }
+  const std::size_t before = pipeline_->droppedPending();
+  pipeline_->enqueueScan(msg->header.stamp.toSec(), std::move(scan), sensor, ros::WallTime::now().toSec());
+  if (pipeline_->droppedPending() > before)
+    ROS_WARN_THROTTLE(5.0, "%s: %zu scans wait for odometry (TF %s -> %s); dropping the oldest", name_.c_str(),
+                      pipeline_->pending(), config_.odom_frame.c_str(), config_.base_frame.c_str());
   processPending();
 }
 
@@ -172,83 +188,59 @@ bool GridSlamRos::lookup(const std::string& parent, const std::string& child, co
   }
 }
 
-void GridSlamRos::processPending()
+void GridSlamRos::feedOdometry()
 {
-  while (!pending_.empty())
+  // The odometry at each waiting scan's stamp, from TF, into the pipeline: a scan is processed once odometry covers
+  // it, or after ~odom_timeout with the newest odometry (as the FastSLAM node does).
+  for (const double end : pipeline_->waitingEnds())
   {
-    const sensor_msgs::LaserScan::ConstPtr msg = pending_.front().msg;
-    // The newest odometry in the buffer, read before the lookup: TF's listener fills the buffer from its own
-    // thread, and a transform arriving between a failed lookup and this test must not turn a scan that only had
-    // to wait into one "older than the buffer".
-    bool newer = false;
-    try
-    {
-      newer = tf_buffer_->lookupTransform(config_.odom_frame, config_.base_frame, ros::Time(0)).header.stamp >
-              msg->header.stamp;
-    }
-    catch (const tf2::TransformException&)
-    {
-    }
-    core::Pose2 odom_pose, sensor;
+    if (end <= fed_until_)
+      continue;
+    core::Pose2 pose;
     std::string error;
-    const bool ok = lookup(config_.odom_frame, config_.base_frame, msg->header.stamp, &odom_pose, &error) &&
-                    lookup(config_.base_frame, msg->header.frame_id, msg->header.stamp, &sensor, &error);
-    if (!ok)
+    const TfOdometry::Answer a = odometry_->at(ros::Time(end), &pose, &error);
+    if (a == TfOdometry::Answer::kNotYet)
+      break;
+    if (a == TfOdometry::Answer::kNever)
     {
-      // Odometry newer than the scan was there before the lookup, yet no transform at its stamp: it is older than
-      // the TF buffer (the first scans of a bag) or in a gap, and waiting will not help.
-      if (!newer && (ros::WallTime::now() - pending_.front().arrival).toSec() < config_.tf_timeout)
-        return;  // wait: odometry may come a little after the scan
-      ROS_WARN_THROTTLE(5.0, "%s: no transform for the scan at %.3f (%s; %s): scan dropped", name_.c_str(),
-                        msg->header.stamp.toSec(), error.c_str(),
-                        newer ? "the scan is older than the odometry TF kept" : "waited ~tf_timeout");
-      pending_.pop_front();
+      ROS_WARN_THROTTLE(5.0, "%s: TF holds no odometry at the scan at %.3f (%s)", name_.c_str(), end, error.c_str());
       continue;
     }
-    pending_.pop_front();
-    try
-    {
-      processScan(*msg, odom_pose, sensor);
-    }
-    catch (const std::exception& e)
-    {
-      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
-    }
+    const core::StampVerdict v = pipeline_->addOdometry(end, pose);
+    if (v != core::StampVerdict::kAccept)
+      ROS_WARN_THROTTLE(5.0, "%s: odometry from TF at %.3f: %s", name_.c_str(), end, core::stampVerdictName(v));
+    fed_until_ = end;
   }
 }
 
-void GridSlamRos::processScan(const sensor_msgs::LaserScan& msg, const core::Pose2& odom_pose,
-                              const core::Pose2& sensor)
+void GridSlamRos::processPending()
 {
-  core::ScanData scan;
-  const std::string why = toScanData(msg, &scan);
-  if (!why.empty())
+  feedOdometry();
+  std::vector<core::GridPipelineUpdate> done;
+  try
   {
-    ++dropped_;
-    if (warned_reasons_.insert(why).second)  // the first of each reason always, repeats at most every 5 s
-      ROS_WARN("%s: %s: dropped (%zu dropped so far)", name_.c_str(), why.c_str(), dropped_);
-    else
-      ROS_WARN_THROTTLE(5.0, "%s: %s: dropped (%zu dropped so far)", name_.c_str(), why.c_str(), dropped_);
+    done = pipeline_->process(ros::WallTime::now().toSec());
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), e.what());
     return;
   }
-  // Odometry from TF at the scan's stamp: the pipeline interpolates it there (exactly this pose).
-  const double stamp = msg.header.stamp.toSec();
-  const core::StampVerdict v = pipeline_->addOdometry(stamp, odom_pose);
-  if (v != core::StampVerdict::kAccept && v != core::StampVerdict::kReset)
+  for (const core::GridPipelineUpdate& u : done)
   {
-    ++dropped_;
-    ROS_WARN_THROTTLE(5.0, "%s: odometry from TF at %.3f: %s; scan dropped (%zu dropped so far)", name_.c_str(), stamp,
-                      core::stampVerdictName(v), dropped_);
-    return;
-  }
-  pipeline_->enqueueScan(stamp, std::move(scan), sensor);
-  for (const core::GridPipelineUpdate& u : pipeline_->process())
-  {
+    if (u.timeline != pipeline_->restarts())
+      continue;  // the old timeline's last scans, flushed by a restart: its map is gone
     if (!u.error.empty())
     {
-      ROS_ERROR_THROTTLE(5.0, "%s: update failed: %s", name_.c_str(), u.error.c_str());
+      ++dropped_;
+      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(), u.stamp,
+                        u.error.c_str(), dropped_);
       continue;
     }
+    if (!u.odometry_covered)
+      ROS_WARN_THROTTLE(5.0, "%s: no odometry (TF %s -> %s) up to the scan at %.3f within %.2f s (newest %.3f); used "
+                        "the newest", name_.c_str(), config_.odom_frame.c_str(), config_.base_frame.c_str(), u.stamp,
+                        config_.odom_timeout, pipeline_->odometry().latest());
     if (u.step.skipped)
       ++skipped_;  // below the travel thresholds: only the pose moves on with the odometry
     else

@@ -62,7 +62,7 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.threads, defaults.threads);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
   for (const auto& k : params.unusedKeys())
-    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "tf_timeout" ||
+    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
                 k == "transform_tolerance" || k == "map_update_interval" || k == "publish_tf" || k == "map_path" ||
                 k == "max_path_poses" || k == "time_jump_threshold")
         << "unexpected key " << k;

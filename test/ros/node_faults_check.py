@@ -284,7 +284,7 @@ class TimeFaults(object):
         with tempfile.TemporaryFile('w+') as log:
             proc = subprocess.Popen(['rosrun', 'rbpf_slam', 'grid_slam', '__name:=bad_scans_grid',
                                      'scan:=/bad/scan', '_odom_frame:=bad_odom', '_base_frame:=bad_base',
-                                     '_map_frame:=bad_map', '_particles:=5', '_tf_timeout:=0.2'],
+                                     '_map_frame:=bad_map', '_particles:=5', '_odom_timeout:=0.2'],
                                     stdout=log, stderr=subprocess.STDOUT, universal_newlines=True)
             try:
                 deadline = time.time() + TIMEOUT

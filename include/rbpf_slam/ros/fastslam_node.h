@@ -31,7 +31,6 @@ namespace rbpf_slam
 /** @brief The parameters of FastSlamRos besides the filter's own (core::FastSlamConfig). */
 struct FastSlamRosConfig : SlamRosConfig
 {
-  double odom_timeout = 0.5;          ///< [s] wall time an array waits for odometry covering it
   std::string inventory_path = "~/.ros/tree_inventory.csv";
   /// Folder of the run's files (io::FastSlamRunRecord, as slam_bag --out writes them), written on ~save_run and at
   /// shutdown; "" = none.

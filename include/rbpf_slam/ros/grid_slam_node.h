@@ -20,13 +20,13 @@
 
 #include "rbpf_slam/core/grid/grid_slam_pipeline.h"
 #include "rbpf_slam/ros/params.h"
+#include "rbpf_slam/ros/tf_odometry.h"
 
 namespace rbpf_slam
 {
 /** @brief The parameters of GridSlamRos besides the filter's own (core::GridSlamConfig). */
 struct GridSlamRosConfig : SlamRosConfig
 {
-  double tf_timeout = 0.5;            ///< [s] wall time a scan waits for odom -> base_link at its stamp
   double map_update_interval = 2.0;   ///< [s] of scan time between publications of `map`
   std::string map_path = "~/.ros/grid_map.yaml";  ///< ~save_map writes here (and the .pgm beside it)
 };
@@ -38,8 +38,8 @@ void toMsg(const core::OccupancyGrid& grid, nav_msgs::OccupancyGrid* msg);
  * @brief Grid SLAM (core::GridSlamPipeline, either method) on ROS topics, relative to @p nh:
  *
  * - subscribes `scan` (sensor_msgs/LaserScan, REP-117); odometry comes from TF `odom -> base_link` at
- *   the scan's stamp (a scan waits up to `~tf_timeout` for it), the scanner's mount from TF
- *   `base_link -> scan frame`.
+ *   the scan's stamp (TfOdometry into the pipeline: a scan waits up to `~odom_timeout` for it, then is processed
+ *   with the newest odometry, as in the FastSLAM node), the scanner's mount from TF `base_link -> scan frame`.
  * - publishes `map` (nav_msgs/OccupancyGrid, latched, every `~map_update_interval` of scan time) and
  *   `map_metadata` (latched), TF `map -> odom` (REP-105), `pose` (PoseWithCovarianceStamped: the particles'
  *   weighted mean and covariance), `particles` (PoseArray, when subscribed), `path` (the mapping poses).
@@ -57,9 +57,10 @@ private:
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
   void onTimer(const ros::WallTimerEvent& event);
   bool onSaveMap(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
-  /** @brief Processes the waiting scans whose odometry TF is there (or drops those that waited too long). */
+  /** @brief Gives the pipeline the odometry TF holds for its waiting scans, then processes what is ready. */
   void processPending();
-  void processScan(const sensor_msgs::LaserScan& msg, const core::Pose2& odom_pose, const core::Pose2& sensor);
+  /** @brief The odometry at each waiting scan's stamp that TF has, in order, into the pipeline. */
+  void feedOdometry();
   void publishMap(const ros::Time& stamp);
   void publishPoses(const ros::Time& stamp, const core::GridPipelineUpdate& update);
   /** @brief Planar transform parent <- child at @p stamp; false (no warning) when not available. */
@@ -74,12 +75,8 @@ private:
   std::unique_ptr<core::GridSlamPipeline> pipeline_;
   std::mutex mutex_;
 
-  struct Pending
-  {
-    sensor_msgs::LaserScan::ConstPtr msg;
-    ros::WallTime arrival;
-  };
-  std::deque<Pending> pending_;
+  std::unique_ptr<TfOdometry> odometry_;  ///< odom -> base_link from TF at the scans' stamps
+  double fed_until_ = -1e300;  ///< [s] the stamp of the last odometry given to the pipeline
   ros::Time last_scan_stamp_;
   ros::Time last_map_stamp_;
   std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already

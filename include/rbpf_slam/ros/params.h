@@ -77,6 +77,9 @@ struct SlamRosConfig
   bool publish_tf = true;
   int max_path_poses = 5000;          ///< oldest poses of `path` are dropped beyond this (it is sent whole)
   double time_jump_threshold = 1.0;   ///< [s] see core::StampGate: a larger jump back restarts the filter
+  /// [s] wall time a sensor message waits for odometry that covers its stamp; then it is processed with the newest
+  /// odometry (warned). The same policy in both SLAM nodes (core::PipelineTiming::odometry_wait).
+  double odom_timeout = 0.5;
 };
 
 /** @brief Reads and checks the SlamRosConfig keys (a bad value throws, naming the key). */
@@ -90,7 +93,9 @@ inline void readSlamRosConfig(const RosParamSource& params, SlamRosConfig* c)
   readKey(params, "publish_tf", &c->publish_tf);
   readKey(params, "max_path_poses", &c->max_path_poses);
   readKey(params, "time_jump_threshold", &c->time_jump_threshold);
+  readKey(params, "odom_timeout", &c->odom_timeout);
   requireNonNegative(pnh, "transform_tolerance", c->transform_tolerance);
+  requireNonNegative(pnh, "odom_timeout", c->odom_timeout);
   requirePositive(pnh, "time_jump_threshold", c->time_jump_threshold);
   if (c->max_path_poses < 1)
     throw invalidParameter(pnh, "max_path_poses", "must be >= 1");

@@ -152,18 +152,7 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
   const auto t0 = std::chrono::steady_clock::now();
-  if (!(detector_->config().sensor_height > 0.0) && mount.z > 0.0)  // as the extraction nodelet does from TF
-    detector_->setConfig(withMountHeight(detector_->config(), mount.z));
-  TrunkDetectorStats stats;
-  TrunkSweep sweep;
-  sweep.stamp = stamp;
-  sweep.period = period;
-  sweep.mount = mount;
-  sweep.trunks = detector_->detect(points, Eigen::Matrix3d::Identity(), &stats);
-  sweep.scope = sweepScope(detector_->config(), stats.reach);
-  sweep.tilt_roll = stats.tilt_roll;
-  sweep.tilt_pitch = stats.tilt_pitch;
-  const bool taken = enqueueSweep(std::move(sweep), arrival);
+  const bool taken = enqueueSweep(detectSweep(detector_.get(), stamp, period, points, mount), arrival);
   seconds_extraction_ += since(t0);
   return taken ? v : StampVerdict::kOverLimit;
 }
@@ -175,14 +164,7 @@ StampVerdict TrunkSlamPipeline::addScan(double stamp, double period, const Plana
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
   const auto t0 = std::chrono::steady_clock::now();
-  TrunkSweep sweep;
-  sweep.stamp = stamp;
-  sweep.period = period;
-  sweep.mount = mount;
-  sweep.trunks = detector_->detectScan(scan);
-  sweep.geometry = scanGeometry(scan);
-  sweep.scope = scanScope(scan, detector_->config());
-  const bool taken = enqueueSweep(std::move(sweep), arrival);
+  const bool taken = enqueueSweep(detectScanSweep(detector_.get(), stamp, period, scan, mount), arrival);
   seconds_extraction_ += since(t0);
   return taken ? v : StampVerdict::kOverLimit;
 }

@@ -182,5 +182,35 @@ std::vector<LookPoint> sweepLooks(const TrunkSweep& sw, const OdometryBuffer& od
   return looks;
 }
 
+TrunkSweep detectSweep(TrunkDetector* detector, double stamp, double period,
+                       const std::vector<Eigen::Vector3f>& points, const SensorMount& mount)
+{
+  if (!(detector->config().sensor_height > 0.0) && mount.z > 0.0)  // as the extraction nodelet does from TF
+    detector->setConfig(withMountHeight(detector->config(), mount.z));
+  TrunkDetectorStats stats;
+  TrunkSweep sweep;
+  sweep.stamp = stamp;
+  sweep.period = period;
+  sweep.mount = mount;
+  sweep.trunks = detector->detect(points, Eigen::Matrix3d::Identity(), &stats);
+  sweep.scope = sweepScope(detector->config(), stats.reach);
+  sweep.tilt_roll = stats.tilt_roll;
+  sweep.tilt_pitch = stats.tilt_pitch;
+  return sweep;
+}
+
+TrunkSweep detectScanSweep(TrunkDetector* detector, double stamp, double period, const PlanarScan& scan,
+                           const SensorMount& mount)
+{
+  TrunkSweep sweep;
+  sweep.stamp = stamp;
+  sweep.period = period;
+  sweep.mount = mount;
+  sweep.trunks = detector->detectScan(scan);
+  sweep.geometry = scanGeometry(scan);
+  sweep.scope = scanScope(scan, detector->config());
+  return sweep;
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

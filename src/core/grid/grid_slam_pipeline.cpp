@@ -32,10 +32,11 @@ StampVerdict GridSlamPipeline::addScan(double stamp, ScanData scan, const Pose2&
   return v;
 }
 
-GridPipelineUpdate GridSlamPipeline::update(GridScan&& item, bool /*covered*/)
+GridPipelineUpdate GridSlamPipeline::update(GridScan&& item, bool covered)
 {
   GridPipelineUpdate u;
   u.stamp = item.stamp;
+  u.odometry_covered = covered;
   u.odometry = odometry_.at(item.stamp);
   const auto t0 = std::chrono::steady_clock::now();
   try

@@ -63,6 +63,17 @@ struct TrunkSweep
 };
 
 /**
+ * @brief The trunks @p detector finds in a 3D sweep (points in the sensor frame, levelled by the detector) that
+ * starts at @p stamp and lasts @p period, from the sensor at @p mount: where the detector's configuration leaves
+ * the sensor's height unknown, the mount's height stands for it (as the extraction nodelet takes it from TF).
+ */
+TrunkSweep detectSweep(TrunkDetector* detector, double stamp, double period,
+                       const std::vector<Eigen::Vector3f>& points, const SensorMount& mount);
+/** @brief The same for a 2D scan (taken as level; the sweep's geometry is the scan's angles). */
+TrunkSweep detectScanSweep(TrunkDetector* detector, double stamp, double period, const PlanarScan& scan,
+                           const SensorMount& mount);
+
+/**
  * @brief What the detector @p config could see of the 2D scan @p scan: its bearings (angle_min to the last beam),
  * its ranges (range_min..range_max within the detector's min_range..max_range), the detector's detection
  * probability.

@@ -73,6 +73,15 @@ public:
   const OdometryBuffer& odometry() const { return odometry_; }
   int restarts() const { return gate_.restarts(); }
   std::size_t pending() const { return pending_.size(); }
+  /** @brief [s] up to where each waiting item needs odometry, oldest first. */
+  std::vector<double> waitingEnds() const
+  {
+    std::vector<double> ends;
+    ends.reserve(pending_.size());
+    for (const Pending& p : pending_)
+      ends.push_back(p.end);
+    return ends;
+  }
   /** @brief Items dropped because more than max_pending waited for odometry. */
   std::size_t droppedPending() const { return dropped_pending_; }
   const PipelineTiming& timing() const { return timing_; }

@@ -31,6 +31,7 @@ struct GridPipelineUpdate
   Pose2 map_to_odom;   ///< map -> odom after the scan
   GridSlamStep step;
   int timeline = 0;  ///< restarts before this scan (a restart flushes the old timeline's scans)
+  bool odometry_covered = true;  ///< false: processed after waiting, with odometry that ends before the scan
   /// Non-empty when the filter refused the scan (a non-finite pose, a scan out of any map's reach): nothing
   /// changed, the scan is dropped, and this says why.
   std::string error;
