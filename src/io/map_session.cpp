@@ -53,12 +53,7 @@ ForestMap FastSlamMapSession::currentMap() const
   map.anchor = pipeline_->anchor();
   map.viewpoints = pipeline_->viewpoints();
   if (pipeline_->initialized())
-  {
-    const core::LandmarkMap& trees = pipeline_->filter().best().map;
-    map.trees.reserve(trees.size());
-    for (std::size_t i = 0; i < trees.size(); ++i)
-      map.trees.push_back(trees[i]);
-  }
+    map.trees = pipeline_->filter().bestTrees();
   return map;
 }
 

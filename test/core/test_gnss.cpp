@@ -188,7 +188,9 @@ TEST(GeoAnchor, FitFindsTheAnchorOfAFrameFromNoisyFixes)
     f.covariance = Eigen::Matrix2d::Identity();
     est.add(f, p);
     if (i == 10)
+    {
       EXPECT_FALSE(est.anchor().valid) << "too few fixes";
+    }
   }
   const GeoAnchor a = est.anchor();
   ASSERT_TRUE(a.valid);

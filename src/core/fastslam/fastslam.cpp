@@ -783,5 +783,35 @@ void FastSlam::predictAlong(const OdometryBuffer& odometry, double t_from, const
                                                      (std::abs(u.rot1) + std::abs(u.rot2)) / fc.motion_step_angle)));
 }
 
+std::vector<Landmark> FastSlam::bestTrees() const
+{
+  const LandmarkMap& map = best().map;
+  std::vector<Landmark> trees;
+  trees.reserve(map.size());
+  for (std::size_t i = 0; i < map.size(); ++i)
+    trees.push_back(map[i]);
+  return trees;
+}
+
+LandmarkMap priorMap(const std::vector<Landmark>& trees, const FastSlamConfig& config)
+{
+  if (trees.size() > static_cast<std::size_t>(config.max_landmarks))
+    throw std::invalid_argument("the saved map holds " + std::to_string(trees.size()) + " trees, more than max_landmarks (" +
+                                std::to_string(config.max_landmarks) + ")");
+  LandmarkMap prior;
+  for (Landmark l : trees)
+  {
+    l.evidence = l.provisional ? 0.0 : config.evidence_max;
+    // The saved covariance made symmetric and positive semidefinite (negative eigenvalues clipped to 0).
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
+    l.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+    l.visit_radius = NAN;  // this run has not seen it yet
+    l.visit_radius_variance = 0.0;
+    l.visit_observations = 0;
+    prior.add(l);
+  }
+  return prior;
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

@@ -3,9 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <stdexcept>
-
-#include <Eigen/Eigenvalues>
 
 namespace rbpf_slam
 {
@@ -40,10 +37,7 @@ void TrunkSlamPipeline::resetFilter()
     ended.timeline = restarts() - 1;
     ended.anchor = anchor();
     ended.viewpoints = viewpoints_.viewpoints();
-    const LandmarkMap& map = filter_->best().map;
-    ended.trees.reserve(map.size());
-    for (std::size_t i = 0; i < map.size(); ++i)
-      ended.trees.push_back(map[i]);
+    ended.trees = filter_->bestTrees();
     ended_.push_back(std::move(ended));
     while (ended_.size() > kKeptEndedMaps)
       ended_.erase(ended_.begin());
@@ -66,21 +60,7 @@ void TrunkSlamPipeline::resetFilter()
 void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
                                     const RelocalizationConfig& relocalization)
 {
-  if (trees.size() > static_cast<std::size_t>(filter_config_.max_landmarks))
-    throw std::invalid_argument("the saved map holds " + std::to_string(trees.size()) + " trees, more than max_landmarks (" +
-                                std::to_string(filter_config_.max_landmarks) + ")");
-  prior_ = LandmarkMap();
-  for (Landmark l : trees)
-  {
-    l.evidence = l.provisional ? 0.0 : filter_config_.evidence_max;
-    // The saved covariance made symmetric and positive semidefinite (negative eigenvalues clipped to 0).
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (l.covariance + l.covariance.transpose()));
-    l.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-    l.visit_radius = NAN;  // this run has not seen it yet
-    l.visit_radius_variance = 0.0;
-    l.visit_observations = 0;
-    prior_.add(l);
-  }
+  prior_ = priorMap(trees, filter_config_);
   prior_start_ = start;
   has_prior_ = true;
   health_ = FilterHealth(healthConfig());
@@ -135,12 +115,7 @@ StampVerdict TrunkSlamPipeline::addTrunks(TrunkSweep sweep, double clock, double
   const StampVerdict v = admitSensor(sweep.stamp, clock);
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
-  if (!std::isfinite(sweep.period) || sweep.period < 0.0)
-    sweep.period = 0.0;
-  if (!std::isfinite(sweep.tilt_roll))
-    sweep.tilt_roll = 0.0;
-  if (!std::isfinite(sweep.tilt_pitch))
-    sweep.tilt_pitch = 0.0;
+  zeroUnknownTiming(&sweep);
   enqueueSweep(std::move(sweep), arrival);
   return v;
 }
@@ -213,12 +188,19 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   const TrunkSweep& sw = sweep;
   const double t_mid = sw.stamp + 0.5 * sw.period;
   const Pose2 odom_mid = odometry_.at(t_mid);
+  const Pose2 mount_pose(sw.mount.x, sw.mount.y, sw.mount.yaw);
   const bool first = !initialized_;
   RelocalizationStatus search;
-  if (!initialized_ && has_prior_ && relocalize_)
+  if (first)
   {
+    // The map frame is the odometry frame at the first update (map -> odom starts as the identity), the frame of a
+    // saved map with the robot at the start pose given in it, or where the search in it found the robot.
     std::vector<Pose2> starts;
-    if (relocalizer_->search(sw.trunks, Pose2(sw.mount.x, sw.mount.y, sw.mount.yaw), odom_mid, &search, &starts))
+    if (!has_prior_)
+      filter_->initialize(odom_mid);
+    else if (!relocalize_)
+      filter_->initialize(prior_start_, prior_);
+    else if (relocalizer_->search(sw.trunks, mount_pose, odom_mid, &search, &starts))
     {
       filter_->initialize(starts, prior_, relocalizer_->config().spread_xy, relocalizer_->config().spread_theta);
       search.found = true;
@@ -236,21 +218,7 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
     last_stamp_ = t_mid;
     initialized_ = true;
   }
-  if (!initialized_)
-  {
-    // The map frame is the odometry frame at the first update (map -> odom starts as the identity), or the
-    // frame of a saved map with the robot at the start pose given in it.
-    if (has_prior_)
-      filter_->initialize(prior_start_, prior_);
-    else
-      filter_->initialize(odom_mid);
-    last_odometry_ = odom_mid;
-    last_stamp_ = t_mid;
-    initialized_ = true;
-  }
-  // The motion since the last update in steps of about motion_step along the odometry's samples.
   const FastSlamConfig& fc = filter_->config();
-  const Pose2 mount_pose(sw.mount.x, sw.mount.y, sw.mount.yaw);
   const double share = first ? 1.0 : evidenceShare(fc, sw.trunks, between(last_odometry_ * mount_pose,
                                                                            odom_mid * mount_pose));
   if (!first && share < kMinEvidenceShare)

@@ -212,5 +212,15 @@ TrunkSweep detectScanSweep(TrunkDetector* detector, double stamp, double period,
   return sweep;
 }
 
+void zeroUnknownTiming(TrunkSweep* sweep)
+{
+  if (!std::isfinite(sweep->period) || sweep->period < 0.0)
+    sweep->period = 0.0;
+  if (!std::isfinite(sweep->tilt_roll))
+    sweep->tilt_roll = 0.0;
+  if (!std::isfinite(sweep->tilt_pitch))
+    sweep->tilt_pitch = 0.0;
+}
+
 }  // namespace core
 }  // namespace rbpf_slam

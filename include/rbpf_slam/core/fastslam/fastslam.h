@@ -314,6 +314,8 @@ public:
    */
   std::size_t bestIndex() const { return best_; }
   const Particle& best() const { return particles_[best_]; }
+  /** @brief The best particle's landmarks, in map order. */
+  std::vector<Landmark> bestTrees() const;
   /** @brief The estimate of base_link in the map (config().estimate: the weighted mean or the best particle's). */
   Pose2 estimate() const { return config_.estimate == PoseEstimate::kBest ? best().pose : meanPose(); }
   /** @brief The pose the best particle had after each update since initialize(), oldest first: its own
@@ -388,6 +390,14 @@ private:
   DataAssociation association_;
   LandmarkEvidence evidence_;
 };
+
+/**
+ * @brief The trees of a saved map as every particle's starting map: confirmed trees with the largest existence
+ * evidence (evidence_max), provisional ones with none; covariances made symmetric and positive semidefinite; ids,
+ * radii, counts and times kept; this visit's own fields empty. @throws std::invalid_argument for more trees than
+ * max_landmarks.
+ */
+LandmarkMap priorMap(const std::vector<Landmark>& trees, const FastSlamConfig& config);
 
 }  // namespace core
 }  // namespace rbpf_slam

@@ -62,6 +62,9 @@ struct TrunkSweep
   std::vector<TrunkObservation> trunks;  ///< sensor frame, levelled
 };
 
+/** @brief A sweep's period and tilt that are not finite (or a negative period) as 0: every trunk at the stamp, level. */
+void zeroUnknownTiming(TrunkSweep* sweep);
+
 /**
  * @brief The trunks @p detector finds in a 3D sweep (points in the sensor frame, levelled by the detector) that
  * starts at @p stamp and lasts @p period, from the sensor at @p mount: where the detector's configuration leaves
