@@ -57,11 +57,11 @@ ForestMap FastSlamMapSession::currentMap() const
   return map;
 }
 
-std::vector<core::TreeChange> FastSlamMapSession::changes(const ForestMap& now) const
+std::vector<core::TreeChange> FastSlamMapSession::changes(const std::vector<core::Landmark>& now) const
 {
   if (!fromSavedMap())
     return {};
-  return core::detectChanges(saved_.trees, now.trees, core::ChangeConfig(), saved_.viewpoints);
+  return core::detectChanges(saved_.trees, now, core::ChangeConfig(), saved_.viewpoints);
 }
 
 std::vector<FileContent> FastSlamMapSession::mapFiles(const std::string& path, std::string* summary) const
@@ -75,7 +75,7 @@ std::vector<FileContent> FastSlamMapSession::mapFiles(const std::string& path, s
   std::string text = std::to_string(map.trees.size()) + " trees written to " + path;
   if (fromSavedMap())
   {
-    const std::vector<core::TreeChange> found = changes(map);
+    const std::vector<core::TreeChange> found = changes(map.trees);
     files.emplace_back(stem + "_changes.csv", changesCsv(found));
     if (map.anchor.valid)
       files.emplace_back(stem + "_changes.geojson", changesGeoJson(map.anchor, found));

@@ -434,7 +434,7 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, 
   landmark_array_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(toLandmarkArray(stamp, config_.map_frame, best.map)));
   if (!session_->saved().trees.empty() && change_markers_pub_.getNumSubscribers() > 0)
     change_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(
-        changeMarkers(stamp, config_.map_frame, session_->changes(session_->currentMap()))));
+        changeMarkers(stamp, config_.map_frame, session_->changes(filter.bestTrees()))));
   if (landmarks_pub_.getNumSubscribers() > 0)
     landmarks_pub_.publish(
         visualization_msgs::MarkerArray::ConstPtr(landmarkMarkers(stamp, config_.map_frame, best.map)));

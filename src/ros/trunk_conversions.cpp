@@ -28,6 +28,26 @@ std::uint8_t toMsgMethod(core::TrunkMethod method)
   return rbpf_slam::Trunk::METHOD_CIRCLE;
 }
 
+/** @brief An upright cylinder of @p diameter and @p height centred at (x, y, z), in @p alpha. */
+visualization_msgs::Marker cylinder(const std_msgs::Header& header, const std::string& ns, int id, double x, double y,
+                                    double z, double diameter, double height, float alpha)
+{
+  visualization_msgs::Marker m;
+  m.header = header;
+  m.ns = ns;
+  m.id = id;
+  m.type = visualization_msgs::Marker::CYLINDER;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.position.x = x;
+  m.pose.position.y = y;
+  m.pose.position.z = z;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = diameter;
+  m.scale.z = height;
+  m.color.a = alpha;
+  return m;
+}
+
 visualization_msgs::Marker deleteAll(const ros::Time& stamp, const std::string& frame)
 {
   visualization_msgs::Marker clear;
@@ -215,17 +235,8 @@ visualization_msgs::MarkerArray::Ptr trunkMarkers(const rbpf_slam::TrunkArray& t
   int id = 0;
   for (const auto& t : trunks.trunks)
   {
-    visualization_msgs::Marker m;
-    m.header = trunks.header;
-    m.ns = "trunks";
-    m.id = id;
-    m.type = visualization_msgs::Marker::CYLINDER;
-    m.action = visualization_msgs::Marker::ADD;
-    m.pose.position = t.center;
-    m.pose.orientation.w = 1.0;
-    m.scale.x = m.scale.y = std::max(0.02, 2.0 * t.radius);
-    m.scale.z = band_height;
-    m.color.a = 0.8f;
+    visualization_msgs::Marker m = cylinder(trunks.header, "trunks", id, t.center.x, t.center.y, t.center.z,
+                                            std::max(0.02, 2.0 * t.radius), band_height, 0.8f);
     switch (t.method)
     {
       case rbpf_slam::Trunk::METHOD_CENTROID:  // orange
@@ -316,19 +327,8 @@ visualization_msgs::MarkerArray::Ptr landmarkMarkers(const ros::Time& stamp, con
   for (std::size_t i = 0; i < map.size(); ++i)
   {
     const core::Landmark& l = map[i];
-    visualization_msgs::Marker m;
-    m.header = clear.header;
-    m.ns = "landmarks";
-    m.id = l.id;
-    m.type = visualization_msgs::Marker::CYLINDER;
-    m.action = visualization_msgs::Marker::ADD;
-    m.pose.position.x = l.mean.x();
-    m.pose.position.y = l.mean.y();
-    m.pose.position.z = 1.0;
-    m.pose.orientation.w = 1.0;
-    m.scale.x = m.scale.y = std::max(0.02, 2.0 * l.radius);
-    m.scale.z = 2.0;
-    m.color.a = 0.8f;
+    visualization_msgs::Marker m = cylinder(clear.header, "landmarks", l.id, l.mean.x(), l.mean.y(), 1.0,
+                                            std::max(0.02, 2.0 * l.radius), 2.0, 0.8f);
     if (l.provisional)  // yellow
     {
       m.color.r = 1.0f;
@@ -381,20 +381,9 @@ visualization_msgs::MarkerArray::Ptr changeMarkers(const ros::Time& stamp, const
   {
     if (c.kind == core::ChangeKind::kChanged)
       continue;
-    visualization_msgs::Marker m;
-    m.header = clear.header;
-    m.ns = core::toString(c.kind);
-    m.id = c.id;
-    m.type = visualization_msgs::Marker::CYLINDER;
-    m.action = visualization_msgs::Marker::ADD;
-    m.pose.position.x = c.center.x();
-    m.pose.position.y = c.center.y();
-    m.pose.position.z = 1.5;
-    m.pose.orientation.w = 1.0;
     const double dbh = c.kind == core::ChangeKind::kFelled ? c.dbh_before : c.dbh_after;
-    m.scale.x = m.scale.y = std::max(0.3, std::isfinite(dbh) ? dbh + 0.2 : 0.3);
-    m.scale.z = 3.0;
-    m.color.a = 0.6f;
+    visualization_msgs::Marker m = cylinder(clear.header, core::toString(c.kind), c.id, c.center.x(), c.center.y(), 1.5,
+                                            std::max(0.3, std::isfinite(dbh) ? dbh + 0.2 : 0.3), 3.0, 0.6f);
     if (c.kind == core::ChangeKind::kFelled)
       m.color.r = 1.0f;
     else

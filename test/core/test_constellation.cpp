@@ -6,35 +6,16 @@
 
 #include <gtest/gtest.h>
 
+#include "stand_test_util.h"
+
 #include "rbpf_slam/core/forest_map/constellation.h"
 
 using namespace rbpf_slam::core;
 
+using rbpf_slam::test::randomStand;
+
 namespace
 {
-std::vector<Landmark> randomStand(int n, double size, unsigned seed)
-{
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> pos(0.0, size), rad(0.08, 0.35);
-  std::vector<Landmark> trees;
-  while (static_cast<int>(trees.size()) < n)
-  {
-    Landmark l;
-    l.mean = Eigen::Vector2d(pos(rng), pos(rng));
-    bool clear = true;
-    for (const Landmark& o : trees)
-      clear = clear && (o.mean - l.mean).norm() > 1.5;
-    if (!clear)
-      continue;
-    l.radius = rad(rng);
-    l.radius_variance = 0.01 * 0.01;
-    l.covariance = 0.03 * 0.03 * Eigen::Matrix2d::Identity();
-    l.provisional = false;
-    l.id = static_cast<int>(trees.size());
-    trees.push_back(l);
-  }
-  return trees;
-}
 
 /** The trees within @p range of @p pose (map frame), in the robot's frame, with noise. */
 std::vector<TrunkPoint> seenFrom(const std::vector<Landmark>& trees, const Pose2& pose, double range, unsigned seed)

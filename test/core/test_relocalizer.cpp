@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "stand_test_util.h"
+
 #include "rbpf_slam/core/forest_map/relocalization.h"
 
 using rbpf_slam::core::Landmark;
@@ -16,31 +18,10 @@ using rbpf_slam::core::Relocalizer;
 using rbpf_slam::core::TrunkMethod;
 using rbpf_slam::core::TrunkObservation;
 
+using rbpf_slam::test::randomStand;
+
 namespace
 {
-std::vector<Landmark> randomStand(int n, double size, unsigned seed)
-{
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> pos(0.0, size), rad(0.08, 0.35);
-  std::vector<Landmark> trees;
-  while (static_cast<int>(trees.size()) < n)
-  {
-    Landmark l;
-    l.mean = Eigen::Vector2d(pos(rng), pos(rng));
-    bool clear = true;
-    for (const Landmark& o : trees)
-      clear = clear && (o.mean - l.mean).norm() > 1.5;
-    if (!clear)
-      continue;
-    l.radius = rad(rng);
-    l.radius_variance = 0.01 * 0.01;
-    l.covariance = 0.03 * 0.03 * Eigen::Matrix2d::Identity();
-    l.provisional = false;
-    l.id = static_cast<int>(trees.size());
-    trees.push_back(l);
-  }
-  return trees;
-}
 
 /** The trees within 12 m of the sensor at @p sensor (map frame), in the sensor's frame, with 3 cm of noise. */
 std::vector<TrunkObservation> sweep(const std::vector<Landmark>& trees, const Pose2& sensor, unsigned seed)
@@ -125,7 +106,7 @@ TEST(Relocalizer, WhileTrackingAWrongEstimateIsReplacedAndARightOneConfirmed)
     RelocalizationStatus status;
     std::vector<Pose2> starts;
     // The saved map's trees are re-observed: no search.
-    EXPECT_EQ(r.whileTracking({}, kMount, Pose2(), kOdomInMap, false, 0.0, &status, &starts),
+    EXPECT_EQ(r.whileTracking({}, kMount, Pose2(), [] { return kOdomInMap; }, false, 0.0, &status, &starts),
               Relocalizer::Tracking::kNoSearch);
     EXPECT_FALSE(status.active);
     Relocalizer::Tracking t = Relocalizer::Tracking::kNoSearch;
@@ -137,8 +118,8 @@ TEST(Relocalizer, WhileTrackingAWrongEstimateIsReplacedAndARightOneConfirmed)
       const Pose2 truth = kOdomInMap * odom;
       const Pose2 estimate = wrong ? Pose2(truth.x + 4.0, truth.y, truth.theta) : truth;
       starts.clear();
-      t = r.whileTracking(sweep(trees, truth * kMount, 30 + k), kMount, odom, estimate, true, 0.5 * k, &status,
-                          &starts);
+      t = r.whileTracking(sweep(trees, truth * kMount, 30 + k), kMount, odom, [&] { return estimate; }, true,
+                          0.5 * k, &status, &starts);
       EXPECT_NE(t, Relocalizer::Tracking::kNoSearch) << "the trees not re-observed start a search";
       EXPECT_TRUE(status.lost);
     }

@@ -63,8 +63,8 @@ public:
 
   /** @brief The map now: the best particle's trees (none before the first update), the anchor, the viewpoints. */
   ForestMap currentMap() const;
-  /** @brief The changes of @p now since the saved map (none without one). */
-  std::vector<core::TreeChange> changes(const ForestMap& now) const;
+  /** @brief The changes of the trees @p now since the saved map (none without one). */
+  std::vector<core::TreeChange> changes(const std::vector<core::Landmark>& now) const;
   /**
    * @brief The files of the current map saved as @p path (see the class); @p summary gets what was written, in
    * words (the trees and, from a saved map, the counts of the changes).

@@ -151,8 +151,9 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
   RelocalizationStatus status;
   std::vector<Pose2> starts;
   const Pose2 mount(sw.mount.x, sw.mount.y, sw.mount.yaw);
-  const Relocalizer::Tracking t = relocalizer_->whileTracking(sw.trunks, mount, odom_mid, filter_->estimate(),
-                                                              u->health.saved_map_unobserved, travel_, &status, &starts);
+  const Relocalizer::Tracking t =
+      relocalizer_->whileTracking(sw.trunks, mount, odom_mid, [this] { return filter_->estimate(); },
+                                  u->health.saved_map_unobserved, travel_, &status, &starts);
   if (t == Relocalizer::Tracking::kNoSearch)
     return;
   if (t == Relocalizer::Tracking::kRecovered)

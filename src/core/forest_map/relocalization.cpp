@@ -130,8 +130,9 @@ bool Relocalizer::search(const std::vector<TrunkObservation>& trunks, const Pose
 }
 
 Relocalizer::Tracking Relocalizer::whileTracking(const std::vector<TrunkObservation>& trunks, const Pose2& mount,
-                                                const Pose2& odom_mid, const Pose2& estimate, bool unobserved,
-                                                double travel, RelocalizationStatus* status, std::vector<Pose2>* starts)
+                                                const Pose2& odom_mid, const std::function<Pose2()>& estimate_of,
+                                                bool unobserved, double travel, RelocalizationStatus* status,
+                                                std::vector<Pose2>* starts)
 {
   const RelocalizationConfig& rc = config_;
   const bool before = last_unobserved_;
@@ -153,6 +154,7 @@ Relocalizer::Tracking Relocalizer::whileTracking(const std::vector<TrunkObservat
   Tracking result = Tracking::kSearching;
   if (search(trunks, mount, odom_mid, &st, starts))
   {
+    const Pose2 estimate = estimate_of();
     const Pose2 d = between(estimate, starts->front());
     // The estimate's own support among the trunks the search gathered (odometry frame -> map by the estimate).
     const int estimate_inliers = matcher_.inliers(last_seen_, estimate * odom_mid.inverse());

@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_FOREST_MAP_RELOCALIZATION_H
 #define RBPF_SLAM_CORE_FOREST_MAP_RELOCALIZATION_H
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -93,7 +94,8 @@ public:
     kRecovered,  ///< found elsewhere: start the particles again over the starts (the hypotheses and the estimate)
   };
   /**
-   * @brief A sweep while tracking with the estimate @p estimate: a search begins when @p unobserved (the health says
+   * @brief A sweep while tracking, @p estimate giving the filter's estimate (asked only when a search finds a pose):
+   * a search begins when @p unobserved (the health says
    * the saved map's trees are not re-observed) turns true, or a window of travel after the last search ended while it
    * stays so; @p travel is the odometry travel of the timeline. A pose found farther than recover_distance or
    * recover_angle from the estimate, explaining recover_min_inliers trunks and recover_margin more than the estimate
@@ -101,7 +103,8 @@ public:
    * gives up.
    */
   Tracking whileTracking(const std::vector<TrunkObservation>& trunks, const Pose2& mount, const Pose2& odom_mid,
-                         const Pose2& estimate, bool unobserved, double travel, RelocalizationStatus* status,
+                         const std::function<Pose2()>& estimate, bool unobserved, double travel,
+                         RelocalizationStatus* status,
                          std::vector<Pose2>* starts);
 
   const RelocalizationConfig& config() const { return config_; }
