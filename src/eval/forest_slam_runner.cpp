@@ -137,6 +137,22 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
         }
         if (u.health.level == HealthLevel::kWarn)
           ++res.health_warnings;
+        if (u.loop.kind != LoopEvent::Kind::kNone)
+        {
+          res.max_loop_seconds = std::max(res.max_loop_seconds, u.loop.seconds);
+          if (u.loop.kind == LoopEvent::Kind::kRejected)
+            ++res.loops_rejected;
+          else
+          {
+            ++res.loops_closed;
+            const std::size_t last = res.estimate.size() - 1;
+            const double before = last > 0 ? std::hypot(res.estimate[last - 1].x - res.truth[last - 1].x,
+                                                        res.estimate[last - 1].y - res.truth[last - 1].y) :
+                                             0.0;
+            const double after = std::hypot(u.estimate.x - truth.x, u.estimate.y - truth.y);
+            res.false_loops += after > 1.0 && after > before;
+          }
+        }
         // Trees inside the true sensor's scope at this instant.
         const Pose2 true_sensor = truth * mount_pose;
         for (std::size_t k = 0; k < res.trees.size(); ++k)
@@ -191,6 +207,36 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
       if (cover_updates[v] > 0)
         res.coverage = static_cast<double>(cover_inside[v]) / cover_updates[v];
       res.ate_odometry = absoluteTrajectoryRmse(res.odometry, res.truth);
+    }
+    const SmoothedRun smoothed = pipeline.smoothed();
+    if (smoothed.ok && !smoothed.poses.empty())
+    {
+      // The smoothed path is one pose per filter update: paired with the truth by stamp.
+      std::vector<Pose2> est, tru;
+      std::size_t j = 0;
+      for (std::size_t i = 0; i < smoothed.stamps.size(); ++i)
+      {
+        while (j < res.stamps.size() && res.stamps[j] < smoothed.stamps[i] - 1e-9)
+          ++j;
+        if (j < res.stamps.size() && std::abs(res.stamps[j] - smoothed.stamps[i]) < 1e-9)
+        {
+          est.push_back(smoothed.poses[i]);
+          tru.push_back(res.truth[j]);
+        }
+      }
+      if (!est.empty())
+      {
+        res.smoothed = true;
+        res.final_error_smoothed = std::hypot(est.back().x - tru.back().x, est.back().y - tru.back().y);
+        res.ate_smoothed = absoluteTrajectoryRmse(est, tru);
+        res.landmarks_smoothed = smoothed.trees;
+        res.stamps_smoothed = smoothed.stamps;
+        res.estimate_smoothed = smoothed.poses;
+        std::vector<MapPoint> smoothed_features;
+        for (const Landmark& l : smoothed.trees)
+          smoothed_features.push_back({ l.mean, l.radius });
+        res.map_smoothed = scoreMap(res.trees, res.tree_seen, smoothed_features, match_gate);
+      }
     }
   }
   return results;

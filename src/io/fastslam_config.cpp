@@ -64,6 +64,22 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   if (!core::parsePoseEstimate(estimate, &c->estimate))
     throw std::runtime_error("parameter 'estimate' must be mean or best, not '" + estimate + "'");
   p.get("mixture_fraction", &c->mixture_fraction);
+  core::LoopClosureConfig& lc = c->loop_closure;
+  p.get("loop_closure/enabled", &lc.enabled);
+  p.get("loop_closure/search_interval", &lc.search_interval);
+  p.get("loop_closure/recent_time", &lc.detection.recent_time);
+  p.get("loop_closure/recent_radius", &lc.detection.recent_radius);
+  p.get("loop_closure/old_time", &lc.detection.old_time);
+  p.get("loop_closure/min_trees", &lc.detection.constellation.min_inliers);
+  p.get("loop_closure/min_correction", &lc.detection.min_correction);
+  p.get("loop_closure/confirmations", &lc.detection.confirmations);
+  p.get("loop_closure/keyframe_distance", &lc.smoother.keyframe_distance);
+  p.get("loop_closure/keyframe_angle", &lc.smoother.keyframe_angle);
+  p.get("loop_closure/robust_scale", &lc.smoother.robust_scale);
+  p.get("loop_closure/loop_sigma", &lc.smoother.loop_sigma);
+  p.get("loop_closure/loop_quantile", &lc.smoother.loop_quantile);
+  p.get("loop_closure/max_iterations", &lc.smoother.max_iterations);
+  p.get("loop_closure/time_budget", &lc.smoother.time_budget);
   p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())

@@ -53,7 +53,11 @@ ForestMap FastSlamMapSession::currentMap() const
   map.anchor = pipeline_->anchor();
   map.viewpoints = pipeline_->viewpoints();
   if (pipeline_->initialized())
-    map.trees = pipeline_->filter().bestTrees();
+  {
+    // With loop closure the map is the smoothed one (every loop closed, the path and trees smoothed together).
+    const core::SmoothedRun smoothed = pipeline_->smoothed();
+    map.trees = smoothed.ok ? smoothed.trees : pipeline_->filter().bestTrees();
+  }
   return map;
 }
 

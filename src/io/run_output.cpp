@@ -68,10 +68,11 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
 
 FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_tables)
 {
-  for (std::ostringstream* s : { &estimate_, &odometry_, &table_ })
+  for (std::ostringstream* s : { &estimate_, &odometry_, &table_, &loops_ })
     s->precision(12);
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
-            "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy\n";
+            "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop\n";
+  loops_ << "stamp,kind,matched,shift,seconds,keyframes,chi2,chi2_bound,reason\n";
 }
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
@@ -109,7 +110,17 @@ void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
     ++searching_;
     return;
   }
-  addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health);
+  addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health, u.loop);
+}
+
+std::string FastSlamRunRecord::loopSummary() const
+{
+  if (loops_closed_ == 0 && loops_rejected_ == 0)
+    return "";
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "loops: %d closed, %d refused by the smoother; the longest solve %.3f s",
+                loops_closed_, loops_rejected_, max_loop_seconds_);
+  return buf;
 }
 
 std::string FastSlamRunRecord::lostSummary() const
@@ -150,8 +161,18 @@ std::string FastSlamRunRecord::relocalizationSummary() const
 
 void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2& estimate,
                                   const core::Pose2& odometry, const core::FastSlamUpdateStats& st,
-                                  const core::HealthStatus& health)
+                                  const core::HealthStatus& health, const core::LoopEvent& loop)
 {
+  if (loop.kind != core::LoopEvent::Kind::kNone)
+  {
+    (loop.kind == core::LoopEvent::Kind::kClosed ? loops_closed_ : loops_rejected_) += 1;
+    max_loop_seconds_ = std::max(max_loop_seconds_, loop.seconds);
+    std::string reason = loop.reason;
+    std::replace(reason.begin(), reason.end(), ',', ';');
+    loops_ << stamp << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
+           << loop.seconds << ',' << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
+           << reason << '\n';
+  }
   if (timeline != timeline_)
   {
     stamps_.clear();
@@ -170,9 +191,10 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
            << (st.relocalizing ? 1 : 0) << ',' << core::toString(health.level);
     if (st.has_cloud)
       table_ << ',' << st.cloud_mean.x() << ',' << st.cloud_mean.y() << ',' << st.cloud_covariance(0, 0) << ','
-             << st.cloud_covariance(0, 1) << ',' << st.cloud_covariance(1, 1) << '\n';
+             << st.cloud_covariance(0, 1) << ',' << st.cloud_covariance(1, 1);
     else
-      table_ << ",,,,,\n";
+      table_ << ",,,,,";
+    table_ << ',' << core::toString(loop.kind) << '\n';
   }
   if (health.level == core::HealthLevel::kWarn)
   {
@@ -198,7 +220,8 @@ std::string FastSlamRunRecord::healthSummary() const
   return s.str();
 }
 
-std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const core::FastSlam& filter) const
+std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const core::FastSlam& filter,
+                                                  const core::SmoothedRun* smoothed) const
 {
   std::vector<FileContent> out;
   out.emplace_back(dir + "/estimate.tum", estimate_.str());
@@ -218,6 +241,16 @@ std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const 
   for (std::size_t i = 0; i < best.map.size(); ++i)
     landmarks.push_back(best.map[i]);
   out.emplace_back(dir + "/map.csv", landmarksCsv(landmarks));
+  out.emplace_back(dir + "/loops.csv", loops_.str());
+  if (smoothed && smoothed->ok)
+  {
+    std::ostringstream t;
+    t.precision(12);
+    for (std::size_t i = 0; i < smoothed->poses.size(); ++i)
+      writeTumLine(t, smoothed->stamps[i], smoothed->poses[i]);
+    out.emplace_back(dir + "/estimate_smoothed.tum", t.str());
+    out.emplace_back(dir + "/map_smoothed.csv", landmarksCsv(smoothed->trees));
+  }
   return out;
 }
 

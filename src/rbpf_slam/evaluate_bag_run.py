@@ -201,6 +201,15 @@ def _main(argv):
     summary, transforms, compared = ev.evaluate(est, odo, ref['t'], ref['xy'], ref['yaw'], truth_map, features,
                                                 tuple(args.point_offset), not args.no_fit, args.gate,
                                                 args.rpe_distance, no_fit_too=True)
+    smoothed_path = os.path.join(args.run, 'estimate_smoothed.tum')
+    if os.path.exists(smoothed_path):
+        # Loop closure: the run smoothed at its end, scored the same way (its own fit).
+        smoothed_map = os.path.join(args.run, 'map_smoothed.csv')
+        s_features = ev.read_map_csv(smoothed_map, args.include_provisional) if os.path.exists(smoothed_map) else None
+        s_summary, _, _ = ev.evaluate(ev.read_tum(smoothed_path), None, ref['t'], ref['xy'], ref['yaw'], truth_map,
+                                      s_features, tuple(args.point_offset), not args.no_fit, args.gate,
+                                      args.rpe_distance, no_fit_too=True)
+        summary['smoothed'] = {k: s_summary.get(k) for k in ('estimate', 'map', 'no_fit')}
     summary['notes'] = notes
     summary['reference'] = {'topic': ref['topic'], 'type': ref['type'], 'frame': ref['frame'],
                             'messages': ref['messages'], 'skipped': ref['skipped'],

@@ -280,6 +280,15 @@ def _main(argv):
     ax.plot(feats['x'][~prov], feats['y'][~prov], 'b+', ms=10, label='landmarks')
     if prov.any():
         ax.plot(feats['x'][prov], feats['y'][prov], 'c+', ms=8, label='provisional')
+    smoothed = None
+    if os.path.exists(base + '_estimate_smoothed.tum'):
+        # Loop closure: the run smoothed at its end (path and map).
+        ts, sm = read_tum(base + '_estimate_smoothed.tum')
+        sfeats = ev.read_landmarks_csv(base + '_map_smoothed.csv')
+        ax.plot(sm[:, 0], sm[:, 1], 'm-', lw=1.2, label='smoothed (loop closure)')
+        ax.plot(sfeats['x'], sfeats['y'], 'mx', ms=7, label='smoothed map')
+        idx = np.clip(np.searchsorted(t, ts), 0, len(t) - 1)
+        smoothed = (ts, np.hypot(*(sm - tru[idx]).T))
     ax.set_aspect('equal')
     ax.set_xlabel('x [m] (start frame)')
     ax.set_ylabel('y [m]')
@@ -289,6 +298,8 @@ def _main(argv):
 
     ax2.plot(t, np.hypot(*(est - tru).T), 'b-', label='FastSLAM')
     ax2.plot(t, np.hypot(*(odo - tru).T), 'r--', label='raw odometry')
+    if smoothed is not None:
+        ax2.plot(smoothed[0], smoothed[1], 'm-', label='smoothed')
     ax2.set_xlabel('time [s]')
     ax2.set_ylabel('position error [m]')
     ax2.set_title('error over time')

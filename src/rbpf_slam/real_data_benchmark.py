@@ -109,6 +109,8 @@ def run_figures(evaluation, wall_s):
     """The figures of one run from its evaluation.json (keys an older evaluation lacks are None)."""
     ev = evaluation or {}
     est, odo = ev.get('estimate') or {}, ev.get('odometry') or {}
+    sm = ev.get('smoothed') or {}
+    sm_est, sm_nf = sm.get('estimate') or {}, sm.get('no_fit') or {}
     nf = ev.get('no_fit') or {}
     m, m_nf = ev.get('map') or {}, nf.get('map') or {}
     cov = ev.get('coverage_95') or {}
@@ -116,6 +118,7 @@ def run_figures(evaluation, wall_s):
     warned, updates = (hw[0], hw[1]) if hw and len(hw) == 2 else (None, None)
     return {
         'ate': est.get('path_rms'), 'ate_no_fit': (nf.get('estimate') or {}).get('path_rms'),
+        'ate_smoothed': sm_est.get('path_rms'), 'ate_smoothed_no_fit': (sm_nf.get('estimate') or {}).get('path_rms'),
         'dr_ate': odo.get('path_rms'), 'dr_ate_no_fit': (nf.get('odometry') or {}).get('path_rms'),
         'final_error': est.get('final_error'), 'dr_final_error': odo.get('final_error'),
         'landmarks': m.get('trees'), 'features': m.get('features'),
@@ -144,6 +147,8 @@ LABEL_WIDTH = 36
 ROWS = [
     ('ATE, rigid fit [m]', 'ate', 'dr_ate', 'max', 1.0, '%.2f', False),
     ('ATE, no fit [m]', 'ate_no_fit', 'dr_ate_no_fit', 'max', 1.0, '%.2f', True),
+    ('smoothed: ATE, rigid fit [m]', 'ate_smoothed', 'dr_ate', 'max', 1.0, '%.2f', False),
+    ('smoothed: ATE, no fit [m]', 'ate_smoothed_no_fit', 'dr_ate_no_fit', 'max', 1.0, '%.2f', True),
     ('landmarks matched (of %s)', 'matched', None, 'min', 1.0, '%.0f', True),
     ('duplicates', 'duplicates', None, 'max', 1.0, '%.0f', True),
     ('spurious', 'spurious', None, 'max', 1.0, '%.0f', True),

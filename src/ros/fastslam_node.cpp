@@ -99,6 +99,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   odom_path_.header.frame_id = config_.map_frame;
   odom_path_pub_ = nh_.advertise<nav_msgs::Path>("odom_path", 2);
   scope_pub_ = nh_.advertise<visualization_msgs::Marker>("scope", 2);
+  loops_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("loop_markers", 2, true);
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   save_srv_ = pnh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
       "save_inventory", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
@@ -301,6 +302,7 @@ void FastSlamRos::processPending()
       continue;  // no estimate yet: no map -> odom
     }
     ++updates_;
+    publishLoop(u);
     if (u.stats.map_full > 0)
       ROS_WARN_THROTTLE(10.0, "%s: the map holds max_landmarks (%d) landmarks: %d observations made no new landmark",
                         name_.c_str(), pipeline_->filter().config().max_landmarks, u.stats.map_full);
@@ -316,6 +318,21 @@ void FastSlamRos::processPending()
     publishHealth(u);
     publish(ros::Time(u.stamp), u.odometry, u.estimate);
   }
+}
+
+void FastSlamRos::publishLoop(const core::PipelineUpdate& u)
+{
+  if (u.loop.kind == core::LoopEvent::Kind::kNone)
+    return;
+  if (u.loop.kind == core::LoopEvent::Kind::kClosed)
+    ROS_INFO("%s: loop closed at %.3f s: %d trees matched, the smoothed path moved the robot by %.2f m (solve %.3f s, "
+             "%d keyframes)", name_.c_str(), u.stamp, u.loop.matched, u.loop.shift, u.loop.seconds, u.loop.keyframes);
+  else
+    ROS_WARN("%s: a loop found at %.3f s (%d trees matched) was refused: %s", name_.c_str(), u.stamp, u.loop.matched,
+             u.loop.reason.c_str());
+  loop_markers_.markers.push_back(
+      loopMarker(ros::Time(u.stamp), config_.map_frame, u.loop, static_cast<int>(loop_markers_.markers.size())));
+  loops_pub_.publish(loop_markers_);
 }
 
 void FastSlamRos::publishHealth(const core::PipelineUpdate& u)

@@ -371,6 +371,37 @@ visualization_msgs::MarkerArray::Ptr landmarkMarkers(const ros::Time& stamp, con
   return markers;
 }
 
+visualization_msgs::Marker loopMarker(const ros::Time& stamp, const std::string& frame, const core::LoopEvent& loop,
+                                      int id, double z)
+{
+  visualization_msgs::Marker m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame;
+  m.ns = "loops";
+  m.id = id;
+  m.type = visualization_msgs::Marker::LINE_LIST;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = 0.15;
+  const bool closed = loop.kind == core::LoopEvent::Kind::kClosed;
+  m.color.r = closed ? 0.1f : 0.9f;
+  m.color.g = closed ? 0.8f : 0.1f;
+  m.color.b = 0.1f;
+  m.color.a = 1.0f;
+  for (const auto& link : loop.links)
+  {
+    geometry_msgs::Point a, b;
+    a.x = link.first.x();
+    a.y = link.first.y();
+    b.x = link.second.x();
+    b.y = link.second.y();
+    a.z = b.z = z;
+    m.points.push_back(a);
+    m.points.push_back(b);
+  }
+  return m;
+}
+
 visualization_msgs::MarkerArray::Ptr changeMarkers(const ros::Time& stamp, const std::string& frame,
                                                    const std::vector<core::TreeChange>& changes)
 {

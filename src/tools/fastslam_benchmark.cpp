@@ -8,6 +8,7 @@
 //                                       [--proposal fastslam1|fastslam2] [--mixture F]
 //                                       [--odometry-noise K] [--sim-config FILE] [--config FILE]...
 //                                       [--extraction-config FILE] [--start X Y YAW_DEG] [--gate M] [--fail-ate M]
+//                                       [--loop-closure on|off|both]
 //
 // --sim-config: simulator, follower and relay keys (config/forest_sim.yaml); the robot, its odometry and the
 //   sensor: with the 3D lidar disabled and the 2D scanner enabled the runs use the scanner.
@@ -17,6 +18,8 @@
 // --start: the start pose in the world (default: the simulator configuration's, (0, 15, 0)); the drive's waypoints
 //   are in the start frame.
 // --gate: a feature counts as a tree within this distance [m] (default 0.5).
+// --loop-closure: loop closure on, off, or both as two variants on the same data (default: the configuration's, on).
+//   With it on, each seed's row has a second line (loops closed, false, refused; the run smoothed at its end).
 // A run FAILS when its final error exceeds 1 m (with --fail-ate M: when its ATE exceeds M m instead) or when the
 // robot collided (a collision ends the run; it is printed with the run).
 #include <pcl/console/print.h>
@@ -89,6 +92,9 @@ struct Series
   std::string label, proposal, method;
   int particles = 0;
   std::vector<double> fin, fin_dr, ate, ate_dr, dist, recall, rad, dup, spur, rate, filter_rate, driven, speed, coverage;
+  bool loops = false;  ///< loop closure on
+  std::vector<double> fin_smoothed, ate_smoothed, loop_seconds;
+  int loops_closed = 0, loops_rejected = 0, false_loops = 0, failed_smoothed = 0;
   std::vector<std::string> rows;
   int failed = 0, collided = 0;
   int warned = 0, failed_warned = 0;  ///< runs whose filter health warned; failed runs among them
@@ -109,6 +115,7 @@ int main(int argc, char** argv)
   std::vector<std::string> filter_config_paths;
   bool particles_given = false, method_given = false, proposal_given = false, mixture_given = false;
   bool start_given = false;
+  std::string loop_closure;  // --loop-closure on|off|both (default: the configuration's)
   core::Pose2 start_pose;
   double gate = 0.5, fail_ate = 0.0;
   auto number = [&](const char* option, const char* text) {
@@ -176,6 +183,8 @@ int main(int argc, char** argv)
     }
     else if (a == "--odometry-noise" && has)
       odometry_noise = std::atof(argv[++i]);
+    else if (a == "--loop-closure" && has)
+      loop_closure = argv[++i];
     else
     {
       std::fprintf(stderr,
@@ -183,7 +192,7 @@ int main(int argc, char** argv)
                    "[--method circle|centroid[,...]] [--first-seed S] [--ideal-odometry] [--out DIR]\n"
                    "       [--proposal fastslam1|fastslam2[,...]] [--mixture F] [--odometry-noise K]\n"
                    "       [--sim-config FILE] [--config FILE]... [--extraction-config FILE] [--start X Y YAW_DEG]\n"
-                   "       [--gate M] [--fail-ate M]\n"
+                   "       [--gate M] [--fail-ate M] [--loop-closure on|off|both]\n"
                    "A run fails when its final error exceeds 1 m (with --fail-ate M: its ATE exceeds M m) or the robot "
                    "collided.\n",
                    argv[0]);
@@ -252,6 +261,14 @@ int main(int argc, char** argv)
     }
     std::vector<core::ForestSlamVariant> variants;
     std::vector<Series> series;
+    std::vector<std::string> loop_settings{ "" };
+    if (loop_closure == "both")
+      loop_settings = { "off", "on" };
+    else if (loop_closure == "on" || loop_closure == "off")
+      loop_settings = { loop_closure };
+    else if (!loop_closure.empty())
+      throw std::runtime_error("--loop-closure must be on, off or both, not '" + loop_closure + "'");
+    for (const std::string& loops : loop_settings)
     for (const std::string& proposal : splitList(proposals))
       for (const std::string& method : splitList(methods))
         for (const std::string& np : splitList(particle_list))
@@ -265,6 +282,8 @@ int main(int argc, char** argv)
             throw std::runtime_error("--proposal must be fastslam1 or fastslam2");
           v.filter.particles = std::atoi(np.c_str());
           v.filter.mixture_fraction = mixture;
+          if (!loops.empty())
+            v.filter.loop_closure.enabled = loops == "on";
           const std::string err = v.filter.validate();
           if (!err.empty())
             throw std::runtime_error(err);
@@ -273,7 +292,8 @@ int main(int argc, char** argv)
           s.proposal = proposal;
           s.method = method;
           s.particles = v.filter.particles;
-          s.label = proposal + "_" + method + "_p" + np;
+          s.label = proposal + "_" + method + "_p" + np + (loops.empty() ? "" : "_loops_" + loops);
+          s.loops = v.filter.loop_closure.enabled;
           series.push_back(s);
         }
     const std::string world_name = world_path.substr(world_path.find_last_of('/') + 1);
@@ -301,6 +321,29 @@ int main(int argc, char** argv)
                       100.0 * r.map.recall, r.map.duplicates, r.map.spurious, 100.0 * r.map.radius_rms, r.sweeps, hz,
                       r.health_warnings, 100.0 * r.coverage);
         q.rows.push_back(row);
+        if (q.loops)
+        {
+          char loop_row[256];
+          std::snprintf(loop_row, sizeof(loop_row),
+                        "      loops: %d closed (%d false), %d refused, longest solve %.3f s; smoothed: final %.3f m, "
+                        "ATE %.3f m, tree-ft %.3f m, recall %.1f%%, dup %d, spur %d\n",
+                        r.loops_closed, r.false_loops, r.loops_rejected, r.max_loop_seconds, r.final_error_smoothed,
+                        r.ate_smoothed, r.map_smoothed.mean_distance, 100.0 * r.map_smoothed.recall,
+                        r.map_smoothed.duplicates, r.map_smoothed.spurious);
+          q.rows.back() += loop_row;
+          q.loops_closed += r.loops_closed;
+          q.loops_rejected += r.loops_rejected;
+          q.false_loops += r.false_loops;
+          q.loop_seconds.push_back(r.max_loop_seconds);
+          if (r.smoothed)
+          {
+            q.fin_smoothed.push_back(r.final_error_smoothed);
+            q.ate_smoothed.push_back(r.ate_smoothed);
+          }
+          const bool failed_smoothed =
+              !r.smoothed || (fail_ate > 0.0 ? r.ate_smoothed > fail_ate : r.final_error_smoothed > 1.0) || r.collided;
+          q.failed_smoothed += failed_smoothed;
+        }
         if (series.size() == 1)
         {
           if (s == first_seed)
@@ -312,7 +355,7 @@ int main(int argc, char** argv)
             std::printf(header, "seed", "final [m]", "DR [m]", "ATE [m]", "DR ATE", "tree-ft", "recall", "dup", "spur",
                         "r RMS cm", "sweeps", "rate Hz", "warned", "cover");
           }
-          std::fputs(row, stdout);
+          std::fputs(q.rows.back().c_str(), stdout);
           std::fflush(stdout);
         }
         else
@@ -354,6 +397,11 @@ int main(int argc, char** argv)
           io::writeTum(base + "_odometry.tum", r.stamps, r.odometry);
           io::writeTum(base + "_truth.tum", r.stamps, r.truth);
           io::writeLandmarksCsv(base + "_map.csv", r.landmarks);
+          if (r.smoothed)
+          {
+            io::writeTum(base + "_estimate_smoothed.tum", r.stamps_smoothed, r.estimate_smoothed);
+            io::writeLandmarksCsv(base + "_map_smoothed.csv", r.landmarks_smoothed);
+          }
           std::ostringstream trees;
           trees << "x,y,radius,seen\n";
           for (std::size_t t = 0; t < r.trees.size(); ++t)
@@ -383,6 +431,12 @@ int main(int argc, char** argv)
       std::printf("worst  %9.3f %9.3f %8.3f %8.3f %8.3f %6.1f%% %5.0f %5.0f %8.2f %7s %8.1f %6s %5.1f%%\n", worst(q.fin),
                   best(q.fin_dr), worst(q.ate), best(q.ate_dr), worst(q.dist), 100.0 * best(q.recall), worst(q.dup),
                   worst(q.spur), 100.0 * worst(q.rad), "", best(q.rate), "", 100.0 * best(q.coverage));
+      if (q.loops)
+        std::printf("loop closure: %d loops closed (%d false), %d refused by the smoother; longest solve %.3f s "
+                    "(worst seed); smoothed at the end: final %.3f / %.3f m, ATE %.3f / %.3f m (median / worst), "
+                    "failed %d of %d\n",
+                    q.loops_closed, q.false_loops, q.loops_rejected, worst(q.loop_seconds), median(q.fin_smoothed),
+                    worst(q.fin_smoothed), median(q.ate_smoothed), worst(q.ate_smoothed), q.failed_smoothed, seeds);
       if (!out_dir.empty())
       {
         const std::string dir = series.size() == 1 ? out_dir : out_dir + "/" + q.label;
@@ -401,7 +455,14 @@ int main(int argc, char** argv)
            << jsonStats("duplicates", q.dup) << ",\n " << jsonStats("spurious", q.spur) << ",\n "
            << jsonStats("radius_rms_m", q.rad) << ",\n " << jsonStats("rate_hz", q.rate, false) << ",\n "
            << jsonStats("filter_rate_hz", q.filter_rate, false) << ",\n "
-           << jsonStats("coverage_95", q.coverage, false) << "}\n";
+           << jsonStats("coverage_95", q.coverage, false);
+        if (q.loops)
+          js << ",\n \"loops_closed\": " << q.loops_closed << ", \"false_loops\": " << q.false_loops
+             << ", \"loops_refused\": " << q.loops_rejected << ", \"failed_smoothed\": " << q.failed_smoothed
+             << ",\n " << jsonStats("final_error_smoothed_m", q.fin_smoothed) << ",\n "
+             << jsonStats("ate_smoothed_m", q.ate_smoothed) << ",\n "
+             << jsonStats("longest_loop_solve_s", q.loop_seconds);
+        js << "}\n";
         io::writeFileAtomic(dir + "/summary.json", js.str());
         std::printf("wrote %s/summary.json and per-seed TUM trajectories and maps\n", dir.c_str());
       }

@@ -534,6 +534,8 @@ void printFastSlamSummary(const Options& o, const core::FastSlamConfig& fc, cons
     std::printf("  %s\n", record.relocalizationSummary().c_str());
   if (!record.lostSummary().empty())
     std::printf("  %s\n", record.lostSummary().c_str());
+  if (!record.loopSummary().empty())
+    std::printf("  %s\n", record.loopSummary().c_str());
   const io::MapAnchor anchor = pipeline.anchor();
   if (!gps_topic.empty())
   {
@@ -634,7 +636,8 @@ int runFastSlam(const Options& o)
       out.add(f.first, f.second);
   if (out.enabled())
   {
-    for (const io::FileContent& f : record.files(o.out_dir, pipeline.filter()))
+    const core::SmoothedRun smoothed = pipeline.smoothed();
+    for (const io::FileContent& f : record.files(o.out_dir, pipeline.filter(), &smoothed))
       out.add(f.first, f.second);
     out.stream("timing.json") << timingJson(feed.sweeps, updates, pipeline.secondsExtraction(),
                                             pipeline.secondsFilter(), fc.particles, fc.seed);

@@ -166,7 +166,7 @@ def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(b
         rows = [line.strip().split(',') for line in f]
     assert header == ['stamp', 'neff', 'resampled', 'landmarks', 'observations', 'matched', 'new', 'deleted',
                       'ignored', 'matched_confirmed', 'recreated', 'pose_spread', 'relocalizing', 'health',
-                      'cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy']
+                      'cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy', 'loop']
     assert len(rows) == len(est)
     neff = np.array([float(r[1]) for r in rows if r[14] != ''])  # the filter's updates
     assert len(neff) == len(hist) and ((neff > 0) & (neff <= 100.0 + 1e-9)).all()

@@ -59,6 +59,18 @@ struct ForestSlamRunResult
   /// Share of the filter's updates in which the true position lay inside the particle cloud's 95 % region
   /// (insideRegion95; NaN without an update): about 0.95 for a filter whose stated uncertainty covers its error.
   double coverage = NAN;
+  /// Loop closure (FastSlamConfig::loop_closure): loops closed and refused; closed loops that were false (the robot
+  /// ended more than 1 m from the truth, and further than before the loop); the longest solve.
+  int loops_closed = 0, loops_rejected = 0, false_loops = 0;
+  double max_loop_seconds = 0.0;
+  /// The run smoothed at its end (TrunkSlamPipeline::smoothed(); valid when smoothed): its final position error,
+  /// ATE over the filter's updates, and its map's score.
+  bool smoothed = false;
+  double final_error_smoothed = NAN, ate_smoothed = NAN;
+  MapScore map_smoothed;
+  std::vector<Landmark> landmarks_smoothed;
+  std::vector<double> stamps_smoothed;
+  std::vector<Pose2> estimate_smoothed;
 };
 
 /**

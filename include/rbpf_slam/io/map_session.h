@@ -61,7 +61,8 @@ public:
   /** @brief How the run started, in words (a log line). */
   std::string startDescription() const;
 
-  /** @brief The map now: the best particle's trees (none before the first update), the anchor, the viewpoints. */
+  /** @brief The map now: the trees (TrunkSlamPipeline::smoothed() with loop closure, else the best particle's; none
+   * before the first update), the anchor, the viewpoints. */
   ForestMap currentMap() const;
   /** @brief The changes of the trees @p now since the saved map (none without one). */
   std::vector<core::TreeChange> changes(const std::vector<core::Landmark>& now) const;

@@ -45,9 +45,11 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
  * (~run_folder): estimate.tum (the online estimate after each update, as published), odometry.tum (the odometry at
  * the same instants), estimate_best_history.tum (the final best particle's own trajectory over the last timeline),
  * updates.csv (per update: stamp, Neff, resampled, landmarks, observations, matched, new, deleted, ignored,
- * matched_confirmed, recreated, pose_spread, relocalizing, health), health.txt (the filter's health: how many updates
- * warned that the map was being rebuilt, the first and the last warning) and map.csv (the best particle's map,
- * landmarksCsv()).
+ * matched_confirmed, recreated, pose_spread, relocalizing, health, the particle cloud, loop: none, closed or
+ * rejected), health.txt (the filter's health: how many updates warned that the map was being rebuilt, the first and
+ * the last warning), map.csv (the best particle's map, landmarksCsv()), loops.csv (every loop found: stamp, kind,
+ * matched trees, the robot's shift, the solve's seconds, keyframes, chi-square and its bound, reason) and, with loop
+ * closure, map_smoothed.csv and estimate_smoothed.tum (the run smoothed at its end: TrunkSlamPipeline::smoothed()).
  */
 class FastSlamRunRecord
 {
@@ -58,7 +60,8 @@ public:
   bool keepsTables() const { return keep_tables_; }
   /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
-                 const core::FastSlamUpdateStats& stats, const core::HealthStatus& health);
+                 const core::FastSlamUpdateStats& stats, const core::HealthStatus& health,
+                 const core::LoopEvent& loop = core::LoopEvent());
   /** @brief One pipeline update (as above); while the pipeline searches a saved map (not localized) only the search
    * is recorded (relocalizationSummary), no pose. */
   void addUpdate(const core::PipelineUpdate& u);
@@ -73,8 +76,14 @@ public:
   /** @brief The health summary of health.txt (one paragraph). */
   std::string healthSummary() const;
   std::size_t updates() const { return updates_; }
-  /** @brief The files of the folder @p dir with @p filter's present state (best history and map). */
-  std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter) const;
+  /** @brief Loops closed and refused, and the longest solve (one line; empty when no loop was found). */
+  std::string loopSummary() const;
+  int loopsClosed() const { return loops_closed_; }
+  int loopsRejected() const { return loops_rejected_; }
+  /** @brief The files of the folder @p dir with @p filter's present state (best history and map), and the smoothed
+   * run when @p smoothed is given and ok. */
+  std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter,
+                                 const core::SmoothedRun* smoothed = nullptr) const;
 
 private:
   bool keep_tables_ = true;
@@ -93,6 +102,9 @@ private:
   int lost_searches_ = 0, confirmations_ = 0, lost_gave_up_ = 0;
   bool lost_searching_ = false;
   std::vector<double> recoveries_;
+  std::ostringstream loops_;
+  int loops_closed_ = 0, loops_rejected_ = 0;
+  double max_loop_seconds_ = 0.0;
 };
 
 }  // namespace io

@@ -15,6 +15,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
@@ -138,10 +139,15 @@ private:
   core::HealthLevel last_level_ = core::HealthLevel::kOk;
   /** @brief Publishes the filter's health at 1 Hz of data time and at every change of level; warns on a change. */
   void publishHealth(const core::PipelineUpdate& u);
+  /** @brief A loop found at @p u: logged, and shown on ~loop_markers. */
+  void publishLoop(const core::PipelineUpdate& u);
   ros::ServiceServer save_srv_, save_run_srv_, save_map_srv_;
   /// The run's tree map: the saved map it started from, the current map and its files (as slam_bag's).
   std::unique_ptr<io::FastSlamMapSession> session_;
   ros::Publisher change_markers_pub_;
+  /// ~loop_markers (latched): every loop found, a line from each recent tree to the old one (green closed, red refused)
+  ros::Publisher loops_pub_;
+  visualization_msgs::MarkerArray loop_markers_;
   io::FastSlamRunRecord record_;  ///< the run folder's content (its tables only with ~run_folder set at start)
   TransformGuard tf_guard_;       ///< map -> odom: this node's to publish, or another's (named)
   int gnss_rejected_said_ = 0;    ///< fixes refused by the innovation gate, said so far

@@ -65,6 +65,10 @@ visualization_msgs::Marker::Ptr scopeMarker(const ros::Time& stamp, const std::s
 visualization_msgs::MarkerArray::Ptr landmarkMarkers(const ros::Time& stamp, const std::string& frame,
                                                      const core::LandmarkMap& map);
 /** @brief A DELETEALL, then a cylinder per felled (red, where it stood) and new (blue) tree; changed ones not. */
+/** @brief A loop the filter found (LoopEvent, closed or refused): a line from each recent tree to the old tree it
+ * was matched with (green when closed, red when refused), at the height @p z, in namespace "loops" with id @p id. */
+visualization_msgs::Marker loopMarker(const ros::Time& stamp, const std::string& frame, const core::LoopEvent& loop,
+                                      int id, double z = 1.0);
 visualization_msgs::MarkerArray::Ptr changeMarkers(const ros::Time& stamp, const std::string& frame,
                                                    const std::vector<core::TreeChange>& changes);
 

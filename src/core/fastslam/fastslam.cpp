@@ -226,6 +226,9 @@ std::string FastSlamConfig::validate() const
     return "roughening sigmas must be >= 0";
   if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
     return "mixture_fraction must be in [0, 1)";
+  const std::string loop = loop_closure.validate();
+  if (!loop.empty())
+    return loop;
   return gnss.validate();
 }
 
@@ -258,6 +261,36 @@ void FastSlam::initialize(const Pose2& start)
   best_ = 0;
   next_id_ = 0;
   deleted_positions_.clear();
+}
+
+void FastSlam::redraw(const Pose2& pose, const Eigen::Matrix3d& covariance, const LandmarkMap& map,
+                      const std::vector<Pose2>& path)
+{
+  if (particles_.empty())
+    return;
+  Eigen::Matrix3d c = 0.5 * (covariance + covariance.transpose());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(c);
+  const Eigen::Matrix3d L =
+      eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  HistoryNode<Pose2>::Ptr shared;
+  if (config_.keep_history)
+    for (std::size_t i = 0; i + 1 < path.size(); ++i)
+      shared = std::make_shared<const HistoryNode<Pose2>>(path[i], std::move(shared));
+  const double log_w = -std::log(static_cast<double>(particles_.size()));
+  for (Particle& p : particles_)
+  {
+    const Eigen::Vector3d z(random_.gaussian(1.0), random_.gaussian(1.0), random_.gaussian(1.0));
+    const Eigen::Vector3d d = L * z;
+    p.pose = Pose2(pose.x + d(0), pose.y + d(1), wrapAngle(pose.theta + d(2)));
+    p.map = map;
+    p.log_weight = log_w;
+    p.motion_covariance.setZero();
+    p.history = config_.keep_history && !path.empty() ? std::make_shared<const HistoryNode<Pose2>>(p.pose, shared) :
+                                                          HistoryNode<Pose2>::Ptr();
+  }
+  for (std::size_t j = 0; j < map.size(); ++j)
+    next_id_ = std::max(next_id_, map[j].id + 1);
+  best_ = 0;
 }
 
 void FastSlam::predict(const OdometryIncrement& u, double noise_scale)

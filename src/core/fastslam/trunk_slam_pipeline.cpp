@@ -22,9 +22,26 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
   , detector_config_(detector)
   , filter_config_(filter)
   , detector_(new TrunkDetector(detector))
-  , filter_(new FastSlam(filter))
   , gnss_(filter.gnss)
 {
+  // Loop closure smooths the best particle's own path: the filter keeps the histories.
+  if (filter_config_.loop_closure.enabled)
+  {
+    filter_config_.keep_history = true;
+    loops_.reset(new LoopClosing(filter_config_.loop_closure, filter_config_));
+  }
+  filter_.reset(new FastSlam(filter_config_));
+}
+
+SmoothedRun TrunkSlamPipeline::smoothed() const
+{
+  if (!loops_ || has_prior_)
+  {
+    SmoothedRun none;
+    none.reason = has_prior_ ? "no loop closure on a saved map" : "loop closure is disabled";
+    return none;
+  }
+  return loops_->smoothRun(*filter_);
 }
 
 void TrunkSlamPipeline::resetFilter()
@@ -47,6 +64,8 @@ void TrunkSlamPipeline::resetFilter()
   filter_.reset(new FastSlam(filter_config_));
   if (relocalizer_)
     relocalizer_->reset();
+  if (loops_)
+    loops_->reset();
   travel_ = 0.0;
   health_ = FilterHealth(healthConfig());
   gnss_.restart();
@@ -248,6 +267,8 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.stats = filter_->update(obs, u.mount, sw.scope, share);
   gnss_.use(t_mid, odom_mid, odometry_, filter_.get());
   u.relocalization = search;
+  if (loops_ && !has_prior_)
+    u.loop = loops_->afterUpdate(filter_.get(), t_mid, odom_mid, u.mount, obs, share);
   u.health = health_.add(u.stats, filter_->config().particles);
   if (!first)
   {

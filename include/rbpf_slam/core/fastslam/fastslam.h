@@ -10,6 +10,7 @@
 
 #include "rbpf_slam/core/fastslam/data_association.h"
 #include "rbpf_slam/core/forest_map/gnss.h"
+#include "rbpf_slam/core/forest_map/loop_closure_config.h"
 #include "rbpf_slam/core/filter/history_chain.h"
 #include "rbpf_slam/core/fastslam/landmark_evidence.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
@@ -117,6 +118,9 @@ struct FastSlamConfig
   /// Tracking in a saved map (TrunkSlamPipeline::setPriorMap): search the map again by constellation when the health
   /// warns that its trees are not re-observed (a lost pose), and move the particles where it finds the robot.
   bool relocalize_when_lost = true;
+  /// Loop closure within a run (TrunkSlamPipeline): a revisit found from the trees, the path and map smoothed, the
+  /// particles drawn again around the smoothed pose. Not with a saved map (that run's relocalization holds it).
+  LoopClosureConfig loop_closure;
   /// Satellite fixes (TrunkSlamPipeline::addFix): the map's anchor fitted to them, and a weak prior on the particles.
   GnssFusionConfig gnss;
 
@@ -273,6 +277,13 @@ public:
    * deviations @p sigma_xy [m] and @p sigma_theta [rad] from the filter's generator), sharing the prior map @p map.
    */
   void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta);
+  /**
+   * @brief After a loop was closed: every particle drawn around @p pose with @p covariance (x, y, theta; from the
+   * filter's generator), all sharing @p map and the path @p path (one pose per update, oldest first; its last is
+   * each particle's own pose), with equal weights. Landmark ids go on from where they were.
+   */
+  void redraw(const Pose2& pose, const Eigen::Matrix3d& covariance, const LandmarkMap& map,
+              const std::vector<Pose2>& path);
   /**
    * @brief Samples every particle's motion for one odometry increment, the noise's standard deviations
    * multiplied by @p noise_scale (partialStepNoiseScale).

@@ -20,6 +20,7 @@
 #include "rbpf_slam/core/forest_map/forest_changes.h"
 #include "rbpf_slam/core/forest_map/gnss.h"
 #include "rbpf_slam/core/forest_map/gnss_anchoring.h"
+#include "rbpf_slam/core/forest_map/loop_closing.h"
 #include "rbpf_slam/core/forest_map/relocalization.h"
 
 namespace rbpf_slam
@@ -46,6 +47,8 @@ struct PipelineUpdate
   /// set on the update that found the robot in a saved map (and on every update while searching): what the
   /// constellation search said
   RelocalizationStatus relocalization;
+  /// Loop closure at this update (LoopClosing): a loop closed (the estimate is then the smoothed one) or refused.
+  LoopEvent loop;
 };
 
 /** @brief The map of a timeline that a restart (time jumping back) ended: the best particle's trees then. */
@@ -156,6 +159,15 @@ public:
   bool localized() const { return initialized_; }
 
   const FastSlam& filter() const { return *filter_; }
+  /**
+   * @brief The run smoothed as it stands (TrunkSmoother over the best particle's path and trees, every loop closed
+   * so far in them): the path at every filter update of this timeline and the trees. Not ok (reason) without loop
+   * closure (disabled, or a saved map), before two updates, or when the solve fails.
+   */
+  SmoothedRun smoothed() const;
+  /** @brief Loops closed and refused in this timeline. */
+  int loopsClosed() const { return loops_ ? loops_->closed() : 0; }
+  int loopsRejected() const { return loops_ ? loops_->rejected() : 0; }
   /** @brief The filter's health monitor (restarts with the filter). */
   const FilterHealth& health() const { return health_; }
   bool initialized() const { return initialized_; }
@@ -178,6 +190,7 @@ private:
   FastSlamConfig filter_config_;
   std::unique_ptr<TrunkDetector> detector_;
   std::unique_ptr<FastSlam> filter_;
+  std::unique_ptr<LoopClosing> loops_;  ///< without a saved map, when enabled
   FilterHealth health_;
   bool initialized_ = false;
   bool has_prior_ = false;

@@ -1,0 +1,72 @@
+#ifndef RBPF_SLAM_CORE_FOREST_MAP_LOOP_CLOSURE_CONFIG_H
+#define RBPF_SLAM_CORE_FOREST_MAP_LOOP_CLOSURE_CONFIG_H
+
+#include <string>
+
+#include "rbpf_slam/core/forest_map/constellation.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief Parameters of the search for a revisit within one run (LoopDetector). */
+struct LoopConfig
+{
+  LoopConfig() { constellation.min_inliers = 4; }
+  /// The pair search of the second visits; a loop needs min_inliers trees explained (4: a revisit of a sparse stand
+  /// sees few trees at once, and the confirmations and the smoother's consistency test stand behind the count).
+  ConstellationConfig constellation;
+  double recent_time = 90.0;    ///< [s] trees first seen this recently ...
+  double recent_radius = 30.0;  ///< [m] ... and this near the robot are the ones around it now
+  double old_time = 60.0;       ///< [s] trees not seen for this long are the map made long ago
+  double min_correction = 0.5;  ///< [m] a smaller shift of the recent trees is no loop: association handles it
+  double min_angle = 0.05;      ///< [rad] ... unless they turn by more than this
+  int confirmations = 3;        ///< consecutive searches that agree before a loop is reported
+  double agree_distance = 0.3;  ///< [m] two searches agree when their corrections differ by less than this
+  double agree_angle = 0.03;    ///< [rad] ... and this
+};
+
+/** @brief Parameters of the smoother that closes a loop (TrunkSmoother). */
+struct SmootherConfig
+{
+  double keyframe_distance = 1.0;  ///< [m] a keyframe of the path every this much odometry travel ...
+  double keyframe_angle = 0.3;     ///< [rad] ... or this much turning
+  /// Squared Mahalanobis distance (2 dof) within which an observation is given to a tree of the map (the filter's
+  /// own association gate: 99.9 % of a true match).
+  double association_gate = 13.8;
+  /// Scale of the Cauchy loss of the observation factors, in standard deviations: an observation this far off
+  /// weighs half, so that a wrong association cannot bend the path.
+  double robust_scale = 2.0;
+  /// [m] Standard deviation of the identity of two trees a loop matched, beside their own covariances: the trees'
+  /// centres are fitted to different sides of the bark on the two passes.
+  double loop_sigma = 0.1;
+  /// The loop is rejected when its identities' residuals after the solve exceed this quantile of the chi-square
+  /// distribution (two degrees of freedom per matched tree).
+  double loop_quantile = 0.999;
+  int max_iterations = 50;  ///< Levenberg-Marquardt iterations of one solve (a bound, deterministic)
+  /// [s] A solve that takes longer, or does not converge within max_iterations, leaves the filter as it was.
+  double time_budget = 1.0;
+  /// The particles are drawn again around the smoothed pose with the marginal covariance of the smoother's last
+  /// pose, its standard deviations at least these [m], [rad].
+  double spread_floor_xy = 0.02;
+  double spread_floor_theta = 0.002;
+
+  /** @brief Empty when valid, else a message naming the first bad parameter. */
+  std::string validate() const;
+};
+
+/** @brief Loop closure within a run: detection on the best particle's map, the smoother, the particles redrawn. */
+struct LoopClosureConfig
+{
+  bool enabled = true;
+  double search_interval = 1.0;  ///< [s] between two searches for a revisit
+  LoopConfig detection;
+  SmootherConfig smoother;
+
+  std::string validate() const;
+};
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FOREST_MAP_LOOP_CLOSURE_CONFIG_H

@@ -1,0 +1,103 @@
+#ifndef RBPF_SLAM_CORE_FOREST_MAP_TRUNK_SMOOTHER_H
+#define RBPF_SLAM_CORE_FOREST_MAP_TRUNK_SMOOTHER_H
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbpf_slam/core/fastslam/fastslam.h"
+#include "rbpf_slam/core/forest_map/loop_closure_config.h"
+
+namespace rbpf_slam
+{
+namespace core
+{
+/** @brief A smoothed path and tree map, and how the solve went. */
+struct SmoothedRun
+{
+  bool ok = false;     ///< solved, converged within the budget and consistent; else nothing is to be applied
+  std::string reason;  ///< why not (or empty)
+  std::vector<double> stamps;  ///< [s] one per filter update recorded
+  std::vector<Pose2> poses;    ///< base_link in the map frame at each of them
+  std::vector<Landmark> trees; ///< the trees, moved by the solve; the trees of each identity merged into one
+  Eigen::Matrix3d last_covariance = Eigen::Matrix3d::Zero();  ///< marginal of the last pose (x, y, theta)
+  bool has_covariance = false;
+  int keyframes = 0;
+  int trees_solved = 0;   ///< trees that observations tie to the path (the others move with their keyframe)
+  int observations = 0;   ///< range-bearing factors
+  int identities = 0;     ///< identity factors (the loop's matched trees)
+  int iterations = 0;
+  double identity_chi2 = 0.0;  ///< sum of the identity factors' squared whitened residuals after the solve
+  double identity_bound = 0.0; ///< the chi-square quantile they are held to
+  double odometry_chi2 = 0.0;  ///< the same for the odometry factors, over odometry_dof degrees of freedom
+  int odometry_dof = 0;
+  double seconds = 0.0;
+};
+
+/**
+ * @brief A factor graph over the best particle's path and trees, solved with Ceres (Levenberg-Marquardt, sparse
+ * Schur elimination of the trees, one thread: deterministic).
+ *
+ * - Keyframes: the filter updates at about every keyframe_distance of odometry travel (or keyframe_angle of turn).
+ *   Each update's observations join the keyframe before it, their sensor carried there by the odometry.
+ * - Odometry factors between consecutive keyframes: the odometry's increment with the covariance of the filter's
+ *   motion noise class, propagated along the updates between them in steps of motion_step (each carrying its
+ *   share, as the filter's prediction does).
+ * - Range-bearing factors: each observation given to the tree of the map it falls on from the particle's own pose
+ *   (within association_gate); its covariance the filter's (the noise floor added, divided by the sweep's evidence
+ *   share: one independent look per view, as in the filter); a Cauchy loss.
+ * - Identity factors: two trees a loop matched are one (their difference, with both covariances and loop_sigma).
+ * - The first keyframe is held (the map frame).
+ * ROS-free.
+ */
+class TrunkSmoother
+{
+public:
+  TrunkSmoother(const SmootherConfig& config, const FastSlamConfig& filter);
+
+  /** @brief One filter update, as the filter took it: its odometry, its sensor mount on base_link, its observations
+   * (sensor frame) and their evidence share. */
+  void add(double stamp, const Pose2& odometry, const Pose2& mount, const std::vector<LandmarkObservation>& observations,
+           double evidence_share);
+  void clear() { records_.clear(); }
+  std::size_t size() const { return records_.size(); }
+
+  /**
+   * @brief Solves the graph from the path @p path (one pose per recorded update, the particle's own) and its trees
+   * @p trees, with the identities @p identities (tree ids: (recent, old); the old id is kept). Not ok (and nothing
+   * to apply) when the path does not match the records, the solve fails, does not converge within max_iterations,
+   * takes longer than @p time_budget [s] (0: the configuration's), or the identities' residuals exceed their chi-square
+   * bound.
+   */
+  SmoothedRun solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
+                    const std::vector<std::pair<int, int>>& identities, double time_budget = 0.0) const;
+
+  const SmootherConfig& config() const { return config_; }
+
+private:
+  struct Record
+  {
+    double stamp;
+    Pose2 odometry;
+    Pose2 mount;
+    std::vector<LandmarkObservation> observations;  ///< covariance with the floor, divided by the evidence share
+  };
+  /** @brief Covariance of the odometry's increment from record @p a to @p b under the motion noise class. */
+  Eigen::Matrix3d odometryCovariance(std::size_t a, std::size_t b) const;
+
+  SmootherConfig config_;
+  OdometryMotionNoise motion_;
+  double motion_step_, motion_step_angle_;
+  double range_floor_, bearing_floor_;
+  std::vector<Record> records_;
+};
+
+/** @brief The @p quantile of the chi-square distribution with @p dof degrees of freedom (exact to 1e-9 relative). */
+double chiSquareQuantile(double quantile, int dof);
+
+}  // namespace core
+}  // namespace rbpf_slam
+
+#endif  // RBPF_SLAM_CORE_FOREST_MAP_TRUNK_SMOOTHER_H

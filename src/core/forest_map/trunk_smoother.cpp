@@ -1,0 +1,510 @@
+#include "rbpf_slam/core/forest_map/trunk_smoother.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <unordered_map>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <ceres/ceres.h>
+
+namespace rbpf_slam
+{
+namespace core
+{
+namespace
+{
+/** @brief Upper-triangular U with U^T U = the inverse of @p covariance: the whitening of a residual. */
+template <int N>
+Eigen::Matrix<double, N, N> sqrtInformation(const Eigen::Matrix<double, N, N>& covariance)
+{
+  const Eigen::Matrix<double, N, N> info = covariance.inverse();
+  return Eigen::LLT<Eigen::Matrix<double, N, N>>(0.5 * (info + info.transpose())).matrixU();
+}
+
+template <typename T>
+T wrap(const T& a)
+{
+  using std::atan2;
+  using std::cos;
+  using std::sin;
+  return atan2(sin(a), cos(a));
+}
+
+/** @brief Odometry factor: the increment from keyframe a to keyframe b in a's frame against the odometry's. */
+struct OdometryFactor
+{
+  Eigen::Vector3d delta;
+  Eigen::Matrix3d whiten;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* residual) const
+  {
+    using std::cos;
+    using std::sin;
+    const T dx = b[0] - a[0], dy = b[1] - a[1];
+    const T c = cos(a[2]), s = sin(a[2]);
+    Eigen::Matrix<T, 3, 1> e;
+    e(0) = c * dx + s * dy - T(delta(0));
+    e(1) = -s * dx + c * dy - T(delta(1));
+    e(2) = wrap(T(b[2] - a[2] - T(delta(2))));
+    const Eigen::Matrix<T, 3, 1> w = whiten.cast<T>() * e;
+    for (int i = 0; i < 3; ++i)
+      residual[i] = w(i);
+    return true;
+  }
+};
+
+/** @brief Range-bearing factor: a tree seen from a sensor at @p sensor on the keyframe's base_link. */
+struct RangeBearingFactor
+{
+  Pose2 sensor;
+  Eigen::Vector2d z;
+  Eigen::Matrix2d whiten;
+  template <typename T>
+  bool operator()(const T* pose, const T* tree, T* residual) const
+  {
+    using std::atan2;
+    using std::cos;
+    using std::sin;
+    using std::sqrt;
+    const T c = cos(pose[2]), s = sin(pose[2]);
+    const T sx = pose[0] + c * T(sensor.x) - s * T(sensor.y);
+    const T sy = pose[1] + s * T(sensor.x) + c * T(sensor.y);
+    const T dx = tree[0] - sx, dy = tree[1] - sy;
+    Eigen::Matrix<T, 2, 1> e;
+    e(0) = sqrt(dx * dx + dy * dy + T(1e-12)) - T(z(0));
+    e(1) = wrap(T(atan2(dy, dx) - pose[2] - T(sensor.theta) - T(z(1))));
+    const Eigen::Matrix<T, 2, 1> w = whiten.cast<T>() * e;
+    residual[0] = w(0);
+    residual[1] = w(1);
+    return true;
+  }
+};
+
+/** @brief Identity factor: two trees that a loop shows to be one. */
+struct IdentityFactor
+{
+  Eigen::Matrix2d whiten;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* residual) const
+  {
+    const Eigen::Matrix<T, 2, 1> e(a[0] - b[0], a[1] - b[1]);
+    const Eigen::Matrix<T, 2, 1> w = whiten.cast<T>() * e;
+    residual[0] = w(0);
+    residual[1] = w(1);
+    return true;
+  }
+};
+
+/** @brief The regularized lower incomplete gamma function P(a, x): its series below a + 1, else one minus the
+ * continued fraction of Q (Lentz's method). */
+double gammaP(double a, double x)
+{
+  if (!(x > 0.0))
+    return 0.0;
+  const double log_front = a * std::log(x) - x - std::lgamma(a);
+  if (x < a + 1.0)
+  {
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < 1000 && std::abs(term) > 1e-15 * std::abs(sum); ++n)
+    {
+      term *= x / (a + n);
+      sum += term;
+    }
+    return sum * std::exp(log_front);
+  }
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 1000; ++i)
+  {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    d = std::abs(d) < tiny ? tiny : d;
+    c = b + an / c;
+    c = std::abs(c) < tiny ? tiny : c;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1.0) < 1e-15)
+      break;
+  }
+  return 1.0 - std::exp(log_front) * h;
+}
+
+/** @brief The two trees of an identity as one: information-weighted position, counts and times combined. */
+Landmark mergeTrees(const Landmark& recent, const Landmark& old)
+{
+  Landmark m = old;
+  const Eigen::Matrix2d ia = recent.covariance.inverse(), ib = old.covariance.inverse();
+  m.covariance = (ia + ib).inverse();
+  m.mean = m.covariance * (ia * recent.mean + ib * old.mean);
+  if (recent.radius_variance > 0.0 && old.radius_variance > 0.0)
+  {
+    const double wa = 1.0 / recent.radius_variance, wb = 1.0 / old.radius_variance;
+    m.radius = (wa * recent.radius + wb * old.radius) / (wa + wb);
+    m.radius_variance = 1.0 / (wa + wb);
+  }
+  m.evidence = std::max(recent.evidence, old.evidence);
+  m.observations = recent.observations + old.observations;
+  m.visit_observations = recent.visit_observations + old.visit_observations;
+  m.provisional = recent.provisional && old.provisional;
+  m.known_id = recent.known_id || old.known_id;
+  m.first_seen = std::fmin(recent.first_seen, old.first_seen);
+  m.last_seen = std::fmax(recent.last_seen, old.last_seen);
+  m.views = recent.views + old.views;
+  if (!(old.last_seen >= recent.last_seen))
+  {
+    m.view_direction = recent.view_direction;
+    m.view_log_range = recent.view_log_range;
+  }
+  m.seen_range = std::fmax(recent.seen_range, old.seen_range);
+  return m;
+}
+}  // namespace
+
+double chiSquareQuantile(double quantile, int dof)
+{
+  if (dof <= 0 || !(quantile > 0.0 && quantile < 1.0))
+    return 0.0;
+  // Bisection on the distribution function P(dof / 2, x / 2).
+  double lo = 0.0, hi = dof + 20.0 * std::sqrt(2.0 * dof) + 50.0;
+  for (int i = 0; i < 200; ++i)
+  {
+    const double mid = 0.5 * (lo + hi);
+    (gammaP(0.5 * dof, 0.5 * mid) < quantile ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+std::string SmootherConfig::validate() const
+{
+  if (!(keyframe_distance > 0.0) || !(keyframe_angle > 0.0))
+    return "keyframe_distance and keyframe_angle must be > 0";
+  if (!(association_gate > 0.0))
+    return "association_gate must be > 0";
+  if (!(robust_scale > 0.0))
+    return "robust_scale must be > 0";
+  if (!(loop_sigma > 0.0))
+    return "loop_sigma must be > 0";
+  if (!(loop_quantile > 0.0 && loop_quantile < 1.0))
+    return "loop_quantile must lie in (0, 1)";
+  if (max_iterations < 1)
+    return "max_iterations must be >= 1";
+  if (!(time_budget > 0.0))
+    return "time_budget must be > 0";
+  if (!(spread_floor_xy >= 0.0) || !(spread_floor_theta >= 0.0))
+    return "spread_floor_xy and spread_floor_theta must be >= 0";
+  return "";
+}
+
+TrunkSmoother::TrunkSmoother(const SmootherConfig& config, const FastSlamConfig& filter)
+  : config_(config)
+  , motion_(filter.motion)
+  , motion_step_(filter.motion_step)
+  , motion_step_angle_(filter.motion_step_angle)
+  , range_floor_(filter.range_sigma_floor)
+  , bearing_floor_(filter.bearing_sigma_floor)
+{
+}
+
+void TrunkSmoother::add(double stamp, const Pose2& odometry, const Pose2& mount,
+                        const std::vector<LandmarkObservation>& observations, double evidence_share)
+{
+  Record r;
+  r.stamp = stamp;
+  r.odometry = odometry;
+  r.mount = mount;
+  r.observations.reserve(observations.size());
+  const double share = evidence_share > 0.0 && evidence_share <= 1.0 ? evidence_share : 1.0;
+  for (LandmarkObservation o : observations)
+  {
+    if (!std::isfinite(o.range) || !std::isfinite(o.bearing) || !(o.range > 0.0) || !o.covariance.allFinite())
+      continue;
+    o.covariance(0, 0) += range_floor_ * range_floor_;
+    o.covariance(1, 1) += bearing_floor_ * bearing_floor_;
+    o.covariance /= share;
+    r.observations.push_back(o);
+  }
+  records_.push_back(std::move(r));
+}
+
+Eigen::Matrix3d TrunkSmoother::odometryCovariance(std::size_t a, std::size_t b) const
+{
+  Pose2 mean;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::size_t i = a; i < b; ++i)
+  {
+    const OdometryIncrement u = decomposeOdometry(records_[i].odometry, records_[i + 1].odometry);
+    const double steps = std::max(u.trans / motion_step_, (std::abs(u.rot1) + std::abs(u.rot2)) / motion_step_angle_);
+    const int k = std::max(1, static_cast<int>(std::ceil(steps - 1e-9)));
+    const double scale = partialStepNoiseScale(steps / k);
+    OdometryMotionNoise n = motion_;
+    n.alpha1 *= scale;
+    n.alpha2 *= scale;
+    n.alpha3 *= scale;
+    n.alpha4 *= scale;
+    OdometryIncrement piece;
+    piece.rot1 = u.rot1 / k;
+    piece.trans = u.trans / k;
+    piece.rot2 = u.rot2 / k;
+    for (int j = 0; j < k; ++j)
+    {
+      // A piece of the increment: rot1, then trans, then rot2, each a k-th (a close approximation of the path).
+      propagatePoseGaussian(&mean, &cov, piece, n);
+    }
+  }
+  // A floor: a keyframe the odometry did not move from is still not known to the micrometre.
+  cov += Eigen::Vector3d(1e-6, 1e-6, 1e-8).asDiagonal();
+  return cov;
+}
+
+SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
+                                 const std::vector<std::pair<int, int>>& identities, double time_budget) const
+{
+  const double budget = time_budget > 0.0 ? time_budget : config_.time_budget;
+  const auto t0 = std::chrono::steady_clock::now();
+  SmoothedRun out;
+  const std::size_t n = records_.size();
+  if (n < 2 || path.size() != n)
+  {
+    out.reason = "the path (" + std::to_string(path.size()) + " poses) does not match the " + std::to_string(n) +
+                 " updates recorded";
+    return out;
+  }
+  // Keyframes: about every keyframe_distance of travel or keyframe_angle of turn.
+  std::vector<std::size_t> keyframes{ 0 };
+  std::vector<std::size_t> keyframe_of(n, 0);
+  for (std::size_t i = 1; i < n; ++i)
+  {
+    const Pose2 d = between(records_[keyframes.back()].odometry, records_[i].odometry);
+    if (std::hypot(d.x, d.y) >= config_.keyframe_distance || std::abs(d.theta) >= config_.keyframe_angle)
+      keyframes.push_back(i);
+    keyframe_of[i] = keyframes.size() - 1;
+  }
+  out.keyframes = static_cast<int>(keyframes.size());
+  std::vector<std::array<double, 3>> poses(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k)
+    poses[k] = { path[keyframes[k]].x, path[keyframes[k]].y, path[keyframes[k]].theta };
+
+  // The trees, and a grid of 2 m cells over them for the association.
+  std::unordered_map<int, std::size_t> index_of;
+  std::unordered_map<long long, std::vector<std::size_t>> grid;
+  const double cell = 2.0;
+  const auto key = [cell](double x, double y) {
+    return (static_cast<long long>(std::floor(x / cell)) << 32) ^
+           (static_cast<long long>(std::floor(y / cell)) & 0xffffffffLL);
+  };
+  for (std::size_t j = 0; j < trees.size(); ++j)
+  {
+    index_of[trees[j].id] = j;
+    grid[key(trees[j].mean.x(), trees[j].mean.y())].push_back(j);
+  }
+  std::vector<std::array<double, 2>> tree_params(trees.size());
+  for (std::size_t j = 0; j < trees.size(); ++j)
+    tree_params[j] = { trees[j].mean.x(), trees[j].mean.y() };
+  std::vector<char> used(trees.size(), 0);
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::CauchyLoss cauchy(config_.robust_scale);
+  std::vector<OdometryFactor> odometry_factors;
+  for (std::size_t k = 0; k + 1 < keyframes.size(); ++k)
+  {
+    const Pose2 d = between(records_[keyframes[k]].odometry, records_[keyframes[k + 1]].odometry);
+    OdometryFactor f{ Eigen::Vector3d(d.x, d.y, d.theta),
+                      sqrtInformation<3>(odometryCovariance(keyframes[k], keyframes[k + 1])) };
+    odometry_factors.push_back(f);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 3, 3, 3>(new OdometryFactor(f)), nullptr,
+                             poses[k].data(), poses[k + 1].data());
+  }
+  // Observations, each given to the tree it falls on from the particle's own pose.
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const Record& r = records_[i];
+    const std::size_t k = keyframe_of[i];
+    const Pose2 sensor_in_keyframe = between(records_[keyframes[k]].odometry, r.odometry) * r.mount;
+    const Pose2 s = path[i] * r.mount;
+    for (const LandmarkObservation& o : r.observations)
+    {
+      const double phi = s.theta + o.bearing, c = std::cos(phi), sn = std::sin(phi);
+      const Eigen::Vector2d p(s.x + o.range * c, s.y + o.range * sn);
+      Eigen::Matrix2d J;
+      J << c, -o.range * sn, sn, o.range * c;
+      const Eigen::Matrix2d C = J * o.covariance * J.transpose();
+      double best = config_.association_gate;
+      long best_j = -1;
+      const long cx = static_cast<long>(std::floor(p.x() / cell)), cy = static_cast<long>(std::floor(p.y() / cell));
+      for (long ix = cx - 1; ix <= cx + 1; ++ix)
+        for (long iy = cy - 1; iy <= cy + 1; ++iy)
+        {
+          const auto it = grid.find(key((ix + 0.5) * cell, (iy + 0.5) * cell));
+          if (it == grid.end())
+            continue;
+          for (std::size_t j : it->second)
+          {
+            const Eigen::Vector2d e = p - trees[j].mean;
+            const double d2 = e.dot((C + trees[j].covariance).ldlt().solve(e));
+            if (d2 < best)
+            {
+              best = d2;
+              best_j = static_cast<long>(j);
+            }
+          }
+        }
+      if (best_j < 0)
+        continue;
+      RangeBearingFactor f{ sensor_in_keyframe, Eigen::Vector2d(o.range, o.bearing), sqrtInformation<2>(o.covariance) };
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeBearingFactor, 2, 3, 2>(new RangeBearingFactor(f)),
+                               &cauchy, poses[k].data(), tree_params[best_j].data());
+      used[best_j] = 1;
+      ++out.observations;
+    }
+  }
+  // The loop: its trees' identities.
+  std::vector<IdentityFactor> identity_factors;
+  std::vector<std::pair<std::size_t, std::size_t>> identity_trees;
+  for (const auto& id : identities)
+  {
+    const auto a = index_of.find(id.first), b = index_of.find(id.second);
+    if (a == index_of.end() || b == index_of.end() || a->second == b->second || !used[a->second] || !used[b->second])
+      continue;
+    const Eigen::Matrix2d cov = trees[a->second].covariance + trees[b->second].covariance +
+                                config_.loop_sigma * config_.loop_sigma * Eigen::Matrix2d::Identity();
+    IdentityFactor f{ sqrtInformation<2>(cov) };
+    identity_factors.push_back(f);
+    identity_trees.emplace_back(a->second, b->second);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<IdentityFactor, 2, 2, 2>(new IdentityFactor(f)), nullptr,
+                             tree_params[a->second].data(), tree_params[b->second].data());
+  }
+  out.identities = static_cast<int>(identity_factors.size());
+  if (!identities.empty() && identity_factors.empty())
+  {
+    out.reason = "none of the loop's trees is tied to the path by an observation";
+    return out;
+  }
+  problem.SetParameterBlockConstant(poses[0].data());
+  for (char u : used)
+    out.trees_solved += u;
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.num_threads = 1;
+  options.max_num_iterations = config_.max_iterations;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  out.iterations = static_cast<int>(summary.iterations.size());
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (summary.termination_type != ceres::CONVERGENCE)
+  {
+    out.reason = summary.termination_type == ceres::NO_CONVERGENCE ?
+                     "the smoother did not converge in " + std::to_string(config_.max_iterations) + " iterations" :
+                     "the smoother failed: " + summary.message;
+    return out;
+  }
+
+  // Consistency: the identities' residuals, and the odometry's, after the solve.
+  for (std::size_t f = 0; f < identity_factors.size(); ++f)
+  {
+    double r[2];
+    identity_factors[f](tree_params[identity_trees[f].first].data(), tree_params[identity_trees[f].second].data(), r);
+    out.identity_chi2 += r[0] * r[0] + r[1] * r[1];
+  }
+  out.identity_bound = chiSquareQuantile(config_.loop_quantile, 2 * out.identities);
+  for (std::size_t k = 0; k < odometry_factors.size(); ++k)
+  {
+    double r[3];
+    odometry_factors[k](poses[k].data(), poses[k + 1].data(), r);
+    out.odometry_chi2 += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  }
+  out.odometry_dof = 3 * static_cast<int>(odometry_factors.size());
+
+  // The last keyframe's marginal covariance, for the spread of the particles drawn again.
+  {
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::SPARSE_QR;
+    co.num_threads = 1;
+    ceres::Covariance covariance(co);
+    const double* last = poses.back().data();
+    if (keyframes.size() > 1 && covariance.Compute({ std::make_pair(last, last) }, &problem))
+    {
+      double c[9];
+      if (covariance.GetCovarianceBlock(last, last, c))
+      {
+        out.last_covariance = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(c);
+        out.has_covariance = out.last_covariance.allFinite();
+      }
+    }
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (out.seconds > budget)
+  {
+    out.reason = "the smoother took " + std::to_string(out.seconds) + " s, beyond its budget of " +
+                 std::to_string(budget) + " s";
+    return out;
+  }
+  if (out.identities > 0 && out.identity_chi2 > out.identity_bound)
+  {
+    out.reason = "the loop is inconsistent: its trees' residuals " + std::to_string(out.identity_chi2) +
+                 " exceed the chi-square bound " + std::to_string(out.identity_bound);
+    return out;
+  }
+
+  // The path at every update, and the trees.
+  std::vector<Pose2> corrected(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k)
+    corrected[k] = Pose2(poses[k][0], poses[k][1], wrapAngle(poses[k][2]));
+  out.stamps.resize(n);
+  out.poses.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::size_t k = keyframe_of[i];
+    out.stamps[i] = records_[i].stamp;
+    out.poses[i] = corrected[k] * between(records_[keyframes[k]].odometry, records_[i].odometry);
+  }
+  std::vector<Landmark> moved = trees;
+  for (std::size_t j = 0; j < trees.size(); ++j)
+  {
+    if (used[j])
+    {
+      moved[j].mean = Eigen::Vector2d(tree_params[j][0], tree_params[j][1]);
+      continue;
+    }
+    // Not tied by an observation kept here: moved with the keyframe of its last sighting.
+    std::size_t i = n - 1;
+    if (std::isfinite(trees[j].last_seen))
+    {
+      const auto it = std::lower_bound(records_.begin(), records_.end(), trees[j].last_seen,
+                                       [](const Record& r, double t) { return r.stamp < t; });
+      i = std::min<std::size_t>(n - 1, static_cast<std::size_t>(it - records_.begin()));
+    }
+    const std::size_t k = keyframe_of[i];
+    const Pose2 c = corrected[k] * path[keyframes[k]].inverse();
+    double x = 0.0, y = 0.0;
+    c.transformPoint(trees[j].mean.x(), trees[j].mean.y(), &x, &y);
+    moved[j].mean = Eigen::Vector2d(x, y);
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(c.theta).toRotationMatrix();
+    moved[j].covariance = R * trees[j].covariance * R.transpose();
+  }
+  std::vector<char> drop(trees.size(), 0);
+  for (const auto& ab : identity_trees)
+  {
+    moved[ab.second] = mergeTrees(moved[ab.first], moved[ab.second]);
+    drop[ab.first] = 1;
+  }
+  for (std::size_t j = 0; j < trees.size(); ++j)
+    if (!drop[j])
+      out.trees.push_back(moved[j]);
+  out.ok = true;
+  return out;
+}
+
+}  // namespace core
+}  // namespace rbpf_slam
