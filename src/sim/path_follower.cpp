@@ -2,11 +2,119 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace rbpf_slam
 {
 namespace core
 {
+namespace
+{
+constexpr double kMemoryCell = 0.1;   // [m] the obstacle memory keeps one point per cell of the odom frame
+constexpr double kExtentCell = 0.2;   // [m] cells in which obstaclesFromCloud measures the height extent
+constexpr int kArcsPerSide = 20;      // candidate curvatures on each side of straight ahead
+constexpr double kSlowFactor = 1.0 / 3.0;  // of the speed, on an arc that keeps only the footprint clear
+constexpr double kApproachSlack = 0.02;    // [m] an arc may come this much nearer to a point already too near
+
+std::int64_t cellKey(double x, double y, double cell)
+{
+  const std::int64_t ix = static_cast<std::int64_t>(std::floor(x / cell));
+  const std::int64_t iy = static_cast<std::int64_t>(std::floor(y / cell));
+  return (ix << 32) ^ (iy & 0xffffffffLL);
+}
+
+/**
+ * The smallest distance from obstacle point @p p (base_link) to base_link driven along the arc of curvature
+ * @p kappa over arc length [0, @p length] from the origin heading +x.
+ */
+double arcDistance(const Eigen::Vector2d& p, double kappa, double length)
+{
+  if (std::abs(kappa) < 1e-9)
+  {
+    const double t = std::max(0.0, std::min(length, p.x()));
+    return std::hypot(p.x() - t, p.y());
+  }
+  // A right turn is a left turn of the mirrored point.
+  const double k = std::abs(kappa);
+  const double py = kappa > 0.0 ? p.y() : -p.y();
+  const double r = 1.0 / k;
+  // The arc turns about (0, r); base_link is at angle -pi/2 about it at the start, -pi/2 + k s after s.
+  const double qx = p.x(), qy = py - r;
+  const double d = std::hypot(qx, qy);
+  const double sweep = std::min(k * length, 2.0 * M_PI);
+  double e = std::atan2(qy, qx) + M_PI / 2.0;  // the point's angle about the centre, from the start
+  e = std::fmod(e + 4.0 * M_PI, 2.0 * M_PI);
+  if (e <= sweep)
+    return std::abs(d - r);
+  const double ex = r * std::sin(sweep), ey = r * (1.0 - std::cos(sweep));
+  return std::min(std::hypot(p.x(), py), std::hypot(p.x() - ex, py - ey));
+}
+}  // namespace
+
+bool PathFollowerConfig::validate(std::string* error) const
+{
+  const auto fail = [error](const std::string& what) {
+    if (error)
+      *error = what;
+    return false;
+  };
+  if (!(robot_radius >= 0.0) || !(clearance >= 0.0))
+    return fail("robot_radius and clearance must be >= 0");
+  if (!(horizon > 0.0) || !(max_curvature > 0.0))
+    return fail("horizon and max_curvature must be > 0");
+  if (!(obstacle_memory >= 0.0) || !(obstacle_range > 0.0))
+    return fail("obstacle_memory must be >= 0 and obstacle_range > 0");
+  if (!(obstacle_min_height <= obstacle_max_height) || !(obstacle_min_extent >= 0.0))
+    return fail("obstacle_min_height must be <= obstacle_max_height and obstacle_min_extent >= 0");
+  return true;
+}
+
+std::vector<Eigen::Vector2d> obstaclesFromCloud(const std::vector<Eigen::Vector3d>& points,
+                                                const PathFollowerConfig& config)
+{
+  std::vector<Eigen::Vector2d> out;
+  const double range2 = config.obstacle_range * config.obstacle_range;
+  // The height each cell's points span (ground returns below the band included: a trunk's foot stands on it).
+  std::map<std::int64_t, std::pair<double, double>> extent;
+  for (const Eigen::Vector3d& p : points)
+  {
+    if (!p.allFinite() || p.x() * p.x() + p.y() * p.y() > range2 || p.z() > config.obstacle_max_height)
+      continue;
+    auto it = extent.emplace(cellKey(p.x(), p.y(), kExtentCell), std::make_pair(p.z(), p.z())).first;
+    it->second.first = std::min(it->second.first, p.z());
+    it->second.second = std::max(it->second.second, p.z());
+  }
+  for (const Eigen::Vector3d& p : points)
+  {
+    if (!p.allFinite() || p.x() * p.x() + p.y() * p.y() > range2 || p.z() > config.obstacle_max_height ||
+        p.z() < config.obstacle_min_height)
+      continue;
+    const auto& e = extent.at(cellKey(p.x(), p.y(), kExtentCell));
+    if (e.second - e.first >= config.obstacle_min_extent)
+      out.emplace_back(p.x(), p.y());
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector2d> obstaclesFromScan(const std::vector<float>& ranges, double angle_min,
+                                               double angle_increment, double range_min, double range_max,
+                                               const Pose2& mount, const PathFollowerConfig& config)
+{
+  std::vector<Eigen::Vector2d> out;
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+  {
+    const double r = ranges[i];
+    if (!std::isfinite(r) || r < range_min || r > range_max)
+      continue;
+    const double a = angle_min + static_cast<double>(i) * angle_increment;
+    Eigen::Vector2d p;
+    mount.transformPoint(r * std::cos(a), r * std::sin(a), &p.x(), &p.y());
+    if (p.norm() <= config.obstacle_range)
+      out.push_back(p);
+  }
+  return out;
+}
+
 PathFollower::PathFollower(std::vector<Eigen::Vector2d> path, const PathFollowerConfig& config)
   : path_(std::move(path)), config_(config)
 {
@@ -33,6 +141,7 @@ VelocityCommand PathFollower::command(const Pose2& pose)
 {
   if (done_)
     return {};
+  avoiding_ = false;
   // Closest point, searched forward from the current segment only (a loop crosses itself).
   const Eigen::Vector2d p(pose.x, pose.y);
   double best_d = std::numeric_limits<double>::infinity();
@@ -69,6 +178,131 @@ VelocityCommand PathFollower::command(const Pose2& pose)
   VelocityCommand cmd;
   cmd.linear = config_.speed;
   cmd.angular = std::max(-config_.max_angular, std::min(config_.max_angular, config_.speed * 2.0 * ly / l2));
+  return avoid(pose, cmd);
+}
+
+void PathFollower::addObstacles(double stamp, const Pose2& pose, const std::vector<Eigen::Vector2d>& points)
+{
+  if (!config_.avoid_obstacles)
+    return;
+  const double range2 = config_.obstacle_range * config_.obstacle_range;
+  for (auto it = obstacles_.begin(); it != obstacles_.end();)
+  {
+    const Eigen::Vector2d d = it->second.point - Eigen::Vector2d(pose.x, pose.y);
+    if (it->second.stamp < stamp - config_.obstacle_memory || d.squaredNorm() > range2)
+      it = obstacles_.erase(it);
+    else
+      ++it;
+  }
+  for (const Eigen::Vector2d& p : points)
+  {
+    if (!p.allFinite() || p.squaredNorm() > range2)
+      continue;
+    Eigen::Vector2d w;
+    pose.transformPoint(p.x(), p.y(), &w.x(), &w.y());
+    obstacles_[cellKey(w.x(), w.y(), kMemoryCell)] = Remembered{ w, stamp };
+  }
+}
+
+std::vector<Eigen::Vector2d> PathFollower::obstacles() const
+{
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(obstacles_.size());
+  for (const auto& o : obstacles_)
+    out.push_back(o.second.point);
+  return out;
+}
+
+VelocityCommand PathFollower::avoid(const Pose2& pose, const VelocityCommand& pursuit)
+{
+  avoiding_ = false;
+  if (!config_.avoid_obstacles || obstacles_.empty())
+  {
+    turn_ = 0;
+    return pursuit;
+  }
+  const double soft = config_.robot_radius + config_.clearance, hard = config_.robot_radius;
+  // The points within reach of any candidate arc, in base_link, with their distance now.
+  const double reach = config_.horizon + soft;
+  const Pose2 inv = pose.inverse();
+  std::vector<Eigen::Vector2d> near;
+  std::vector<double> now;
+  for (const auto& o : obstacles_)
+  {
+    Eigen::Vector2d b;
+    inv.transformPoint(o.second.point.x(), o.second.point.y(), &b.x(), &b.y());
+    const double d = b.norm();
+    if (d <= reach)
+    {
+      near.push_back(b);
+      now.push_back(d);
+    }
+  }
+  // Whether the arc of curvature kappa keeps radius from every point over arc length [0, length] (or, from a point
+  // nearer than that already, comes no nearer).
+  const auto clear = [&](double kappa, double radius, double length) {
+    for (std::size_t i = 0; i < near.size(); ++i)
+    {
+      const double need = std::min(radius, now[i] - kApproachSlack);
+      if (arcDistance(near[i], kappa, length) < need)
+        return false;
+    }
+    return true;
+  };
+  const double pursuit_kappa = pursuit.angular / pursuit.linear;
+  if (clear(pursuit_kappa, soft, config_.horizon))
+  {
+    turn_ = 0;
+    return pursuit;
+  }
+  avoiding_ = true;
+  // Candidates, nearest to pure pursuit's arc first (ties: the straighter, then the left one).
+  std::vector<double> candidates;
+  for (int i = -kArcsPerSide; i <= kArcsPerSide; ++i)
+    candidates.push_back(config_.max_curvature * i / kArcsPerSide);
+  std::stable_sort(candidates.begin(), candidates.end(), [&](double a, double b) {
+    const double da = std::abs(a - pursuit_kappa), db = std::abs(b - pursuit_kappa);
+    if (da != db)
+      return da < db;
+    if (std::abs(a) != std::abs(b))
+      return std::abs(a) < std::abs(b);
+    return a > b;
+  });
+  const auto drive = [&](double kappa, double speed) {
+    turn_ = 0;
+    VelocityCommand cmd;
+    cmd.linear = std::abs(kappa) > 1e-9 ? std::min(speed, config_.max_angular / std::abs(kappa)) : speed;
+    cmd.angular = cmd.linear * kappa;
+    return cmd;
+  };
+  for (double kappa : candidates)
+    if (clear(kappa, soft, config_.horizon))
+      return drive(kappa, config_.speed);
+  for (double kappa : candidates)
+    if (clear(kappa, hard, config_.horizon))
+      return drive(kappa, kSlowFactor * config_.speed);
+  if (turn_ == 0)
+  {
+    // Nothing is clear: turn in place towards the side whose arc keeps the footprint clear the longest (ties:
+    // pure pursuit's side), and keep turning that way until an arc is clear (no dithering between sides).
+    turn_ = pursuit_kappa >= 0.0 ? 1 : -1;
+    double best = -1.0;
+    for (double kappa : candidates)
+    {
+      if (std::abs(kappa) < 1e-9)
+        continue;
+      double free = 0.0;
+      while (free < config_.horizon && clear(kappa, hard, free + kMemoryCell))
+        free += kMemoryCell;
+      if (free > best)
+      {
+        best = free;
+        turn_ = kappa > 0.0 ? 1 : -1;
+      }
+    }
+  }
+  VelocityCommand cmd;
+  cmd.angular = turn_ * config_.max_angular;
   return cmd;
 }
 

@@ -23,14 +23,39 @@ Scenario::Scenario(const ForestWorld& world, const ScenarioConfig& config, std::
 {
 }
 
+void Scenario::rememberObstacles(const SimulatorOutput& out)
+{
+  // Seen from the pose the follower last steered on (the sweep's points are taken as seen at its end).
+  const SimulatorConfig& sc = sim_.config();
+  for (const LidarSweep& sweep : out.sweeps)
+  {
+    const Eigen::Isometry3d mount = sc.lidar3d.mount.transform();
+    cloud_.clear();
+    cloud_.reserve(sweep.points.size());
+    for (const LidarPoint& p : sweep.points)
+      cloud_.push_back(mount * Eigen::Vector3d(p.x, p.y, p.z));
+    follower_.addObstacles(sim_.time(), steer_pose_, obstaclesFromCloud(cloud_, config_.follower));
+  }
+  for (const LaserScan2D& scan : out.scans)
+  {
+    const Mount& m = sc.lidar2d.mount;
+    follower_.addObstacles(sim_.time(), steer_pose_,
+                           obstaclesFromScan(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min,
+                                             scan.range_max, Pose2(m.x, m.y, m.yaw), config_.follower));
+  }
+}
+
 bool Scenario::step(SimulatorOutput* out)
 {
   sim_.step(out);
+  if (config_.follower.avoid_obstacles)
+    rememberObstacles(*out);
   for (const OdometrySample& odom : out->odometry)
   {
     // The path is in the start frame, as the odometry (which starts at identity there) and the true pose seen from
     // the start are.
     const Pose2 pose = config_.steer_on == SteerOn::kTruth ? between(config_.sim.start, sim_.robot().pose()) : odom.pose;
+    steer_pose_ = pose;
     sim_.setCommand(follower_.done() ? VelocityCommand() : relay_.apply(follower_.command(pose)));
   }
   if (sim_.collision())

@@ -130,6 +130,17 @@ void readScenarioConfig(const ParamSource& p, core::ScenarioConfig* c)
   p.get("follower/lookahead", &c->follower.lookahead);
   p.get("follower/max_angular", &c->follower.max_angular);
   p.get("follower/goal_tolerance", &c->follower.goal_tolerance);
+  core::PathFollowerConfig& f = c->follower;
+  p.get("follower/avoid_obstacles", &f.avoid_obstacles);
+  p.get("follower/robot_radius", &f.robot_radius);
+  p.get("follower/clearance", &f.clearance);
+  p.get("follower/horizon", &f.horizon);
+  p.get("follower/max_curvature", &f.max_curvature);
+  p.get("follower/obstacle_memory", &f.obstacle_memory);
+  p.get("follower/obstacle_range", &f.obstacle_range);
+  p.get("follower/obstacle_min_height", &f.obstacle_min_height);
+  p.get("follower/obstacle_max_height", &f.obstacle_max_height);
+  p.get("follower/obstacle_min_extent", &f.obstacle_min_extent);
   std::string steer_on;
   if (p.get("follower/steer_on", &steer_on) && !core::parseSteerOn(steer_on, &c->steer_on))
     throw std::runtime_error("invalid follower parameter: steer_on must be odometry or truth, got '" + steer_on + "'");
@@ -145,6 +156,9 @@ void readScenarioConfig(const ParamSource& p, core::ScenarioConfig* c)
     throw std::runtime_error("invalid relay parameter: " + error);
   if (!(c->follower.speed > 0.0) || !(c->follower.lookahead > 0.0))
     throw std::runtime_error("invalid follower parameter: speed and lookahead must be > 0");
+  std::string follower_error;
+  if (!c->follower.validate(&follower_error))
+    throw std::runtime_error("invalid follower parameter: " + follower_error);
 }
 
 }  // namespace io

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -304,4 +305,153 @@ TEST(PathFollower, ClosedLoopIsDrivenToItsEndNotStoppedAtItsStart)
   EXPECT_TRUE(follower.done());
   EXPECT_GT(follower.progress(), 75.0);
   EXPECT_GT(steps * 0.05, 70.0);  // about 80 m at 1 m/s
+}
+
+namespace
+{
+/** Points on the surface of a trunk of radius @p r at @p c, every 2 cm of its circumference. */
+std::vector<Eigen::Vector2d> trunkSurface(const Eigen::Vector2d& c, double r)
+{
+  std::vector<Eigen::Vector2d> points;
+  const int n = static_cast<int>(std::ceil(2.0 * M_PI * r / 0.02));
+  for (int i = 0; i < n; ++i)
+    points.push_back(c + r * Eigen::Vector2d(std::cos(2.0 * M_PI * i / n), std::sin(2.0 * M_PI * i / n)));
+  return points;
+}
+
+/** What a lidar at @p pose sees of @p world_points: those within @p range, in base_link. */
+std::vector<Eigen::Vector2d> seenFrom(const rbpf_slam::core::Pose2& pose, const std::vector<Eigen::Vector2d>& world_points,
+                                      double range)
+{
+  std::vector<Eigen::Vector2d> seen;
+  const rbpf_slam::core::Pose2 inv = pose.inverse();
+  for (const auto& w : world_points)
+  {
+    Eigen::Vector2d b;
+    inv.transformPoint(w.x(), w.y(), &b.x(), &b.y());
+    if (b.norm() <= range)
+      seen.push_back(b);
+  }
+  return seen;
+}
+}  // namespace
+
+TEST(PathFollower, AvoidsATrunkOnThePathAndStillReachesTheEnd)
+{
+  using namespace rbpf_slam::core;
+  PathFollowerConfig config;
+  const Eigen::Vector2d trunk(6.0, 0.0);
+  const double trunk_radius = 0.3;
+  const std::vector<Eigen::Vector2d> surface = trunkSurface(trunk, trunk_radius);
+  for (double offset : { 0.0, 0.1, -0.1 })  // dead on, and just beside the path on either side
+  {
+    SCOPED_TRACE(offset);
+    std::vector<Eigen::Vector2d> world = surface;
+    for (auto& p : world)
+      p.y() += offset;
+    PathFollower follower(straightDrive(12.0), config);
+    Pose2 pose;
+    const double dt = 0.02;
+    double nearest = std::numeric_limits<double>::infinity();
+    bool avoided = false;
+    int step = 0;
+    for (; step < 5000 && !follower.done(); ++step)
+    {
+      if (step % 5 == 0)  // a 10 Hz lidar
+        follower.addObstacles(step * dt, pose, seenFrom(pose, world, 10.0));
+      const VelocityCommand cmd = follower.command(pose);
+      avoided = avoided || follower.avoiding();
+      EXPECT_LE(std::abs(cmd.angular), config.max_angular + 1e-9);
+      pose.theta = wrapAngle(pose.theta + cmd.angular * dt);
+      pose.x += cmd.linear * dt * std::cos(pose.theta);
+      pose.y += cmd.linear * dt * std::sin(pose.theta);
+      for (const auto& p : world)
+        nearest = std::min(nearest, (p - Eigen::Vector2d(pose.x, pose.y)).norm());
+    }
+    EXPECT_TRUE(follower.done());
+    EXPECT_TRUE(avoided);
+    EXPECT_GT(nearest, config.robot_radius);
+    EXPECT_GT(nearest, config.robot_radius + 0.5 * config.clearance);
+    EXPECT_NEAR(pose.x, 12.0, 0.5);
+    EXPECT_NEAR(pose.y, 0.0, 0.5);
+    EXPECT_LT(step * dt, 30.0);  // 12 m at 1 m/s and a detour
+  }
+}
+
+TEST(PathFollower, WithoutObstaclesInReachCommandsPurePursuit)
+{
+  using namespace rbpf_slam::core;
+  PathFollowerConfig plain;
+  plain.avoid_obstacles = false;
+  PathFollowerConfig avoiding;  // default: avoid_obstacles
+  ASSERT_TRUE(avoiding.avoid_obstacles);
+  PathFollower a(loopDrive(), plain), b(loopDrive(), avoiding), c(loopDrive(), avoiding);
+  // c sees a trunk 4 m beside the loop's start: seen, remembered, never in the way.
+  const std::vector<Eigen::Vector2d> far_trunk = trunkSurface(Eigen::Vector2d(2.0, 4.0), 0.3);
+  Pose2 pose(0.1, -0.2, 0.05);  // a little off the path
+  const double dt = 0.02;
+  int steps = 0;
+  for (; steps < 20000 && !a.done(); ++steps)
+  {
+    c.addObstacles(steps * dt, pose, seenFrom(pose, far_trunk, 5.0));
+    const VelocityCommand ca = a.command(pose), cb = b.command(pose), cc = c.command(pose);
+    ASSERT_EQ(ca.linear, cb.linear) << steps;
+    ASSERT_EQ(ca.angular, cb.angular) << steps;
+    ASSERT_EQ(ca.linear, cc.linear) << steps;
+    ASSERT_EQ(ca.angular, cc.angular) << steps;
+    EXPECT_FALSE(c.avoiding());
+    pose.theta = wrapAngle(pose.theta + ca.angular * dt);
+    pose.x += ca.linear * dt * std::cos(pose.theta);
+    pose.y += ca.linear * dt * std::sin(pose.theta);
+  }
+  EXPECT_TRUE(a.done());
+  EXPECT_TRUE(b.done());
+  EXPECT_TRUE(c.done());
+  EXPECT_GT(steps, 1000);
+}
+
+TEST(PathFollower, TurnsInPlaceWhenAWallBlocksEveryArc)
+{
+  using namespace rbpf_slam::core;
+  PathFollowerConfig config;
+  PathFollower follower(straightDrive(12.0), config);
+  // A wall 1 m ahead, 8 m wide: no arc forward keeps the footprint off it.
+  std::vector<Eigen::Vector2d> wall;
+  for (double y = -4.0; y <= 4.0; y += 0.05)
+    wall.emplace_back(1.0, y);
+  follower.addObstacles(0.0, Pose2(), wall);
+  const VelocityCommand cmd = follower.command(Pose2());
+  EXPECT_TRUE(follower.avoiding());
+  EXPECT_EQ(cmd.linear, 0.0);
+  EXPECT_NEAR(std::abs(cmd.angular), config.max_angular, 1e-12);
+}
+
+TEST(PathFollower, ObstaclesFromACloudAreWhatStandsNotTheGround)
+{
+  using namespace rbpf_slam::core;
+  PathFollowerConfig config;
+  std::vector<Eigen::Vector3d> cloud;
+  // Ground rising 0.5 m over 4 m ahead (in the height band, but flat within each cell) ...
+  for (double x = 0.5; x <= 4.0; x += 0.05)
+    for (double y = -2.0; y <= 2.0; y += 0.05)
+      cloud.emplace_back(x, y, 0.125 * x);
+  // ... and a trunk's front 3 m to the left, hit by rings from 0.2 to 2.4 m up.
+  for (int i = 2; i <= 24; ++i)
+    cloud.emplace_back(0.0, 3.0, 0.1 * i);
+  cloud.emplace_back(0.0, 3.0, 5.0);  // a crown above it
+  const std::vector<Eigen::Vector2d> obstacles = obstaclesFromCloud(cloud, config);
+  ASSERT_FALSE(obstacles.empty());
+  for (const auto& p : obstacles)
+  {
+    EXPECT_NEAR(p.x(), 0.0, 1e-12);
+    EXPECT_NEAR(p.y(), 3.0, 1e-12);
+  }
+  EXPECT_EQ(obstacles.size(), 22u);  // 0.3 to 2.4 m
+  // A planar scan: every finite return within range, on base_link.
+  const std::vector<float> ranges{ 1.0f, std::numeric_limits<float>::infinity(), 2.0f, 9.0f };
+  const std::vector<Eigen::Vector2d> scan =
+      obstaclesFromScan(ranges, 0.0, M_PI / 2.0, 0.1, 30.0, Pose2(0.3, 0.0, 0.0), config);
+  ASSERT_EQ(scan.size(), 2u);
+  EXPECT_NEAR(scan[0].x(), 1.3, 1e-9);
+  EXPECT_NEAR(scan[1].x(), -1.7, 1e-9);
 }

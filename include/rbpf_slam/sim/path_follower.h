@@ -1,7 +1,9 @@
 #ifndef RBPF_SLAM_SIM_PATH_FOLLOWER_H
 #define RBPF_SLAM_SIM_PATH_FOLLOWER_H
 
+#include <cstdint>
 #include <string>
+#include <map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -19,11 +21,51 @@ struct PathFollowerConfig
   double lookahead = 2.0;       ///< [m] pure-pursuit look-ahead distance
   double max_angular = 0.8;     ///< [rad/s]
   double goal_tolerance = 0.3;  ///< [m] done within this of the last waypoint (on the last segment)
+
+  // The local planner on the lidar (PathFollower::addObstacles): a round robot (the diff drive's footprint).
+  bool avoid_obstacles = true;        ///< steer around the obstacle points the lidar sees
+  double robot_radius = 0.6;          ///< [m] the footprint: a circle around base_link
+  double clearance = 0.3;             ///< [m] kept between the footprint and any obstacle point
+  double horizon = 2.5;               ///< [m] arc length ahead along which each candidate arc must stay clear
+  double max_curvature = 2.0;         ///< [1/m] the sharpest candidate arc (driven slower: |angular| <= max_angular)
+  double obstacle_memory = 10.0;      ///< [s] an obstacle point is remembered this long after it was last seen
+  double obstacle_range = 5.0;        ///< [m] points farther than this from the robot are dropped
+  double obstacle_min_height = 0.3;   ///< [m] above base_link: 3D points lower than this are ground
+  double obstacle_max_height = 2.5;   ///< [m] above base_link: 3D points higher than this pass over the robot
+  double obstacle_min_extent = 0.2;   ///< [m] 3D points count where those in their 0.2 m cell span this much height
+                                      ///< (ground returns lie flat, trunks and boxes stand)
+
+  /** @brief False (and why in @p error) for a planner parameter out of range. */
+  bool validate(std::string* error) const;
 };
+
+/**
+ * @brief The obstacle points (x, y in base_link) of one 3D lidar sweep given in base_link (x forward, z up): those
+ * within obstacle_range, between obstacle_min_height and obstacle_max_height, in a 0.2 m cell whose points span
+ * at least obstacle_min_extent of height (rising ground ahead is not an obstacle). Deterministic (keeps the order).
+ */
+std::vector<Eigen::Vector2d> obstaclesFromCloud(const std::vector<Eigen::Vector3d>& points,
+                                                const PathFollowerConfig& config);
+
+/**
+ * @brief The obstacle points (x, y in base_link) of one planar scan: the finite ranges within the scanner's limits
+ * and obstacle_range, from a scanner at @p mount (x, y, yaw on base_link).
+ */
+std::vector<Eigen::Vector2d> obstaclesFromScan(const std::vector<float>& ranges, double angle_min,
+                                               double angle_increment, double range_min, double range_max,
+                                               const Pose2& mount, const PathFollowerConfig& config);
 
 /**
  * @brief Pure pursuit along a polyline, steering on the robot's own odometry (as a robot without
  * SLAM does): path and pose are both in the odom frame, which starts at the robot's start pose.
+ *
+ * With avoid_obstacles, a local planner steers around the obstacle points the lidar sees (addObstacles; they are
+ * remembered in the odom frame for obstacle_memory seconds, so a low obstacle the lidar no longer sees up close
+ * stays avoided). Among candidate arcs (the pure-pursuit arc and curvatures evenly spread over +-max_curvature)
+ * it takes the one closest to the pure-pursuit arc that keeps robot_radius + clearance from every point over the
+ * horizon (or, nearer than that already, comes no nearer); failing that, one that keeps robot_radius, at a third
+ * of the speed; failing that, it turns in place. A sharp arc is driven slower so that |angular| <= max_angular.
+ * When the pure-pursuit arc is clear the command is pure pursuit's, exactly. Deterministic.
  */
 class PathFollower
 {
@@ -32,6 +74,16 @@ public:
 
   /** @brief The command for odometry pose @p pose; zero once done. */
   VelocityCommand command(const Pose2& pose);
+  /**
+   * @brief Remembers obstacle points @p points (x, y in base_link) seen at time @p stamp [s] from odometry pose
+   * @p pose; forgets those older than obstacle_memory or farther than obstacle_range. Nothing without
+   * avoid_obstacles.
+   */
+  void addObstacles(double stamp, const Pose2& pose, const std::vector<Eigen::Vector2d>& points);
+  /** @brief The remembered obstacle points, in the odom frame. */
+  std::vector<Eigen::Vector2d> obstacles() const;
+  /** @brief Whether the last command was the planner's rather than pure pursuit's. */
+  bool avoiding() const { return avoiding_; }
   bool done() const { return done_; }
   double length() const { return cumulative_.back(); }
   /** @brief Arc length reached along the path [m]. */
@@ -39,6 +91,14 @@ public:
 
 private:
   Eigen::Vector2d pointAt(double s) const;
+  /** @brief The planner's command, given pure pursuit's @p pursuit at @p pose. */
+  VelocityCommand avoid(const Pose2& pose, const VelocityCommand& pursuit);
+
+  struct Remembered
+  {
+    Eigen::Vector2d point;  ///< odom frame
+    double stamp;
+  };
 
   std::vector<Eigen::Vector2d> path_;
   std::vector<double> cumulative_;
@@ -46,6 +106,9 @@ private:
   std::size_t segment_ = 0;
   double progress_ = 0.0;
   bool done_ = false;
+  std::map<std::int64_t, Remembered> obstacles_;  ///< by 0.1 m cell of the odom frame
+  bool avoiding_ = false;
+  int turn_ = 0;  ///< turning in place: +1 left, -1 right, 0 not
 };
 
 /** @brief The straight drive: straight ahead for @p length metres (start frame). */

@@ -42,7 +42,8 @@ struct ScenarioConfig
 /**
  * @brief The ROS graph of a simulated run (follower -> noise relay -> simulator -> odometry ->
  * follower), in one process and in lockstep: the follower answers every odometry message, as the
- * nodelet does, so a seed gives the same run here and in the graph.
+ * nodelet does, so a seed gives the same run here and in the graph. With the follower's avoid_obstacles, each
+ * sweep (or scan) is handed to its local planner as it is delivered.
  */
 class Scenario
 {
@@ -59,11 +60,16 @@ public:
   bool timedOut() const { return sim_.time() >= config_.timeout; }
 
 private:
+  /** @brief Hands the sweeps' and scans' obstacle points to the follower's planner. */
+  void rememberObstacles(const SimulatorOutput& out);
+
   ScenarioConfig config_;
   ForestSimulator sim_;
   VelocityNoiseModel relay_;
   PathFollower follower_;
   double done_time_ = -1.0;
+  Pose2 steer_pose_;                   ///< the pose the follower last steered on (start frame)
+  std::vector<Eigen::Vector3d> cloud_;  ///< a sweep in base_link (reused)
 };
 
 }  // namespace core
