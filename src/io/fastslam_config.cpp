@@ -77,6 +77,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   p.get("loop_closure/keyframe_angle", &lc.smoother.keyframe_angle);
   p.get("loop_closure/robust_scale", &lc.smoother.robust_scale);
   p.get("loop_closure/loop_sigma", &lc.smoother.loop_sigma);
+  p.get("loop_closure/loop_radius_share", &lc.smoother.loop_radius_share);
   p.get("loop_closure/loop_quantile", &lc.smoother.loop_quantile);
   p.get("loop_closure/max_iterations", &lc.smoother.max_iterations);
   p.get("loop_closure/time_budget", &lc.smoother.time_budget);

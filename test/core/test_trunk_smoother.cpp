@@ -330,6 +330,22 @@ Pose2 drivePipeline(const LoopDrive& d, bool loop_closure, int* closed, double* 
 }
 }  // namespace
 
+TEST(TrunkSlamPipelineLoops, ADriftOverOpenGroundIsClosedWhenTheStandComesBack)
+{
+  // A square of 40 m: the open side has 16 m with no tree in reach, where the heading drifts 0.32 rad: the filter
+  // alone maps the stand again beside itself.
+  const LoopDrive d = makeLoopDrive(0.02, 40.0);
+  int closed_off = 0, closed_on = 0;
+  double smoothed_off = 0.0, smoothed_on = 0.0;
+  const double off = positionError(drivePipeline(d, false, &closed_off, &smoothed_off), d.truth.back());
+  const double on = positionError(drivePipeline(d, true, &closed_on, &smoothed_on), d.truth.back());
+  EXPECT_EQ(closed_off, 0);
+  EXPECT_GT(off, 1.0) << "the filter alone must be off for the test to mean anything";
+  EXPECT_GE(closed_on, 1);
+  EXPECT_LT(on, 0.3) << "without loop closure " << off;
+  EXPECT_LT(smoothed_on, 0.3);
+}
+
 TEST(TrunkSlamPipelineLoops, TheRunSmoothedAtItsEndHoldsThePathAndTheMap)
 {
   // A square of 40 m: the open side has 16 m with no tree in reach, where the heading drifts 0.16 rad; the filter

@@ -45,6 +45,7 @@ void LoopClosing::reset()
 {
   detector_.reset();
   smoother_.clear();
+  archive_.clear();
   last_search_ = -1e300;
 }
 
@@ -58,7 +59,24 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   last_search_ = stamp;
   const LandmarkMap& map = filter->best().map;
   const Pose2& robot = filter->best().pose;
-  const LoopClosure loop = detector_.search(map, stamp, Eigen::Vector2d(robot.x, robot.y));
+  // The archive of old trees: those of the map now old, kept; those seen again, dropped; those the map lost, kept.
+  std::unordered_map<int, std::size_t> in_map;
+  for (std::size_t i = 0; i < map.size(); ++i)
+  {
+    const Landmark& l = map[i];
+    in_map[l.id] = i;
+    if (l.provisional || !std::isfinite(l.last_seen))
+      continue;
+    if (stamp - l.last_seen >= config_.detection.old_time)
+      archive_[l.id] = l;
+    else
+      archive_.erase(l.id);
+  }
+  std::vector<Landmark> archived;
+  for (const auto& a : archive_)
+    if (!in_map.count(a.first))
+      archived.push_back(a.second);
+  const LoopClosure loop = detector_.search(map, stamp, Eigen::Vector2d(robot.x, robot.y), archived);
   if (!loop.found)
     return event;
   detector_.reset();
@@ -67,11 +85,22 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   std::unordered_map<int, Eigen::Vector2d> position;
   for (std::size_t i = 0; i < map.size(); ++i)
     position[map[i].id] = map[i].mean;
+  for (const Landmark& l : archived)
+    position[l.id] = l.mean;
   for (const auto& m : loop.merged)
     event.links.emplace_back(position[m.first], position[m.second]);
   const std::vector<Pose2> path = filter->bestHistory();
-  const SmoothedRun run = smoother_.solve(path, filter->bestTrees(), loop.merged);
+  // The map's trees and the archived ones the loop matched.
+  std::vector<Landmark> trees = filter->bestTrees();
+  for (const auto& m : loop.merged)
+    if (!in_map.count(m.second) && archive_.count(m.second))
+    {
+      trees.push_back(archive_[m.second]);
+      in_map[m.second] = trees.size() - 1;
+    }
+  const SmoothedRun run = smoother_.solve(path, trees, loop.merged);
   event.seconds = run.seconds;
+  event.seconds_covariance = run.seconds_covariance;
   event.keyframes = run.keyframes;
   event.identity_chi2 = run.identity_chi2;
   event.identity_bound = run.identity_bound;
@@ -94,6 +123,8 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   for (const Landmark& l : run.trees)
     smoothed.add(l);
   filter->redraw(now, spread, smoothed, run.poses);
+  for (const auto& m : loop.merged)
+    archive_.erase(m.second);  // merged into a tree just seen: no longer old
   event.kind = LoopEvent::Kind::kClosed;
   ++closed_;
   return event;

@@ -6,10 +6,11 @@ namespace rbpf_slam
 {
 namespace core
 {
-LoopClosure LoopDetector::search(const LandmarkMap& map, double now, const Eigen::Vector2d& robot)
+LoopClosure LoopDetector::search(const LandmarkMap& map, double now, const Eigen::Vector2d& robot,
+                                 const std::vector<Landmark>& archived)
 {
   LoopClosure out;
-  std::vector<Landmark> old;
+  std::vector<Landmark> old = archived;
   std::vector<TrunkPoint> recent;
   std::vector<int> recent_ids;
   for (std::size_t i = 0; i < map.size(); ++i)

@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_CORE_FOREST_MAP_LOOP_CLOSING_H
 #define RBPF_SLAM_CORE_FOREST_MAP_LOOP_CLOSING_H
 
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,6 +31,7 @@ struct LoopEvent
   int matched = 0;       ///< trees the detection matched (identities)
   double shift = 0.0;    ///< [m] how far the smoother moved the robot's pose
   double seconds = 0.0;  ///< the solve's
+  double seconds_covariance = 0.0;  ///< ... of which the marginal covariance
   int keyframes = 0;
   double identity_chi2 = 0.0, identity_bound = 0.0;
   std::string reason;
@@ -41,7 +43,9 @@ const char* toString(LoopEvent::Kind k);
 /**
  * @brief Loop closure within one run of the filter: after each update it records what the filter took (for the
  * smoother), searches the best particle's map for a revisit every search_interval (LoopDetector), and on a
- * confirmed one smooths the best particle's path and trees with the loop's identities (TrunkSmoother). A consistent
+ * confirmed one smooths the best particle's path and trees with the loop's identities (TrunkSmoother). The old trees
+ * it searches include those the filter has deleted since they became old (a drifted robot misses them where it
+ * believes they stand): a loop brings them back, merged with the trees seen again. A consistent
  * solve within its budget is applied: the particles are drawn again around the smoothed pose, with the smoothed
  * map and path; anything else leaves the filter as it was. The solve runs in the update that confirmed the loop
  * (so that one seed gives one result): its cost is bounded by max_iterations and stated by LoopEvent::seconds.
@@ -72,6 +76,9 @@ private:
   LoopDetector detector_;
   TrunkSmoother smoother_;
   double last_search_ = -1e300;
+  /// Confirmed trees of the best particle's map once old (not seen for old_time), by id, kept after the filter
+  /// deletes them; dropped when seen again.
+  std::map<int, Landmark> archive_;
   int closed_ = 0, rejected_ = 0;
 };
 

@@ -40,12 +40,15 @@ struct SmootherConfig
   /// [m] Standard deviation of the identity of two trees a loop matched, beside their own covariances: the trees'
   /// centres are fitted to different sides of the bark on the two passes.
   double loop_sigma = 0.1;
+  /// ... and this share of the trees' radius in quadrature (a trunk is no perfect circle: its centre fitted from
+  /// two sides differs by a share of its radius).
+  double loop_radius_share = 0.3;
   /// The loop is rejected when its identities' residuals after the solve exceed this quantile of the chi-square
   /// distribution (two degrees of freedom per matched tree).
   double loop_quantile = 0.999;
   int max_iterations = 50;  ///< Levenberg-Marquardt iterations of one solve (a bound, deterministic)
   /// [s] A solve that takes longer, or does not converge within max_iterations, leaves the filter as it was.
-  double time_budget = 1.0;
+  double time_budget = 2.0;
   /// The particles are drawn again around the smoothed pose with the marginal covariance of the smoother's last
   /// pose, its standard deviations at least these [m], [rad].
   double spread_floor_xy = 0.02;

@@ -40,8 +40,11 @@ class LoopDetector
 public:
   explicit LoopDetector(const LoopConfig& config = LoopConfig()) : config_(config) {}
 
-  /** @brief One search in @p map at the filter's time @p now [s], the robot at @p robot (map frame). */
-  LoopClosure search(const LandmarkMap& map, double now, const Eigen::Vector2d& robot);
+  /** @brief One search in @p map at the filter's time @p now [s], the robot at @p robot (map frame); @p archived are
+   * old trees the map no longer holds (LoopClosing keeps them: a drifted robot misses the trees it mapped long ago
+   * where it believes they stand, and the filter deletes them just before they could close the loop). */
+  LoopClosure search(const LandmarkMap& map, double now, const Eigen::Vector2d& robot,
+                     const std::vector<Landmark>& archived = {});
   /** @brief Forgets the searches that agreed so far (e.g. after a loop was applied). */
   void reset() { agreeing_ = 0; }
 
