@@ -194,6 +194,8 @@ TEST(TrunkSmoother, ClosesTheLoopOfADriftingDrive)
   EXPECT_GT(run.observations, 1000);
   EXPECT_GE(run.identities, 6);
   EXPECT_LE(run.identity_chi2, run.identity_bound);
+  EXPECT_GE(run.loop_chi2, run.identity_chi2 - 1e-6) << "the loop's chi-square holds its identities' residuals";
+  EXPECT_LE(run.loop_chi2, run.identity_bound);
   ASSERT_EQ(run.poses.size(), d.truth.size());
   const double after = positionError(run.poses.back(), d.truth.back());
   EXPECT_LT(after, 0.3) << "before " << before;
@@ -219,8 +221,32 @@ TEST(TrunkSmoother, RefusesALoopThatPairsTheWrongTrees)
   ASSERT_GE(d.wrong.size(), 6u);
   const SmoothedRun run = smoother.solve(d.odometry, d.trees, d.wrong);
   EXPECT_FALSE(run.ok);
-  EXPECT_GT(run.identity_chi2, run.identity_bound);
+  EXPECT_GT(run.loop_chi2, run.identity_bound);
   EXPECT_NE(run.reason.find("chi-square"), std::string::npos) << run.reason;
+}
+
+TEST(TrunkSmoother, RefusesASolveBeyondItsBudgetOrUnconverged)
+{
+  const LoopDrive d = makeLoopDrive(0.01);
+  SmootherConfig slow;
+  slow.time_budget = 1e-6;
+  TrunkSmoother budget(slow, FastSlamConfig());
+  SmootherConfig short_config;
+  short_config.max_iterations = 1;
+  TrunkSmoother iterations(short_config, FastSlamConfig());
+  for (std::size_t i = 0; i < d.truth.size(); ++i)
+  {
+    budget.add(static_cast<double>(i), d.odometry[i], Pose2(), d.observations[i], 1.0);
+    iterations.add(static_cast<double>(i), d.odometry[i], Pose2(), d.observations[i], 1.0);
+  }
+  const SmoothedRun a = budget.solve(d.odometry, d.trees, d.identities);
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.reason.find("budget"), std::string::npos) << a.reason;
+  EXPECT_TRUE(a.poses.empty()) << "nothing to apply";
+  const SmoothedRun b = iterations.solve(d.odometry, d.trees, d.identities);
+  EXPECT_FALSE(b.ok);
+  EXPECT_NE(b.reason.find("did not converge"), std::string::npos) << b.reason;
+  EXPECT_TRUE(b.trees.empty());
 }
 
 TEST(TrunkSmoother, RefusesAPathThatDoesNotMatchTheRecords)
