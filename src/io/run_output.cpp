@@ -72,7 +72,7 @@ FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_table
     s->precision(12);
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
             "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop\n";
-  loops_ << "stamp,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,identity_chi2,chi2_bound,reason\n";
+  loops_ << "stamp,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,reason\n";
 }
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
@@ -170,7 +170,7 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
     std::string reason = loop.reason;
     std::replace(reason.begin(), reason.end(), ',', ';');
     loops_ << stamp << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
-           << loop.seconds << ',' << loop.seconds_covariance << ',' << loop.keyframes << ',' << loop.loop_chi2 << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
+           << loop.seconds << ',' << loop.seconds_covariance << ',' << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
            << reason << '\n';
   }
   if (timeline != timeline_)

@@ -48,7 +48,7 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
  * matched_confirmed, recreated, pose_spread, relocalizing, health, the particle cloud, loop: none, closed or
  * rejected), health.txt (the filter's health: how many updates warned that the map was being rebuilt, the first and
  * the last warning), map.csv (the best particle's map, landmarksCsv()), loops.csv (every loop found: stamp, kind,
- * matched trees, the robot's shift, the solve's seconds and those of its marginal covariance, keyframes, the chi-square the loop added, its identities' residuals, their bound, reason) and, with loop
+ * matched trees, the robot's shift, the solve's seconds and those of its marginal covariance, keyframes, chi-square and its bound, reason) and, with loop
  * closure, map_smoothed.csv and estimate_smoothed.tum (the run smoothed at its end: TrunkSlamPipeline::smoothed()).
  */
 class FastSlamRunRecord

@@ -103,7 +103,6 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   event.seconds_covariance = run.seconds_covariance;
   event.keyframes = run.keyframes;
   event.identity_chi2 = run.identity_chi2;
-  event.loop_chi2 = run.loop_chi2;
   event.identity_bound = run.identity_bound;
   if (!run.ok)
   {

@@ -33,7 +33,6 @@ struct LoopEvent
   double seconds = 0.0;  ///< the solve's
   double seconds_covariance = 0.0;  ///< ... of which the marginal covariance
   int keyframes = 0;
-  double loop_chi2 = 0.0;      ///< what the loop added to the graph's chi-square (SmoothedRun::loop_chi2)
   double identity_chi2 = 0.0, identity_bound = 0.0;
   std::string reason;
   /// The matched trees (recent, old positions, in the map before the loop), e.g. to show the loop.

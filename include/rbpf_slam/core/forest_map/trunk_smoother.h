@@ -30,10 +30,7 @@ struct SmoothedRun
   int identities = 0;     ///< identity factors (the loop's matched trees)
   int iterations = 0;
   double identity_chi2 = 0.0;  ///< sum of the identity factors' squared whitened residuals after the solve
-  double identity_bound = 0.0; ///< the chi-square quantile they are held to (2 dof per identity)
-  /// What the identities add to the whole graph's chi-square (the solve with them against the solve without): a loop
-  /// that bends the path and the other trees beyond their uncertainty adds much more than its degrees of freedom.
-  double loop_chi2 = 0.0;
+  double identity_bound = 0.0; ///< the chi-square quantile they are held to
   double odometry_chi2 = 0.0;  ///< the same for the odometry factors, over odometry_dof degrees of freedom
   int odometry_dof = 0;
   double seconds = 0.0;            ///< the whole solve: graph, Levenberg-Marquardt, marginal covariance
@@ -72,8 +69,8 @@ public:
    * @brief Solves the graph from the path @p path (one pose per recorded update, the particle's own) and its trees
    * @p trees, with the identities @p identities (tree ids: (recent, old); the old id is kept). Not ok (and nothing
    * to apply) when the path does not match the records, the solve fails, does not converge within max_iterations,
-   * takes longer than @p time_budget [s] (0: the configuration's), or the identities' residuals, or what the loop adds
-   * to the graph's chi-square, exceed the chi-square bound of the identities' degrees of freedom.
+   * takes longer than @p time_budget [s] (0: the configuration's), or the identities' residuals exceed their chi-square
+   * bound.
    */
   SmoothedRun solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
                     const std::vector<std::pair<int, int>>& identities, double time_budget = 0.0) const;
