@@ -67,6 +67,7 @@ void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
   core::LoopClosureConfig& lc = c->loop_closure;
   p.get("loop_closure/enabled", &lc.enabled);
   p.get("loop_closure/search_interval", &lc.search_interval);
+  p.get("loop_closure/retry_interval", &lc.retry_interval);
   p.get("loop_closure/recent_time", &lc.detection.recent_time);
   p.get("loop_closure/recent_radius", &lc.detection.recent_radius);
   p.get("loop_closure/old_time", &lc.detection.old_time);

@@ -24,8 +24,8 @@ const char* toString(LoopEvent::Kind k)
 
 std::string LoopClosureConfig::validate() const
 {
-  if (!(search_interval >= 0.0))
-    return "loop_closure/search_interval must be >= 0";
+  if (!(search_interval >= 0.0) || !(retry_interval >= 0.0))
+    return "loop_closure/search_interval and retry_interval must be >= 0";
   if (detection.confirmations < 1)
     return "loop_closure/confirmations must be >= 1";
   if (!(detection.recent_time > 0.0) || !(detection.old_time > 0.0))
@@ -47,6 +47,7 @@ void LoopClosing::reset()
   smoother_.clear();
   archive_.clear();
   last_search_ = -1e300;
+  retry_after_ = -1e300;
 }
 
 LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& odometry, const Pose2& mount,
@@ -54,7 +55,7 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
 {
   LoopEvent event;
   smoother_.add(stamp, odometry, mount, observations, share);
-  if (!config_.enabled || stamp - last_search_ < config_.search_interval)
+  if (!config_.enabled || stamp - last_search_ < config_.search_interval || stamp < retry_after_)
     return event;
   last_search_ = stamp;
   const LandmarkMap& map = filter->best().map;
@@ -109,6 +110,7 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
     event.kind = LoopEvent::Kind::kRejected;
     event.reason = run.reason;
     ++rejected_;
+    retry_after_ = stamp + config_.retry_interval;  // the same loop would be found, and refused, again at once
     return event;
   }
   const Pose2& now = run.poses.back();

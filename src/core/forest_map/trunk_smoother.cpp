@@ -401,6 +401,10 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.num_threads = 1;
   options.max_num_iterations = config_.max_iterations;
+  // The budget bounds the solve itself (what is left of it after building the graph): a solve stopped there is
+  // refused, so that no loop stalls the filter for longer.
+  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  options.max_solver_time_in_seconds = std::max(1e-3, budget - spent);
   // Converged when an iteration changes the cost by less than 1e-4 of it: by then the path moves by millimetres.
   options.function_tolerance = 1e-4;
   options.logging_type = ceres::SILENT;
@@ -411,9 +415,13 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (summary.termination_type != ceres::CONVERGENCE)
   {
-    out.reason = summary.termination_type == ceres::NO_CONVERGENCE ?
-                     "the smoother did not converge in " + std::to_string(config_.max_iterations) + " iterations" :
-                     "the smoother failed: " + summary.message;
+    if (summary.termination_type == ceres::NO_CONVERGENCE && out.seconds >= budget - 1e-3)
+      out.reason = "the smoother took " + std::to_string(out.seconds) + " s, beyond its budget of " +
+                   std::to_string(budget) + " s";
+    else
+      out.reason = summary.termination_type == ceres::NO_CONVERGENCE ?
+                       "the smoother did not converge in " + std::to_string(config_.max_iterations) + " iterations" :
+                       "the smoother failed: " + summary.message;
     return out;
   }
 

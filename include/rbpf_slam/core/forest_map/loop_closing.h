@@ -76,6 +76,7 @@ private:
   LoopDetector detector_;
   TrunkSmoother smoother_;
   double last_search_ = -1e300;
+  double retry_after_ = -1e300;  ///< [s] no search before (after a refused loop)
   /// Confirmed trees of the best particle's map once old (not seen for old_time), by id, kept after the filter
   /// deletes them; dropped when seen again.
   std::map<int, Landmark> archive_;

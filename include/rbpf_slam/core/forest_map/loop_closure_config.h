@@ -63,6 +63,7 @@ struct LoopClosureConfig
 {
   bool enabled = true;
   double search_interval = 1.0;  ///< [s] between two searches for a revisit
+  double retry_interval = 10.0;  ///< [s] after a loop the smoother refused, before the next search
   LoopConfig detection;
   SmootherConfig smoother;
 
