@@ -157,9 +157,9 @@ LoopDrive makeLoopDrive(double heading_bias_per_metre, double side = 20.0)  // [
   return d;
 }
 
-TrunkSmoother recorded(const LoopDrive& d, const FastSlamConfig& fc)
+TrunkSmoother recorded(const LoopDrive& d, const FastSlamConfig& fc, const SmootherConfig& sc = SmootherConfig())
 {
-  TrunkSmoother smoother(SmootherConfig(), fc);
+  TrunkSmoother smoother(sc, fc);
   for (std::size_t i = 0; i < d.truth.size(); ++i)
     smoother.add(static_cast<double>(i), d.odometry[i], Pose2(), d.observations[i], 1.0);
   return smoother;
@@ -228,15 +228,10 @@ TEST(TrunkSmoother, RefusesASolveBeyondItsBudgetOrUnconverged)
   const LoopDrive d = makeLoopDrive(0.01);
   SmootherConfig slow;
   slow.time_budget = 1e-6;
-  TrunkSmoother budget(slow, FastSlamConfig());
+  const TrunkSmoother budget = recorded(d, FastSlamConfig(), slow);
   SmootherConfig short_config;
   short_config.max_iterations = 1;
-  TrunkSmoother iterations(short_config, FastSlamConfig());
-  for (std::size_t i = 0; i < d.truth.size(); ++i)
-  {
-    budget.add(static_cast<double>(i), d.odometry[i], Pose2(), d.observations[i], 1.0);
-    iterations.add(static_cast<double>(i), d.odometry[i], Pose2(), d.observations[i], 1.0);
-  }
+  const TrunkSmoother iterations = recorded(d, FastSlamConfig(), short_config);
   const SmoothedRun a = budget.solve(d.odometry, d.trees, d.identities);
   EXPECT_FALSE(a.ok);
   EXPECT_NE(a.reason.find("budget"), std::string::npos) << a.reason;
@@ -352,37 +347,44 @@ Pose2 drivePipeline(const LoopDrive& d, bool loop_closure, int* closed, double* 
   *smoothed_error = s.ok ? positionError(s.poses.back(), d.truth.back()) : NAN;
   return p.filter().estimate();
 }
+/** The same drive with loop closure off and on: the final position errors, loops closed, smoothed final errors. */
+struct OffAndOn
+{
+  double off = 0.0, on = 0.0;
+  int closed_off = 0, closed_on = 0;
+  double smoothed_off = 0.0, smoothed_on = 0.0;
+};
+
+OffAndOn driveOffAndOn(const LoopDrive& d)
+{
+  OffAndOn r;
+  r.off = positionError(drivePipeline(d, false, &r.closed_off, &r.smoothed_off), d.truth.back());
+  r.on = positionError(drivePipeline(d, true, &r.closed_on, &r.smoothed_on), d.truth.back());
+  return r;
+}
 }  // namespace
 
 TEST(TrunkSlamPipelineLoops, ADriftOverOpenGroundIsClosedWhenTheStandComesBack)
 {
   // A square of 40 m: the open side has 16 m with no tree in reach, where the heading drifts 0.32 rad: the filter
   // alone maps the stand again beside itself.
-  const LoopDrive d = makeLoopDrive(0.02, 40.0);
-  int closed_off = 0, closed_on = 0;
-  double smoothed_off = 0.0, smoothed_on = 0.0;
-  const double off = positionError(drivePipeline(d, false, &closed_off, &smoothed_off), d.truth.back());
-  const double on = positionError(drivePipeline(d, true, &closed_on, &smoothed_on), d.truth.back());
-  EXPECT_EQ(closed_off, 0);
-  EXPECT_GT(off, 1.0) << "the filter alone must be off for the test to mean anything";
-  EXPECT_GE(closed_on, 1);
-  EXPECT_LT(on, 0.3) << "without loop closure " << off;
-  EXPECT_LT(smoothed_on, 0.3);
+  const OffAndOn r = driveOffAndOn(makeLoopDrive(0.02, 40.0));
+  EXPECT_EQ(r.closed_off, 0);
+  EXPECT_GT(r.off, 1.0) << "the filter alone must be off for the test to mean anything";
+  EXPECT_GE(r.closed_on, 1);
+  EXPECT_LT(r.on, 0.3) << "without loop closure " << r.off;
+  EXPECT_LT(r.smoothed_on, 0.3);
 }
 
 TEST(TrunkSlamPipelineLoops, TheRunSmoothedAtItsEndHoldsThePathAndTheMap)
 {
   // A square of 40 m: the open side has 16 m with no tree in reach, where the heading drifts 0.16 rad; the filter
   // holds it (the trees come back within its gates), and the run smoothed at its end keeps to the truth.
-  const LoopDrive d = makeLoopDrive(0.01, 40.0);
-  int closed_off = 0, closed_on = 0;
-  double smoothed_off = 0.0, smoothed_on = 0.0;
-  const double off = positionError(drivePipeline(d, false, &closed_off, &smoothed_off), d.truth.back());
-  const double on = positionError(drivePipeline(d, true, &closed_on, &smoothed_on), d.truth.back());
-  EXPECT_EQ(closed_off, 0);
-  EXPECT_TRUE(std::isnan(smoothed_off)) << "no smoothing without loop closure";
-  EXPECT_EQ(closed_on, 0) << "no loop to close: the filter kept its trees";
-  EXPECT_LT(off, 0.3);
-  EXPECT_LT(on, 0.3);
-  EXPECT_LT(smoothed_on, 0.3);
+  const OffAndOn r = driveOffAndOn(makeLoopDrive(0.01, 40.0));
+  EXPECT_EQ(r.closed_off, 0);
+  EXPECT_TRUE(std::isnan(r.smoothed_off)) << "no smoothing without loop closure";
+  EXPECT_EQ(r.closed_on, 0) << "no loop to close: the filter kept its trees";
+  EXPECT_LT(r.off, 0.3);
+  EXPECT_LT(r.on, 0.3);
+  EXPECT_LT(r.smoothed_on, 0.3);
 }

@@ -55,6 +55,15 @@ Eigen::Vector2d apply(const Pose2& t, const Eigen::Vector2d& p)
 }
 }  // namespace
 
+TrunkPoint trunkPoint(const Landmark& tree)
+{
+  TrunkPoint t;
+  t.center = tree.mean;
+  t.radius = tree.radius;
+  t.radius_sigma = std::sqrt(std::max(0.0, tree.radius_variance));
+  return t;
+}
+
 ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, const ConstellationConfig& config)
   : config_(config), cell_(std::max(0.1, config.inlier_gate))
 {
@@ -62,11 +71,7 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
   {
     if (l.provisional || !std::isfinite(l.mean.x()) || !std::isfinite(l.mean.y()))
       continue;
-    TrunkPoint t;
-    t.center = l.mean;
-    t.radius = l.radius;
-    t.radius_sigma = std::sqrt(std::max(0.0, l.radius_variance));
-    trees_.push_back(t);
+    trees_.push_back(trunkPoint(l));
   }
   // The pairs through a grid of the pairs' reach: linear in the trees (times their neighbours), not quadratic.
   const double reach = config_.max_pair_length + config_.pair_tolerance;

@@ -22,11 +22,7 @@ LoopClosure LoopDetector::search(const LandmarkMap& map, double now, const Eigen
     {
       if ((l.mean - robot).norm() > config_.recent_radius)
         continue;
-      TrunkPoint t;
-      t.center = l.mean;
-      t.radius = l.radius;
-      t.radius_sigma = std::sqrt(std::max(0.0, l.radius_variance));
-      recent.push_back(t);
+      recent.push_back(trunkPoint(l));
       recent_ids.push_back(l.id);
     }
     else if (now - l.last_seen >= config_.old_time)

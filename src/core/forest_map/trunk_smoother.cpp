@@ -313,13 +313,11 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   ceres::CauchyLoss cauchy(config_.robust_scale);
-  std::vector<OdometryFactor> odometry_factors;
   for (std::size_t k = 0; k + 1 < keyframes.size(); ++k)
   {
     const Pose2 d = between(records_[keyframes[k]].odometry, records_[keyframes[k + 1]].odometry);
     OdometryFactor f{ Eigen::Vector3d(d.x, d.y, d.theta),
                       sqrtInformation<3>(odometryCovariance(keyframes[k], keyframes[k + 1])) };
-    odometry_factors.push_back(f);
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 3, 3, 3>(new OdometryFactor(f)), nullptr,
                              poses[k].data(), poses[k + 1].data());
   }
@@ -425,7 +423,7 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
     return out;
   }
 
-  // Consistency: the identities' residuals, and the odometry's, after the solve.
+  // Consistency: the identities' residuals after the solve.
   for (std::size_t f = 0; f < identity_factors.size(); ++f)
   {
     double r[2];
@@ -433,13 +431,6 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
     out.identity_chi2 += r[0] * r[0] + r[1] * r[1];
   }
   out.identity_bound = chiSquareQuantile(config_.loop_quantile, 2 * out.identities);
-  for (std::size_t k = 0; k < odometry_factors.size(); ++k)
-  {
-    double r[3];
-    odometry_factors[k](poses[k].data(), poses[k + 1].data(), r);
-    out.odometry_chi2 += r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-  }
-  out.odometry_dof = 3 * static_cast<int>(odometry_factors.size());
 
   // The last keyframe's marginal covariance, for the spread of the particles drawn again.
   const auto t_cov = std::chrono::steady_clock::now();

@@ -21,6 +21,9 @@ struct TrunkPoint
   double radius_sigma = 0.0;                         ///< [m]
 };
 
+/** @brief A tree of a map as the constellation search takes it (centre, radius, the radius's standard deviation). */
+TrunkPoint trunkPoint(const Landmark& tree);
+
 /** @brief Parameters of the constellation search (global relocalization from trunk positions and radii). */
 struct ConstellationConfig
 {

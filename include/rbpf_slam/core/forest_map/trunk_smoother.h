@@ -31,8 +31,6 @@ struct SmoothedRun
   int iterations = 0;
   double identity_chi2 = 0.0;  ///< sum of the identity factors' squared whitened residuals after the solve
   double identity_bound = 0.0; ///< the chi-square quantile they are held to
-  double odometry_chi2 = 0.0;  ///< the same for the odometry factors, over odometry_dof degrees of freedom
-  int odometry_dof = 0;
   double seconds = 0.0;            ///< the whole solve: graph, Levenberg-Marquardt, marginal covariance
   double seconds_covariance = 0.0; ///< ... of which the marginal covariance
 };
