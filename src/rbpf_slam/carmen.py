@@ -9,6 +9,11 @@ it in the file, as the log itself pairs them: the bag holds an odometry sample a
 that pose, so odometry read at a scan's stamp (``/odom`` or TF, interpolated there) is exactly it. A log
 without ``ODOM`` lines is refused (exit 1, no bag) unless told what to do: ``--laser-poses odometry`` when
 the poses of its laser lines are raw odometry, ``--no-odometry`` to write the scans and the reference only.
+So is a log whose ``ODOM`` lines repeat the robot poses of the laser lines next to them (before or after, within
+1 mm and 1e-4 rad, for at least 90 % of the ``ODOM`` lines next to a laser line while the robot moves; resets
+aside): its ``ODOM`` lines may be corrected poses as well as raw odometry that the laser lines copy, and the log
+cannot tell which. ``--corrected no`` takes them as raw odometry; ``--laser-poses odometry`` and
+``--no-odometry`` as above.
 
 The "corrected" logs (e.g. Intel and ACES from Radish) need care, and this converter handles them:
 
@@ -53,9 +58,14 @@ scans in between change) are reported with their lines, duration and motion: odo
 such a gap does not follow the robot.
 
 Readings at the sensor's maximum are no returns, not walls (about 81.83-81.91 m for the SICK scanners, 50.0 m
-in ACES): they become +Inf (REP-117). By default (``--no-return auto``) the no-return value is the log's
-largest reading when at least 10 readings have it; readings above the laser's stated maximum range
-(``ROBOTLASER1``, or a ``PARAM``) are +Inf too; readings <= 0 are NaN.
+in ACES): they become +Inf (REP-117). By default (``--no-return auto``) they are the top cluster of the log's
+readings: the largest reading and those below it, none more than 2 cm from the next, within 0.2 m, at least
+10 readings, and at least 10 times as many as in the 0.2 m below the cluster (a gap: the far walls of a long
+corridor, spread out in range, are no cluster). Readings from 5 mm below the cluster's lower edge up are +Inf;
+the summary gives the cluster (from-to m, readings). Readings above the laser's stated maximum range
+(``ROBOTLASER1``'s max_range, or a ``PARAM`` such as ``robot_front_laser_max``) are +Inf too, and the summary
+says how many such a cap made +Inf; ``--laser-max M`` overrides the log's cap (``none``: no cap). Readings
+<= 0 are NaN.
 
 Beam angles: ``ROBOTLASER1`` lines state them. ``FLASER``/``RLASER`` lines do not: the field of view
 is 180 degrees from -90 degrees (``--laser-fov``) and the increment fov / n for even n, fov / (n - 1) for
@@ -65,6 +75,7 @@ odd n (1 degree for 180 or 181 beams, as GMapping's CARMEN reader has it). Laser
 or for ``ROBOTLASER1`` the laser pose relative to the robot pose of the first line; published on
 ``/tf_static``.
 """
+import argparse
 import collections
 import math
 
@@ -73,9 +84,22 @@ import numpy as np
 from rbpf_slam import convert_common as cc
 
 LASER_TAGS = ('FLASER', 'RLASER', 'ROBOTLASER1')
-NO_RETURN_MIN_COUNT = 10   # a reading value at least this frequent at the log's maximum is a no-return
-NO_RETURN_TOLERANCE = 0.005  # [m]
-POSE_EQUAL_TOLERANCE = 1e-6  # [m, rad] an ODOM line "repeats" a laser pose within this
+# The no-return readings are the top cluster of the log's readings: sorted, no two consecutive ones more than
+# NO_RETURN_STEP apart, spanning at most NO_RETURN_BAND, at least NO_RETURN_MIN_COUNT readings, and at least
+# NO_RETURN_CONTRAST times as many as in the NO_RETURN_BAND below the cluster (a gap below it: the far walls of
+# a long corridor, spread out in range, are no cluster).
+NO_RETURN_MIN_COUNT = 10
+NO_RETURN_STEP = 0.02       # [m]
+NO_RETURN_BAND = 0.2        # [m]
+NO_RETURN_CONTRAST = 10
+NO_RETURN_TOLERANCE = 0.005  # [m] readings this far below the cluster's lower edge are no-returns too
+POSE_EQUAL_TOLERANCE = 1e-6  # [m, rad] a reset ODOM line repeats the laser pose before it within this
+# An ODOM line that repeats the pose of a laser line next to it (within these; the two may be written with
+# different digits) is no raw odometry when most such lines of a log do: at least REPEAT_SHARE of at least
+# REPEAT_MIN_PAIRS ODOM lines next to a laser line while the robot moves.
+REPEAT_TOLERANCE = (1e-3, 1e-4)  # [m, rad]
+REPEAT_SHARE = 0.9
+REPEAT_MIN_PAIRS = 5
 MAX_RANGE_PARAMS = {
     'FLASER': ('laser_front_laser_max_range', 'robot_front_laser_max', 'robot_frontlaser_max'),
     'RLASER': ('laser_rear_laser_max_range', 'robot_rear_laser_max', 'robot_rearlaser_max'),
@@ -87,6 +111,7 @@ Example:
   rosbag play --clock intel.bag      # /odom, /tf, /tf_static, /scan, /ground_truth/odom, /ground_truth/path
   carmen_to_bag csail.log -o csail.bag --no-odometry     # laser lines with corrected poses, no ODOM lines
   carmen_to_bag orebro.log -o orebro.bag --laser-poses odometry --line-period 0.1   # raw poses, stamps all 0
+  carmen_to_bag robot.log -o robot.bag --laser-max none   # keep the readings a PARAM ..._laser_max would cap
 """
 
 
@@ -219,6 +244,35 @@ def find_resets(records):
     return resets, zero
 
 
+def _repeats(a, b):
+    return (abs(a[0] - b[0]) <= REPEAT_TOLERANCE[0] and abs(a[1] - b[1]) <= REPEAT_TOLERANCE[0]
+            and abs(float(cc.wrap_angle(a[2] - b[2]))) <= REPEAT_TOLERANCE[1])
+
+
+def find_repeats(records, resets=()):
+    """ODOM lines that repeat the robot pose of a laser line next to them (the record before or after), the
+    resets (indices into ``records``) aside. Counted are the ODOM lines next to a laser line whose pose differs
+    from the ODOM line before them (the robot moves; a robot standing still repeats every pose). Returns
+    (repeats, pairs): a log whose ODOM lines are raw odometry has few repeats (a laser line's pose is odometry
+    at another time, or a corrected pose); one whose ODOM lines are the laser poses has nearly all."""
+    resets = set(resets)
+    pairs = repeats = 0
+    prev = None
+    for i, r in enumerate(records):
+        if not isinstance(r, Odom):
+            continue
+        pose = (r.x, r.y, r.theta)
+        before = prev
+        prev = pose
+        if i in resets or before is None or _repeats(pose, before):
+            continue
+        lasers = [records[j] for j in (i - 1, i + 1) if 0 <= j < len(records) and isinstance(records[j], Laser)]
+        if lasers:
+            pairs += 1
+            repeats += any(_repeats(pose, l.robot_pose) for l in lasers)
+    return repeats, pairs
+
+
 def rebuild_raw_odometry(poses, is_reset):
     """Raw odometry from logged ODOM poses of which some are resets to a corrected pose.
 
@@ -253,16 +307,34 @@ def rep117_ranges(ranges, no_return, range_max):
     return r
 
 
+class NoReturn(collections.namedtuple('NoReturn', 'low high count below')):
+    """The top cluster of a log's readings: its lower and upper edge [m], its readings, and the readings in
+    the NO_RETURN_BAND below it."""
+
+
 def detect_no_return(lasers, min_count=NO_RETURN_MIN_COUNT):
-    """The no-return value: the largest reading of the log if at least ``min_count`` readings have it."""
-    if not lasers:
-        return None, 0
-    all_ranges = np.concatenate([l.ranges for l in lasers])
-    if all_ranges.size == 0:
-        return None, 0
-    top = float(all_ranges.max())
-    n = int(np.sum(all_ranges >= top - NO_RETURN_TOLERANCE))
-    return (top, n) if n >= min_count else (None, 0)
+    """The no-return readings of a log: its top cluster of readings (see NO_RETURN_*) as a NoReturn, or None
+    when the top of the ranges is no such cluster. Its ``low`` is the no-return value."""
+    ranges = [l.ranges for l in lasers if len(l.ranges)]
+    if not ranges:
+        return None
+    r = np.concatenate(ranges)
+    values, counts = np.unique(r[np.isfinite(r) & (r > 0.0)], return_counts=True)
+    if not len(values):
+        return None
+    eps = 1e-9
+    k = len(values) - 1
+    while (k > 0 and values[k] - values[k - 1] <= NO_RETURN_STEP + eps
+           and values[-1] - values[k - 1] <= NO_RETURN_BAND + eps):
+        k -= 1
+    if k > 0 and values[k] - values[k - 1] <= NO_RETURN_STEP + eps:
+        return None  # the band ends among readings that go on below: no gap
+    low = float(values[k])
+    n = int(counts[k:].sum())
+    below = int(counts[(values >= low - NO_RETURN_BAND - eps) & (values < low)].sum())
+    if n < min_count or n < NO_RETURN_CONTRAST * below:
+        return None
+    return NoReturn(low, float(values[-1]), n, below)
 
 
 def _param_float(params, names, default=None):
@@ -301,17 +373,25 @@ GAPS_LISTED = 10            # gaps listed one by one in the summary (the longest
 
 NEEDS_ODOMETRY = ('raw odometry: ODOM lines (--laser-poses odometry if the laser lines\' poses are raw '
                   'odometry; --no-odometry to write none)')
+NEEDS_RAW_ODOMETRY = ('raw odometry: ODOM lines that do not repeat the poses of the laser lines next to them (within '
+                      '%g m and %g rad, while the robot moves; --corrected no if they are raw odometry all the same, '
+                      'the laser lines copying their poses; --laser-poses odometry to take the laser lines\' poses as '
+                      'odometry, knowingly; --no-odometry to write none)' % REPEAT_TOLERANCE)
 NEEDS_STAMPS = 'time stamps that advance (--line-period S: the seconds from one line to the next)'
 
 
 class Conversion:
     """Everything the bag will hold, computed from a Log (pure numpy: the tests check it directly).
 
-    Raises ConversionError for a log without raw odometry (unless ``laser_poses`` is 'odometry' or
-    ``no_odometry``) or whose stamps do not advance (unless ``line_period``)."""
+    Raises ConversionError for a log without raw odometry: without ODOM lines, or whose ODOM lines repeat the
+    laser lines' poses (find_repeats; unless ``corrected`` is 'no'), unless ``laser_poses`` is 'odometry' or
+    ``no_odometry``; and for a log whose stamps do not advance (unless ``line_period``).
+
+    ``laser_max`` [m]: readings beyond it are +Inf, instead of beyond the log's cap (a ROBOTLASER1 line's
+    max_range, or a PARAM of MAX_RANGE_PARAMS); 0 or inf: no cap; None: the log's cap."""
 
     def __init__(self, log, corrected='auto', laser_poses='auto', no_return='auto', line_period=None, stamps='log',
-                 no_odometry=False, odom_gap=1.0, time_offset=0.0):
+                 no_odometry=False, odom_gap=1.0, time_offset=0.0, laser_max=None):
         self.log = log
         self.notes = []
         self.skipped = collections.Counter()
@@ -332,8 +412,13 @@ class Conversion:
         odom_idx = [i for i, r in enumerate(records) if isinstance(r, Odom)]
         kept = [i for i in odom_idx if i not in reset_set]
         self.lasers = [r for r in records if isinstance(r, Laser)]
+        # ODOM lines that only repeat the laser poses: no raw odometry, though the log cannot tell whether
+        # they are corrected poses or the laser lines copy raw odometry. Refused unless told.
+        self.n_repeats, self.n_repeat_pairs = find_repeats(records, reset_set) if corrected != 'no' else (0, 0)
+        repeated = (self.n_repeat_pairs >= REPEAT_MIN_PAIRS
+                    and self.n_repeats >= REPEAT_SHARE * self.n_repeat_pairs)
         if laser_poses == 'auto':
-            laser_poses = 'reference' if (self.corrected or not kept) else 'ignore'
+            laser_poses = 'reference' if (self.corrected or not kept or (repeated and no_odometry)) else 'ignore'
         self.odometry_source = ('laser' if laser_poses == 'odometry' and self.lasers else
                                 'none' if no_odometry or not kept else 'odom')
 
@@ -344,6 +429,9 @@ class Conversion:
             problems.append((NEEDS_ODOMETRY, 'no ODOM line (%s)' % ', '.join(
                 '%d %s' % (n, 'TRUEPOS' if tag == 'TruePos' else 'ODOM resets' if tag == 'Odom' else tag)
                 for tag, n in sorted(lines.items()))))
+        elif repeated and laser_poses != 'odometry' and not no_odometry:
+            problems.append((NEEDS_RAW_ODOMETRY, 'ODOM lines that repeat the laser poses (%d of %d next to a laser '
+                             'line)' % (self.n_repeats, self.n_repeat_pairs)))
         # Timed records in file order (resets carry no usable stamp).
         timed = [i for i, r in enumerate(records) if i not in reset_set]
         try:
@@ -442,30 +530,7 @@ class Conversion:
             self.reference_stamps = np.zeros(0)
 
         # Ranges.
-        if no_return == 'auto':
-            self.no_return, n_no_return = detect_no_return(self.lasers)
-        else:
-            self.no_return = float(no_return) if no_return not in (None, 'none') else None
-            n_no_return = 0
-        self.range_max = {}
-        for tag in set(l.tag for l in self.lasers):
-            stated = [l.max_range for l in self.lasers if l.tag == tag and l.max_range]
-            param = _param_float(log.params, MAX_RANGE_PARAMS.get(tag, ()))
-            if stated:
-                self.range_max[tag] = float(min(stated))
-            elif param is not None:
-                self.range_max[tag] = param
-            elif self.no_return is not None:
-                self.range_max[tag] = self.no_return - NO_RETURN_TOLERANCE
-            else:
-                self.range_max[tag] = float(max(l.ranges.max() for l in self.lasers if l.tag == tag and len(l.ranges)))
-        n_inf = sum(int(np.sum(np.isinf(rep117_ranges(l.ranges, self.no_return, self.range_max[l.tag]))))
-                    for l in self.lasers)
-        if self.lasers:
-            what = ('no-return value %.3f m (%d readings)' % (self.no_return, n_no_return)
-                    if self.no_return is not None else 'no no-return value found')
-            self.notes.append('%s; %d readings written as +Inf (REP-117); range_max %s' % (
-                what, n_inf, ', '.join('%s %.2f m' % kv for kv in sorted(self.range_max.items()))))
+        self._ranges(log, no_return, laser_max)
 
         self.odom_gaps, self.n_quiet_gaps = [], 0
         if self.odometry_source == 'odom':
@@ -474,6 +539,67 @@ class Conversion:
         self.mounts = laser_mounts(log)
         for tag, n in sorted(log.other.items()):
             self.skipped['%s lines (not converted)' % tag] = n
+
+    def _ranges(self, log, no_return, laser_max):
+        """The no-return value and each laser's cap (range_max), and their notes."""
+        self.no_return_cluster = None
+        if no_return == 'auto':
+            self.no_return_cluster = detect_no_return(self.lasers)
+            self.no_return = self.no_return_cluster.low if self.no_return_cluster else None
+        else:
+            self.no_return = float(no_return) if no_return not in (None, 'none') else None
+        if laser_max is not None and (laser_max <= 0.0 or math.isinf(laser_max)):
+            laser_max = math.inf   # no cap
+        self.range_max, self.capped = {}, {}
+        for tag in sorted(set(l.tag for l in self.lasers)):
+            tagged = [l for l in self.lasers if l.tag == tag]
+            stated = [l.max_range for l in tagged if l.max_range]
+            names = [n for n in MAX_RANGE_PARAMS.get(tag, ()) if _param_float(log.params, (n,)) is not None]
+            if laser_max is not None:
+                cap, source = (None, None) if math.isinf(laser_max) else (laser_max, '--laser-max %g m' % laser_max)
+            elif stated:
+                cap, source = float(min(stated)), 'the max_range field of the %s lines, %g m,' % (tag, min(stated))
+            elif names:
+                cap = _param_float(log.params, names[:1])
+                source = 'PARAM %s %g m' % (names[0], cap)
+            else:
+                cap, source = None, None
+            if cap is not None:
+                self.range_max[tag] = cap
+            elif self.no_return is not None:
+                self.range_max[tag] = self.no_return - NO_RETURN_TOLERANCE
+            else:
+                self.range_max[tag] = float(max(l.ranges.max() for l in tagged if len(l.ranges)))
+            if cap is not None:
+                r = np.concatenate([l.ranges for l in tagged])
+                beyond = r > cap
+                if self.no_return is not None:
+                    beyond &= r < self.no_return - NO_RETURN_TOLERANCE
+                self.capped[tag] = (source, int(np.sum(beyond)))
+        n_inf = sum(int(np.sum(np.isinf(rep117_ranges(l.ranges, self.no_return, self.range_max[l.tag]))))
+                    for l in self.lasers)
+        self.n_inf = n_inf
+        if not self.lasers:
+            return
+        c = self.no_return_cluster
+        if c is not None:
+            what = ('no-return readings: the top cluster of the ranges, %.3f-%.3f m (%d readings; %d in the %g m '
+                    'below it), +Inf from %.3f m' % (c.low, c.high, c.count, c.below, NO_RETURN_BAND,
+                                                     c.low - NO_RETURN_TOLERANCE))
+        elif self.no_return is not None:
+            what = 'no-return value %.3f m (--no-return), +Inf from %.3f m' % (self.no_return,
+                                                                              self.no_return - NO_RETURN_TOLERANCE)
+        elif no_return == 'auto':
+            what = ('no no-return value found (the top of the ranges is no cluster of at least %d readings within '
+                    '%g m with a gap below it)' % (NO_RETURN_MIN_COUNT, NO_RETURN_BAND))
+        else:
+            what = 'no no-return value (--no-return none)'
+        self.notes.append('%s; %d readings written as +Inf (REP-117); range_max %s' % (
+            what, n_inf, ', '.join('%s %.2f m' % kv for kv in sorted(self.range_max.items()))))
+        for tag, (source, n) in sorted(self.capped.items()):
+            if n:
+                self.notes.append('%s capped %d %s readings to +Inf (readings beyond it%s)' % (
+                    source, n, tag, '' if source.startswith('--laser-max') else '; --laser-max overrides'))
 
     def _check_range(self, stamps, timed_records, time_offset):
         """The stamps, rebuilt ones and --time-offset included, must lie within ROS time."""
@@ -589,11 +715,26 @@ class Conversion:
                               % (g['first_line'], g['last_line'], g['duration'], '; '.join(parts)))
 
 
+def laser_max_arg(text):
+    """--laser-max: a positive number of metres, or none / 0 (no cap: 0.0)."""
+    if text.strip().lower() == 'none':
+        return 0.0
+    try:
+        v = float(text)
+    except ValueError:
+        v = float('nan')
+    if not (v >= 0.0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError('expected metres (a positive number), or none or 0 for no cap, got %r'
+                                         % text)
+    return v
+
+
 def build_parser():
     p = cc.make_parser('carmen_to_bag', __doc__)
     p.add_argument('log', help='CARMEN log, plain or gzip-compressed')
     p.add_argument('--corrected', choices=('auto', 'yes', 'no'), default='auto',
-                   help='whether ODOM lines after laser lines reset odometry to a corrected pose (default auto)')
+                   help='whether ODOM lines after laser lines reset odometry to a corrected pose (default auto); '
+                        'no: every ODOM line is raw odometry, also where the laser lines repeat their poses')
     p.add_argument('--laser-poses', choices=('auto', 'reference', 'odometry', 'ignore'), default='auto',
                    help='what the robot poses of the laser lines are: auto = the reference path in a corrected log '
                         'or a log without ODOM lines, else ignored')
@@ -608,8 +749,13 @@ def build_parser():
     p.add_argument('--odom-gap', type=cc.positive_float, default=1.0, metavar='S',
                    help='report consecutive ODOM lines more than S seconds apart while the robot moves (default 1)')
     p.add_argument('--no-return', default='auto', metavar='M',
-                   help='reading [m] that means no return (-> +Inf); auto = the log\'s largest reading if at least '
-                        '%d readings have it; none = no such value' % NO_RETURN_MIN_COUNT)
+                   help='reading [m] that means no return (-> +Inf, and readings above it); auto = the lower edge of '
+                        'the top cluster of the log\'s readings (at least %d readings within %g m, a gap below); '
+                        'none = no such value' % (NO_RETURN_MIN_COUNT, NO_RETURN_BAND))
+    p.add_argument('--laser-max', type=laser_max_arg, default=None, metavar='M',
+                   help='the lasers\' maximum range [m]: readings beyond it become +Inf; overrides the log\'s cap (the '
+                        'max_range field of ROBOTLASER1 lines, or a PARAM such as robot_front_laser_max); none or 0: '
+                        'no cap, only no-returns become +Inf (default: the log\'s cap)')
     p.add_argument('--laser-fov', type=float, default=180.0, metavar='DEG',
                    help='field of view of FLASER/RLASER lines, centred on the laser\'s axis (default 180)')
     cc.add_common_arguments(
@@ -635,7 +781,7 @@ def convert(args, out, bad, summary):
     log = parse_log(args.log, bad, limit=args.limit, laser_fov=math.radians(args.laser_fov))
     conv = Conversion(log, corrected=args.corrected, laser_poses=args.laser_poses, no_return=args.no_return,
                       line_period=args.line_period, stamps=args.stamps, no_odometry=args.no_odometry,
-                      odom_gap=args.odom_gap, time_offset=args.time_offset)
+                      odom_gap=args.odom_gap, time_offset=args.time_offset, laser_max=args.laser_max)
     for reason, n in conv.skipped.items():
         summary.skip(reason, n)
     for note in conv.notes:

@@ -16,7 +16,8 @@ Pairing of a file's poses with the reference's:
                           of them is paired with the k-th reference pose of that stamp (file order; a k-th
                           pose without a k-th reference pose stays unpaired), and no pose is paired with a
                           reference pose before the one paired with the pose before it (the reference's
-                          stamps must not go backwards).
+                          stamps must not go backwards). Where several poses get one reference pose
+                          (stamps coarser than the poses), a warning on stderr says how many.
   --pair index            the k-th pose of the file with the k-th reference pose (for files whose stamps
                           are not the bag's, e.g. a log's own stamps where the converter re-timed them); the
                           file and the reference must have as many poses (an error naming both otherwise).
@@ -32,9 +33,10 @@ reference has positions only).
 
 --write-reference writes the reference as a TUM file; --write-odometry the bag's odometry (--odom,
 nav_msgs/Odometry) at the reference's stamps (interpolated, one pose per reference pose), as a TUM file that
-either pairing scores like a run.
+either pairing scores like a run. Their stamps are written to the nanosecond.
 """
 import argparse
+import sys
 
 from rbpf_slam import atomic, evaluate as ev
 
@@ -87,6 +89,10 @@ def _main(argv):
             e = ev.trajectory_errors(run, (ref_t, ref_xy, ref_yaw), args.travel, args.tolerance, args.pair)
         except ValueError as err:
             raise ValueError('%s: %s' % (path, err))
+        if e['shared_partners']:
+            sys.stderr.write('trajectory_eval: warning: %s: %d of %d paired poses share their reference pose with '
+                             'another pose (stamps coarser than the poses; --pair index pairs by order)\n'
+                             % (path, e['shared_partners'], e['poses']))
         print('%-40s %7d %9.4f %s %9.4f %s %9.4f %s' % (
             path, e['poses'], e['rpe_translation_mean'], _num(e['rpe_rotation_mean_deg'], '%9.3f'),
             e['rpe_translation_rms'], _num(e['rpe_rotation_rms_deg'], '%10.3f'), e['ate'],

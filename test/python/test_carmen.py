@@ -132,6 +132,78 @@ def test_no_returns_become_inf_and_laser_is_mounted(tmp_path):
     assert '/ground_truth/odom' not in bag  # not a corrected log: laser poses are no reference
 
 
+def ranges_log(scans, head=HEAD):
+    """ODOM and FLASER lines, the robot standing still; ``scans``: the readings of each scan."""
+    text = head + odom_line((0, 0, 0), 1.0)
+    for k, ranges in enumerate(scans):
+        text += flaser_line(ranges, (0, 0, 0), 1.0 + 0.1 * k) + odom_line((0, 0, 0), 1.05 + 0.1 * k)
+    return text
+
+
+def test_no_returns_are_the_top_cluster_of_the_ranges(tmp_path, capsys):
+    """No-returns that vary by centimetres (12,300 readings from 50.95 to 51.05 m): all of them +Inf, not only
+    those at the largest value; the walls below the gap stay."""
+    rng = np.random.RandomState(3)
+    scans = []
+    for k in range(100):
+        ranges = list(2.0 + 0.1 * np.arange(57))              # walls 2.0 .. 7.6 m
+        ranges += list(np.round(rng.uniform(50.95, 51.05, 123), 2))
+        scans.append(ranges)
+    log = write(tmp_path, 'c.log', ranges_log(scans))
+    out = str(tmp_path / 'c.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no'], capsys)
+    assert code == 0
+    assert ('no-return readings: the top cluster of the ranges, 50.950-51.050 m (12300 readings; 0 in the 0.2 m below '
+            'it), +Inf from 50.945 m; 12300 readings written as +Inf') in stdout
+    r = np.array([m.ranges for _, m in read_bag(out)['/scan']])
+    assert np.all(np.isposinf(r[:, 57:])) and np.all(np.isfinite(r[:, :57]))
+    assert np.nanmax(r[np.isfinite(r)]) == pytest.approx(7.6)
+
+
+def test_far_walls_spread_in_range_are_no_cluster():
+    """A long corridor: the far walls spread from 30 to 50.5 m in 1 cm steps, 12 readings at the largest value.
+    No gap below the top: no no-return value (the largest value with 10 readings was taken for one)."""
+    far = list(np.round(np.arange(30.0, 50.5, 0.01), 2)) + [50.5] * 12
+    lasers = [carmen.Laser(1, 'FLASER', np.array(far[i::4]), 0.0, 0.0, None, (0, 0, 0), (0, 0, 0), 1.0)
+              for i in range(4)]
+    assert carmen.detect_no_return(lasers) is None
+    # The same top with a gap below it is a cluster; too few readings, or too many just below it, are not.
+    gap = [carmen.Laser(1, 'FLASER', np.r_[np.arange(30.0, 50.0, 0.01), [50.5] * 12], 0.0, 0.0, None, (0, 0, 0),
+                        (0, 0, 0), 1.0)]
+    assert carmen.detect_no_return(gap) == carmen.NoReturn(50.5, 50.5, 12, 0)
+    few = [gap[0]._replace(ranges=np.r_[np.arange(30.0, 50.0, 0.01), [50.5] * 9])]
+    assert carmen.detect_no_return(few) is None
+    crowded = [gap[0]._replace(ranges=np.r_[[50.4] * 2, [50.5] * 12])]   # 12 < 10 x 2 below it
+    assert carmen.detect_no_return(crowded) is None
+
+
+def test_param_cap_is_named_and_laser_max_overrides_it(tmp_path, capsys):
+    """PARAM robot_front_laser_max 10: readings beyond 10 m are +Inf and the summary names the PARAM and how many;
+    --laser-max 20 keeps the 15 m wall, --laser-max none too (only the no-returns are +Inf)."""
+    scans = [[2.0] * 170 + [15.0] * 8 + [81.83] * 2 for _ in range(10)]
+    log = write(tmp_path, 'p.log', ranges_log(scans, HEAD + 'PARAM robot_front_laser_max 10 nohost 0\n'))
+    out = str(tmp_path / 'p.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no'], capsys)
+    assert code == 0
+    assert ('PARAM robot_front_laser_max 10 m capped 80 FLASER readings to +Inf (readings beyond it; --laser-max '
+            'overrides)') in stdout
+    scan = read_bag(out)['/scan'][0][1]
+    assert np.sum(np.isposinf(scan.ranges)) == 10 and scan.range_max == pytest.approx(10.0)
+    for option, range_max in (('20', 20.0), ('none', 81.825), ('0', 81.825)):
+        code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no', '--laser-max', option],
+                                   capsys)
+        assert code == 0 and 'capped' not in stdout and '20 readings written as +Inf' in stdout, option
+        scan = read_bag(out)['/scan'][0][1]
+        assert list(np.array(scan.ranges)[170:178]) == [15.0] * 8 and np.sum(np.isposinf(scan.ranges)) == 2
+        assert scan.range_max == pytest.approx(range_max), option
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no', '--laser-max', '5'], capsys)
+    assert code == 0 and '--laser-max 5 m capped 80 FLASER readings to +Inf (readings beyond it)' in stdout
+    with pytest.raises(SystemExit) as e:
+        carmen.main([log, '-o', out, '-q', '--laser-max', '-1'])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and 'expected metres (a positive number), or none or 0 for no cap' in err
+
+
 def test_backward_stamps_are_counted_and_made_monotonic(tmp_path, capsys):
     stamps = [1.0, 1.1, 1.5, 1.3, 1.45, 1.6, 1.7]  # 1.5 is late
     text = HEAD + ''.join(odom_line((0.1 * i, 0, 0), t) for i, t in enumerate(stamps))
@@ -175,12 +247,13 @@ def test_plain_and_gzip_give_the_same_bag(tmp_path):
 
 def timed_text(stamps, scan_every=2, turn=0.0):
     """ODOM lines (x = 0.01 per line, heading ``turn`` per line) with a FLASER line after every
-    ``scan_every``-th; ``stamps``: the stamp text of each timed line in file order."""
+    ``scan_every``-th, its pose the raw pose 5 mm on from the ODOM line before it (odometry at the scan's time);
+    ``stamps``: the stamp text of each timed line in file order."""
     text, k, pose = HEAD, 0, (0.0, 0.0, 0.0)
     for n, ts in enumerate(stamps):
         if scan_every and n % (scan_every + 1) == scan_every:
             r = ' '.join(['2.00'] * 180)
-            p = '%.6f %.6f %.6f' % pose
+            p = '%.6f %.6f %.6f' % (pose[0] + 0.005, pose[1], pose[2])
             text += 'FLASER 180 %s %s %s %s pippo %s\n' % (r, p, p, ts, ts)
         else:
             pose = (0.01 * k, 0.0, turn * k)
@@ -345,6 +418,66 @@ def test_log_without_odometry_or_stamps_is_refused(tmp_path, capsys):
     assert code == 0
     bag = read_bag(out)
     assert '/odom' not in bag and len(bag['/scan']) == 8 and len(bag['/ground_truth/odom']) == 8
+
+
+def repeat_log(order='after', digits=6, n=12):
+    """A log whose ODOM lines repeat the robot pose of the laser line next to them (``order`` 'after': the laser
+    line first, as a corrected log whose ODOM lines are corrected poses; 'before': the laser line copies the ODOM
+    line before it), the robot driving an arc; the ODOM lines written with ``digits`` decimals, the stamps all
+    real. Returns (text, the laser poses)."""
+    poses = [(0.2 * k, 0.01 * k * k, 0.05 * k) for k in range(n)]
+    text = HEAD
+    for k, p in enumerate(poses):
+        laser = flaser_line([2.0] * 180, p, 1.0 + 0.2 * k)
+        odom = 'ODOM %.*f %.*f %.*f 0 0 0 %.3f pippo %.3f\n' % (digits, p[0], digits, p[1], digits, p[2],
+                                                               1.05 + 0.2 * k, 1.05 + 0.2 * k)
+        text += laser + odom if order == 'after' else odom + laser
+    return text, poses
+
+
+@pytest.mark.parametrize('order, digits', [('after', 6), ('after', 3), ('before', 6)])
+def test_odom_lines_that_repeat_the_laser_poses_are_refused(tmp_path, capsys, order, digits):
+    """ODOM lines that repeat the laser lines' poses are no raw odometry the converter can trust, whatever their
+    stamps: converted, /odom would be the laser poses (one scan late where the ODOM line follows its laser line).
+    Refused, naming the options; each option converts as it says."""
+    text, poses = repeat_log(order, digits)
+    # Every ODOM line but the first is next to a laser line while the robot moves, and repeats its pose.
+    err = _expect_error(tmp_path, capsys, text, "bad.log: expected raw odometry: ODOM lines that do not repeat the "
+                        "poses of the laser lines next to them (within 0.001 m and 0.0001 rad, while the robot moves; "
+                        "--corrected no if they are raw odometry all the same, the laser lines copying their poses; "
+                        "--laser-poses odometry to take the laser lines' poses as odometry, knowingly; --no-odometry "
+                        "to write none), got ODOM lines that repeat the laser poses (11 of 11 next to a laser line)")
+    assert err.count('\n') == 1
+    log = str(tmp_path / 'bad.log')
+    out = str(tmp_path / 'o.bag')
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--no-odometry'], capsys)
+    assert code == 0
+    bag = read_bag(out)
+    assert '/odom' not in bag and len(bag['/scan']) == 12
+    np.testing.assert_allclose([pose2(m) for _, m in bag['/ground_truth/odom']], poses, atol=1e-6)
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--laser-poses', 'odometry'], capsys)
+    assert code == 0 and 'odometry from the robot poses of the laser lines (--laser-poses odometry)' in stdout
+    np.testing.assert_allclose([pose2(m) for _, m in read_bag(out)['/odom']], poses, atol=1e-6)
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no'], capsys)
+    assert code == 0
+    odom = np.array([pose2(m) for _, m in read_bag(out)['/odom']])
+    assert len(odom) == 12 + (11 if order == 'after' else 12)  # the ODOM lines, and a sample at each scan after one
+    np.testing.assert_allclose(odom[:2], [poses[0]] * 2, atol=1e-3)  # the ODOM line, the scan after it
+
+
+def test_repeats_are_told_from_resets_and_a_robot_standing_still(tmp_path):
+    """The resets of a corrected log repeat the laser poses too, but the ODOM lines between them are raw: no
+    repeats among them. Taken for raw lines, the resets are half the ODOM lines next to a laser line: not most.
+    A robot standing still repeats every pose: no motion, nothing counted."""
+    records = carmen.parse_log(write(tmp_path, 'c.log', corrected_log()[0])).records
+    resets, _ = carmen.find_resets(records)
+    assert carmen.find_repeats(records, resets) == (0, 3)
+    assert carmen.find_repeats(records) == (3, 6)
+    still = [carmen.Odom(1, 0.0, 0.0, 0.0, 0, 0, 1.0)]
+    for k in range(10):
+        still += [carmen.Laser(2, 'FLASER', np.ones(3), 0.0, 0.0, None, (0, 0, 0), (0, 0, 0), 1.0 + k),
+                  carmen.Odom(3, 0.0, 0.0, 0.0, 0, 0, 1.1 + k)]
+    assert carmen.find_repeats(still) == (0, 0)
 
 
 def test_log_at_one_stamp_is_refused(tmp_path, capsys):
@@ -529,7 +662,8 @@ def test_intel_counts_stamps_and_quirks(intel):
     assert summary.counts['/ground_truth/path'] == 1 and summary.counts['/tf_static'] == 1
     assert '910 ODOM lines repeat the corrected pose' in text and '69 of them with a time stamp other than 0' in text
     assert '629 lines have a stamp earlier than the line before' in text
-    assert 'no-return value 81.830 m (4172 readings)' in text
+    assert ('no-return readings: the top cluster of the ranges, 81.830-81.830 m (4172 readings; 0 in the 0.2 m below '
+            'it), +Inf from 81.825 m; 4172 readings written as +Inf') in text
     assert 'rebuilt from the line order' not in text  # no garbage stamps among the timed lines
     bag = read_bag(out)
     assert_stamps_monotonic(bag)
@@ -549,6 +683,8 @@ def test_intel_counts_stamps_and_quirks(intel):
 def test_intel_rebuilt_heading_steps_are_whole_encoder_steps():
     log = carmen.parse_log(data_path('carmen', 'intel-corrected.log.gz'))
     conv = carmen.Conversion(log)
+    # Its ODOM lines are raw odometry: the resets aside, none of the 910 next to a laser line repeats its pose.
+    assert (conv.n_repeats, conv.n_repeat_pairs) == (0, 910)
     d = cc.wrap_angle(np.diff(conv.raw_odom_all[:, 2]))
     k = d[d != 0] / 0.0061455
     whole = np.mean(np.abs(k - np.round(k)) < 0.05)
@@ -566,7 +702,11 @@ def test_aces_whole_log(tmp_path):
     summary = cc.convert_to_bag(carmen.convert, carmen.build_parser().parse_args([log, '-o', out]))
     assert summary.counts['/odom'] == 7374 + 440 and summary.counts['/scan'] == 440  # + a sample at each scan
     assert summary.counts['/ground_truth/odom'] == 440
-    assert 'no-return value 50.000 m (620 readings)' in summary.text()
+    conv = carmen.Conversion(carmen.parse_log(log))
+    assert (conv.n_repeats, conv.n_repeat_pairs) == (0, 440)  # raw ODOM lines, the resets aside
+    # The top cluster is 50.0 m alone: the next readings (49.91, 49.86, 49.81 m) lie beyond a 2 cm step.
+    assert ('no-return readings: the top cluster of the ranges, 50.000-50.000 m (620 readings; 3 in the 0.2 m below '
+            'it), +Inf from 49.995 m; 620 readings written as +Inf') in summary.text()
     assert 'going backwards' not in summary.text()
     bag = read_bag(out)
     assert_stamps_monotonic(bag)

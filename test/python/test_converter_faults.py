@@ -445,12 +445,13 @@ def test_bad_input(tmp_path, out_dir, name, case):
 @pytest.fixture(scope='module')
 def big_log(tmp_path_factory):
     """A synthetic CARMEN log of 20000 lines (odometry and 180-beam scans, about 8 MB): several seconds
-    of writing."""
+    of writing. A scan's pose is odometry at its time, 5 mm on from the ODOM line before it (ODOM lines that
+    repeat the scans' poses would be refused)."""
     path = tmp_path_factory.mktemp('big') / 'big.log'
     with open(str(path), 'w') as f:
         for i in range(10000):
             f.write(odom(0.01 * i, 1.0 + 0.1 * i))
-            f.write(flaser(0.01 * i, 1.05 + 0.1 * i))
+            f.write(flaser(0.01 * i + 0.005, 1.05 + 0.1 * i))
     return path
 
 

@@ -196,6 +196,34 @@ def test_stamp_pairing_keeps_file_order_for_equal_stamps_and_never_goes_back():
         ev.match_by_stamp([0.0], [0.0, 2.0, 1.0], 1e-3)
 
 
+def test_poses_on_one_reference_pose_are_counted():
+    """Stamps coarser than the poses (a run stamped to the millisecond against a reference at 0.1 ms): two poses
+    find the same reference pose. They stay paired (order-preserving), and are counted so that a tool warns."""
+    ref_t = np.array([1.0, 1.0005, 2.0, 3.0])
+    i, j = ev.match_by_stamp([1.0001, 1.0002, 2.0, 3.0], ref_t, 1e-3)
+    assert list(j) == [0, 0, 2, 3] and ev.shared_partners(j) == 1
+    assert ev.shared_partners(ev.match_by_stamp(PAIRING_RUN_T, PAIRING_REF_T, 1e-3)[1]) == 0
+    xy = np.column_stack([np.arange(4.0), np.zeros(4)])
+    e = ev.trajectory_errors((np.array([1.0001, 1.0002, 2.0, 3.0]), xy, np.zeros(4)), (ref_t, xy, np.zeros(4)))
+    assert e['poses'] == 4 and e['shared_partners'] == 1
+    e = ev.trajectory_errors((ref_t, xy, np.zeros(4)), (ref_t, xy, np.zeros(4)))
+    assert e['shared_partners'] == 0
+
+
+def test_tum_stamps_keep_the_nanoseconds(tmp_path):
+    """A Unix stamp written to a TUM file and read back within 1 us (12 significant digits kept 10 ms); the
+    other columns as before."""
+    t = np.array([1700000000.123456789, 1700000000.123458, 12.5])
+    text = ev.tum_text(t, [(1.25, -2.0), (0.1, 0.2), (3.0, 4.0)], [0.5, 0.0, -1.0])
+    assert text.splitlines()[0].split()[0] == ev.format_stamp(t[0]) == '%.9f' % t[0]
+    assert text.splitlines()[2].split()[:3] == ['12.500000000', '3', '4']
+    path = tmp_path / 'run.tum'
+    path.write_text(text)
+    back, xy, yaw = ev.read_tum(str(path))
+    assert np.max(np.abs(back - t)) < 1e-6 and back[1] - back[0] == pytest.approx(1.2e-6, abs=1e-6)
+    np.testing.assert_allclose(yaw, [0.5, 0.0, -1.0], atol=1e-11)
+
+
 def test_trajectory_errors_of_a_run_with_equal_stamps_are_those_of_the_right_pairs():
     ref = (PAIRING_REF_T, PAIRING_REF[:, :2], PAIRING_REF[:, 2])
     poses = _pairing_run()

@@ -95,6 +95,20 @@ def test_the_odometry_and_the_reference_are_written_as_trajectories(tmp_path):
                          left=['ref.bag', 'odometry.tum', 'reference.tum'])
 
 
+def test_poses_sharing_a_reference_pose_are_warned_of_once(tmp_path):
+    """Coarse stamps: two poses near 1 s (1.0 and 1.0003 s) find the one reference pose there. Both stay paired
+    (order-preserving), and one warning line gives the count."""
+    bag = _bag(tmp_path / 'ref.bag')
+    run_t = T0 + np.array([0.0, 1.0, 1.0003, 3.0, 5.0])
+    coarse = tmp_path / 'coarse.tum'
+    coarse.write_text(ev.tum_text(run_t, np.zeros((5, 2)), np.zeros(5)))
+    r = run('trajectory_eval', '--bag', bag, coarse)
+    assert r.returncode == 0
+    assert r.stderr == ('trajectory_eval: warning: %s: 1 of 5 paired poses share their reference pose with another '
+                        'pose (stamps coarser than the poses; --pair index pairs by order)\n' % coarse)
+    assert _table(r.stdout)[str(coarse)][0] == 5
+
+
 def test_a_file_in_neither_layout_is_one_line_naming_file_and_line(tmp_path):
     bag = _bag(tmp_path / 'ref.bag')
     bad = tmp_path / 'bad.txt'
