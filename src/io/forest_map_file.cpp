@@ -46,7 +46,7 @@ std::string stamp(double t)
   if (!std::isfinite(t))
     return "";
   char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.6f", t);
+  std::snprintf(buf, sizeof(buf), "%.9f", t);
   return buf;
 }
 

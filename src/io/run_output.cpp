@@ -14,44 +14,6 @@ namespace rbpf_slam
 {
 namespace io
 {
-void writeTumLine(std::ostream& out, double stamp, const core::Pose2& p)
-{
-  out << stamp << ' ' << p.x << ' ' << p.y << " 0 0 0 " << std::sin(0.5 * p.theta) << ' ' << std::cos(0.5 * p.theta)
-      << '\n';
-}
-
-void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses)
-{
-  std::ostringstream out;
-  out.precision(12);
-  for (std::size_t i = 0; i < poses.size() && i < stamps.size(); ++i)
-    writeTumLine(out, stamps[i], poses[i]);
-  writeFileAtomic(path, out.str());
-}
-
-void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses)
-{
-  std::ifstream in(path);
-  if (!in)
-    throw std::runtime_error(path + ": cannot read");
-  stamps->clear();
-  poses->clear();
-  std::string line;
-  int n = 0;
-  while (std::getline(in, line))
-  {
-    ++n;
-    if (line.empty() || line[0] == '#')
-      continue;
-    std::istringstream ss(line);
-    double t, x, y, z, qx, qy, qz, qw;
-    if (!(ss >> t >> x >> y >> z >> qx >> qy >> qz >> qw))
-      throw std::runtime_error(path + ":" + std::to_string(n) + ": expected t x y z qx qy qz qw");
-    stamps->push_back(t);
-    poses->emplace_back(x, y, std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)));
-  }
-}
-
 const char* const kLandmarksCsvHeader = kForestMapHeader;
 
 std::string landmarksCsv(const std::vector<core::Landmark>& landmarks)
@@ -169,7 +131,7 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
     max_loop_seconds_ = std::max(max_loop_seconds_, loop.seconds);
     std::string reason = loop.reason;
     std::replace(reason.begin(), reason.end(), ',', ';');
-    loops_ << stamp << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
+    loops_ << stampText(stamp) << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
            << loop.seconds << ',' << loop.seconds_covariance << ',' << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
            << reason << '\n';
   }
@@ -185,7 +147,7 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
       stamps_.push_back(stamp);  // the filter's updates: the best particle's history has one pose for each
     writeTumLine(estimate_, stamp, estimate);
     writeTumLine(odometry_, stamp, odometry);
-    table_ << stamp << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ','
+    table_ << stampText(stamp) << ',' << st.neff << ',' << (st.resampled ? 1 : 0) << ',' << st.landmarks << ','
            << st.observations << ',' << st.matched << ',' << st.created << ',' << st.deleted << ',' << st.ignored
            << ',' << st.matched_confirmed << ',' << st.recreated << ',' << st.pose_spread << ','
            << (st.relocalizing ? 1 : 0) << ',' << core::toString(health.level);

@@ -108,7 +108,7 @@ def _main(argv):
     p.add_argument('--bag', required=True, help='bag with scans, odometry TF and a reference path')
     p.add_argument('--seeds', default='0-9', help='seeds, e.g. 0-9 or 1,4 (default 0-9)')
     p.add_argument('--config', action='append', default=None, metavar='YAML',
-                   help='filter configs, in order (default config/grid_slam.yaml then config/grid_rbpf.yaml)')
+                   help='filter configs, in order (default config/grid_slam.yaml)')
     p.add_argument('--particles', type=int, default=None, help='particles (default: the configs\')')
     p.add_argument('--thresholds', action='store_true',
                    help='apply the configs\' travel thresholds (default: every scan, slam_bag --every-scan)')
@@ -126,8 +126,7 @@ def _main(argv):
     p.add_argument('--slam-bag', help='the runner (default: the built slam_bag)')
     args = p.parse_args(argv)
     seeds = parse_seeds(args.seeds)
-    configs = args.config or [paths.package_file('config', 'grid_slam.yaml'),
-                              paths.package_file('config', 'grid_rbpf.yaml')]
+    configs = args.config or [paths.package_file('config', 'grid_slam.yaml')]
     for path in [args.bag] + configs:
         if not os.path.isfile(path):
             raise ValueError('%s: expected a file, got none' % path)

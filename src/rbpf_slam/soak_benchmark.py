@@ -5,7 +5,7 @@ A looped bag jumps back in time at every loop, so the filter restarts each time 
 checks that restarts give their memory back. Memory is reported as the largest resident size after the first
 minute against the one at the first minute; flat means within 5 %.
 
-  soak_benchmark --filter grid --bag intel.bag --config config/grid_rbpf.yaml --hours 1 --rate 20
+  soak_benchmark --filter grid --bag intel.bag --hours 1 --rate 20
   soak_benchmark --filter fastslam --bag forest.bag --hours 1 --rate 4
   soak_benchmark --filter fastslam --trunk-drive loop --hours 1 --rate 4     # one drive, no restarts
   soak_benchmark --filter fastslam --trunk-drive survey --hours 1 --rate 4   # one drive over new ground
@@ -185,7 +185,7 @@ def _main(argv):
     src.add_argument('--bag', help='a bag with the sensor topics, odometry and /tf, /tf_static (played looped)')
     src.add_argument('--trunk-drive', choices=('loop', 'survey'),
                      help='FastSLAM: write and play once a drive of --hours without a jump in time (see above)')
-    p.add_argument('--config', help='a YAML laid over the filter\'s shipped one (e.g. config/grid_rbpf.yaml)')
+    p.add_argument('--config', help='a YAML laid over the filter\'s shipped one (e.g. config/grid_single_map.yaml)')
     p.add_argument('--particles', type=int, default=0)
     p.add_argument('--hours', type=float, default=1.0, help='sensor time to replay [h] (default 1)')
     p.add_argument('--rate', type=float, default=20.0, help='rosbag play rate (default 20)')

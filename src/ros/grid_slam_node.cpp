@@ -237,7 +237,14 @@ void GridSlamRos::processPending()
                         u.error.c_str(), dropped_);
       continue;
     }
-    if (!u.odometry_covered)
+    if (u.outage_began)
+      ROS_WARN("%s: the odometry (TF %s -> %s) stopped at %.3f; the scans from %.3f are left out of the map (kept "
+               "as it is) until it returns", name_.c_str(), config_.odom_frame.c_str(), config_.base_frame.c_str(),
+               pipeline_->outage().since, u.stamp);
+    if (u.outage_scans > 0)
+      ROS_WARN("%s: the odometry returned at %.3f after %.3f s; %d scans were left out of the map", name_.c_str(),
+               u.stamp, u.outage_seconds, u.outage_scans);
+    if (!u.odometry_covered && !u.odometry_stopped)
       ROS_WARN_THROTTLE(5.0, "%s: no odometry (TF %s -> %s) up to the scan at %.3f within %.2f s (newest %.3f); used "
                         "the newest", name_.c_str(), config_.odom_frame.c_str(), config_.base_frame.c_str(), u.stamp,
                         config_.odom_timeout, pipeline_->odometry().latest());

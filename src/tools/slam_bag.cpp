@@ -61,26 +61,33 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
+#ifndef RBPF_SLAM_BAG_GRID_ONLY
 #include <pcl/console/print.h>
+#endif
 
 #include "rbpf_slam/core/grid/grid_slam_pipeline.h"
 #include "rbpf_slam/core/filter/odometry_buffer.h"
 #include "rbpf_slam/core/filter/skid_steer_odometry.h"
 #include "rbpf_slam/core/filter/stamp_gate.h"
+#ifndef RBPF_SLAM_BAG_GRID_ONLY
 #include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#endif
 #include "rbpf_slam/io/grid_slam_config.h"
 #include "rbpf_slam/io/map_image_file.h"
 #include "rbpf_slam/io/param_source.h"
-#include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/files.h"
+#include "rbpf_slam/io/tum_file.h"
+#include "rbpf_slam/TrunkArray.h"
+#ifndef RBPF_SLAM_BAG_GRID_ONLY
+#include "rbpf_slam/io/fastslam_config.h"
 #include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/map_session.h"
 #include "rbpf_slam/io/run_output.h"
-#include "rbpf_slam/ros/gnss_conversions.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
-#include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/ros/cloud_conversions.h"
 #include "rbpf_slam/ros/fastslam_node.h"
+#include "rbpf_slam/ros/gnss_conversions.h"
+#endif
 #include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/scan_conversions.h"
 
@@ -390,6 +397,7 @@ std::string firstFrame(rosbag::Bag& bag, const std::string& bag_path, const std:
 }
 
 /** @brief The detector's and the filter's configuration from the files and options, as the node reads them. */
+#ifndef RBPF_SLAM_BAG_GRID_ONLY
 void readFastSlamConfigs(const Options& o, core::TrunkDetectorConfig* dc, core::FastSlamConfig* fc)
 {
   // sensor height 0 (unknown): the pipeline takes the mount's, as the nodelet does
@@ -648,6 +656,8 @@ int runFastSlam(const Options& o)
   return 0;
 }
 
+#endif  // RBPF_SLAM_BAG_GRID_ONLY
+
 int runGrid(const Options& o)
 {
   rosbag::Bag bag;
@@ -704,7 +714,7 @@ int runGrid(const Options& o)
   int scans = 0, processed = 0, resamples = 0;
   bool have_odometry = false;
   DropLog drops;
-  long evaluations = 0;
+  long evaluations = 0, vetoed = 0, trusted = 0;
   std::vector<double> processed_stamps;
   const auto addOdometry = [&](double t, const core::Pose2& p, const std::string& topic, double clock) {
     if (!admitted(pipeline.addOdometry(t, p, clock), topic, t, &drops))
@@ -771,11 +781,19 @@ int runGrid(const Options& o)
         continue;
       }
       ++scans;
+      if (u.outage_began)
+        std::fprintf(stderr, "slam_bag: warning: the odometry stopped at %.3f s; the scans from %.3f s are left out "
+                     "of the map (kept as it is) until it returns\n", pipeline.outage().since, u.stamp);
+      if (u.outage_scans > 0)
+        std::fprintf(stderr, "slam_bag: warning: the odometry returned at %.3f s after %.3f s; %d scans were left "
+                     "out of the map\n", u.stamp, u.outage_seconds, u.outage_scans);
       if (!u.step.skipped)
       {
         ++processed;
         resamples += u.step.resampled ? 1 : 0;
         evaluations += u.step.matcher_evaluations;
+        vetoed += u.step.matches_vetoed;
+        trusted += u.step.matches_trusted;
         processed_stamps.push_back(u.stamp);
       }
       if (out.enabled())
@@ -802,6 +820,10 @@ int runGrid(const Options& o)
   const core::GridSlam& slam = pipeline.filter();
   const double seconds = pipeline.secondsFilter(), worst = pipeline.worstSeconds();
   const core::GridMapMemory memory = slam.mapMemory();
+  if (pipeline.outage().scans > 0)
+    std::fprintf(stderr, "slam_bag: warning: the odometry stopped at %.3f s and never returned: the last %.3f s "
+                 "(%d scans) were left out of the map\n", pipeline.outage().since,
+                 pipeline.outage().last_scan - pipeline.outage().since, pipeline.outage().scans);
   if (!o.odometry_only && scans == 0)
     throw std::runtime_error(o.bag_path + ": no scan of " + o.scan_topic + " was used (" +
                              std::to_string(drops.count()) + " messages dropped; is there odometry on " +
@@ -863,8 +885,10 @@ int runGrid(const Options& o)
                   memory.tiles, memory.megabytes(), memory.best_tiles, memory.best_area,
                   memory.megabytesPerParticlePer1000SquareMetres());
     if (gc.mode == core::GridSlamMode::kRbpf && !o.odometry_only)
-      std::printf("  scan matcher: %.1f poses scored per particle and processed scan\n",
-                  static_cast<double>(evaluations) / std::max(1, processed) / std::max(1, gc.particles));
+      std::printf("  scan matcher: %.1f poses scored per particle and processed scan; matches taken %ld, vetoed by "
+                  "the odometry %ld (of %ld)\n",
+                  static_cast<double>(evaluations) / std::max(1, processed) / std::max(1, gc.particles), trusted,
+                  vetoed, static_cast<long>(processed - 1) * gc.particles);
     if (use_wheels && o.imu_weight > 0.0)
       std::printf("  gyro bias (from standing still) %.5f rad/s\n", wheels.gyroBias());
   }
@@ -899,9 +923,49 @@ double parseNumber(const std::string& name, const char* text, double lo, double 
 }
 }  // namespace
 
+#ifdef RBPF_SLAM_BAG_GRID_ONLY
+/**
+ * @brief FastSLAM's runs go to slam_bag_fastslam beside this program (the same source with FastSLAM in): grid SLAM's
+ * runs never load FastSLAM's libraries (PCL, Ceres), whose relocated pages alone take about 35 MB of resident memory.
+ * Returns only when the exec failed.
+ */
+int execFastSlamRunner(char** argv)
+{
+  char self[4096];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  if (n <= 0)
+  {
+    std::fprintf(stderr, "slam_bag: cannot find its own path (/proc/self/exe): %s\n", std::strerror(errno));
+    return 1;
+  }
+  self[n] = '\0';
+  std::string dir(self);
+  dir = dir.substr(0, dir.rfind('/'));
+  const std::string runner = dir + "/slam_bag_fastslam";
+  execv(runner.c_str(), argv);
+  std::fprintf(stderr, "slam_bag: cannot run FastSLAM's runner %s: %s\n", runner.c_str(), std::strerror(errno));
+  return 1;
+}
+#endif
+
 int main(int argc, char** argv)
 {
+#ifdef RBPF_SLAM_BAG_GRID_ONLY
+  {
+    std::string filter = "fastslam";
+    bool help = false;
+    for (int i = 1; i < argc; ++i)
+    {
+      help = help || std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h";
+      if (std::string(argv[i]) == "--filter" && i + 1 < argc)
+        filter = argv[i + 1];
+    }
+    if (filter != "grid" && !help)
+      return execFastSlamRunner(argv);
+  }
+#else
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // PCL reports every failed RANSAC as an error
+#endif
   Options o;
   try
   {
@@ -1031,7 +1095,11 @@ int main(int argc, char** argv)
       const std::size_t slash = o.save_map_path.find_last_of('/');
       checkOutputDir(slash == std::string::npos ? "." : o.save_map_path.substr(0, std::max<std::size_t>(slash, 1)));
     }
+#ifdef RBPF_SLAM_BAG_GRID_ONLY
+    return runGrid(o);
+#else
     return o.filter == "grid" ? runGrid(o) : runFastSlam(o);
+#endif
   }
   catch (const std::exception& e)
   {

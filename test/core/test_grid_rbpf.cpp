@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <iostream>
 #include <vector>
 
@@ -115,7 +117,7 @@ TEST(GridRbpf, CoarseToFineWidensTheCaptureRange)
   std::vector<std::pair<double, double>> ends;
   GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
   const double deg = M_PI / 180.0;
-  // config/grid_rbpf.yaml's matcher, with and without its coarse level.
+  // config/grid_slam.yaml's matcher, with and without its coarse level.
   ScanMatcherConfig fine_only;
   fine_only.linear_step = fine_only.angular_step = 0.1;
   fine_only.refinements = 2;
@@ -233,7 +235,7 @@ TEST(GridRbpf, SameSeedSameResultAndFollowsTheTruth)
 
 TEST(GridRbpf, MotionWeightedProposalChangesTheWeightsAndFollowsTheTruth)
 {
-  // The motion model in the weight (config/grid_rbpf.yaml) changes the weights, hence the run, and the filter
+  // The motion model in the weight (config/grid_slam.yaml) changes the weights, hence the run, and the filter
   // still holds the drifting-odometry loop.
   const RbpfRun plain = runRoomRbpf(7);
   const RbpfRun weighted = runRoomRbpf(7, 0.5, 1.0);
@@ -365,4 +367,86 @@ TEST(GridRbpf, ThreadsGiveTheSameResult)
   GridSlamConfig bad;
   bad.threads = 0;
   EXPECT_NE(bad.validate(), "");
+}
+
+namespace
+{
+// A corridor 2 m wide along +x, closed behind the start (x = -1 m), seen by a 181-beam scanner that reaches 4 m:
+// every scan ends a metre beyond what the map holds, and the match slides back onto the mapped walls.
+ScanData corridorScan(const Pose2& sensor)
+{
+  ScanData scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 180;
+  scan.range_min = 0.02;
+  scan.range_max = 4.0;
+  for (int i = 0; i <= 180; ++i)
+  {
+    const double a = sensor.theta + scan.angle_min + i * scan.angle_increment;
+    const double dx = std::cos(a), dy = std::sin(a);
+    double r = std::numeric_limits<double>::infinity();
+    if (std::abs(dy) > 1e-9)
+      r = std::min(r, ((dy > 0 ? 1.0 : -1.0) - sensor.y) / dy);
+    if (dx < -1e-9)
+      r = std::min(r, (-1.0 - sensor.x) / dx);
+    scan.ranges.push_back(r <= scan.range_max ? static_cast<float>(r) : std::numeric_limits<float>::infinity());
+  }
+  return scan;
+}
+
+struct CorridorRun
+{
+  double final_error = 0.0, odometry_error = 0.0;
+  int vetoed = 0, trusted = 0;
+};
+
+// 40 m down the corridor, a scan processed per metre (the node's default travel threshold), odometry 1 % short.
+CorridorRun driveCorridor(double veto)
+{
+  GridSlamConfig c;
+  c.mode = GridSlamMode::kRbpf;
+  c.particles = 5;
+  c.seed = 3;
+  c.odometry_veto = veto;
+  c.linear_update = c.angular_update = 0.0;
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
+  CorridorRun r;
+  Pose2 truth, odom;
+  for (int i = 0; i <= 40; ++i)
+  {
+    if (i > 0)
+    {
+      truth = Pose2(truth.x + 1.0, 0.0, 0.0);
+      odom = Pose2(odom.x + 0.99, 0.0, 0.0);
+    }
+    const GridSlamStep s = slam->update(odom, corridorScan(truth), Pose2());
+    r.vetoed += s.matches_vetoed;
+    r.trusted += s.matches_trusted;
+  }
+  r.final_error = std::hypot(slam->mappingPose().x - truth.x, slam->mappingPose().y - truth.y);
+  r.odometry_error = std::hypot(odom.x - truth.x, odom.y - truth.y);
+  return r;
+}
+}  // namespace
+
+TEST(GridRbpf, TheOdometryVetoesAMatchThatSlidesBackAlongACorridor)
+{
+  // Without the veto the matches slide back towards where the map ends, up to a metre a scan: the estimate falls
+  // behind by more than 10 m over 40 m (measured 17.6 m; the odometry is off by 0.4 m).
+  const CorridorRun slid = driveCorridor(0.0);
+  EXPECT_NEAR(slid.odometry_error, 0.4, 1e-9);
+  EXPECT_GT(slid.final_error, 10.0);
+  EXPECT_EQ(slid.vetoed, 0);
+  // With the default bound (10 standard deviations) the slides beyond it are refused: the particle keeps the
+  // odometry's position and matches only its heading. The slides within it still add up (measured 3.8 m).
+  const CorridorRun held = driveCorridor(GridSlamConfig().odometry_veto);
+  EXPECT_GT(held.vetoed, 30);  // of 5 particles x 40 scans
+  EXPECT_LT(held.final_error, 5.0);
+  // A bound of 99.9 % (chi-square, 3 degrees of freedom) refuses the smaller slides too (measured 0.9 m).
+  const CorridorRun tight = driveCorridor(16.27);
+  EXPECT_GT(tight.vetoed, held.vetoed);
+  EXPECT_LT(tight.final_error, 2.0);
+  GridSlamConfig bad;
+  bad.odometry_veto = -1.0;
+  EXPECT_NE(bad.validate().find("odometry_veto"), std::string::npos);
 }

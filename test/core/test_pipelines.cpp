@@ -96,6 +96,63 @@ TEST(GridSlamPipeline, WaitingIsBoundedAndTheWaitEnds)
   EXPECT_EQ(p.process(NAN, true).size(), 1u);  // the end of the input flushes the rest
 }
 
+TEST(GridSlamPipeline, StoppedOdometryIsReportedOnceWithItsDurationAndTheMapIsKept)
+{
+  // The robot drives along x at 0.5 m/s; its odometry stops after 1.9 s and returns at 5 s while the scans go on
+  // (each waits 0.5 s on the caller's clock, then is processed with the newest odometry).
+  PipelineTiming timing;
+  timing.odometry_wait = 0.5;
+  GridSlamPipeline p(smallGrid(), timing);
+  const auto truth = [](double t) { return Pose2(-1.0 + 0.5 * t, -1.5, 0.0); };
+  const auto image = [&p]() {
+    std::vector<std::int8_t> cells;
+    int w, h;
+    MapOrigin o;
+    p.filter().map().exportProbabilities(&cells, &w, &h, &o);
+    return cells;
+  };
+  std::vector<std::int8_t> map_at_stop;
+  int began = 0, ended = 0, stopped = 0, reported = 0;
+  for (int k = 0; k <= 70; ++k)
+  {
+    const double t = 0.1 * k;
+    if (k < 20 || k >= 50)
+      p.addOdometry(t, truth(t), t);
+    if (k % 2 == 1)
+      p.addScan(t - 0.05, simulateScan(truth(t - 0.05)), Pose2(), t, t);
+    for (const GridPipelineUpdate& u : p.process(t))
+    {
+      EXPECT_TRUE(u.error.empty());
+      if (u.outage_began)
+      {
+        ++began;
+        map_at_stop = image();
+      }
+      if (u.odometry_stopped)
+      {
+        ++stopped;
+        EXPECT_GT(u.stamp - 1.9, GridSlamPipeline::kOdometryStopped);
+        EXPECT_TRUE(u.step.skipped);
+        EXPECT_EQ(image(), map_at_stop);  // the scans left out do not touch the map
+      }
+      if (u.outage_scans > 0)
+      {
+        ++ended;
+        reported = u.outage_scans;
+        EXPECT_NEAR(u.outage_seconds, u.stamp - 1.9, 1e-9);  // since the newest odometry before it
+        EXPECT_FALSE(u.odometry_stopped);
+        EXPECT_FALSE(u.step.skipped);  // the map goes on
+      }
+    }
+  }
+  EXPECT_EQ(began, 1);  // reported once
+  EXPECT_EQ(ended, 1);
+  EXPECT_GE(stopped, 8);
+  EXPECT_EQ(reported, stopped);
+  EXPECT_EQ(p.outage().scans, 0);  // ended
+  EXPECT_LT(std::hypot(p.filter().mappingPose().x - truth(6.85).x, p.filter().mappingPose().y - truth(6.85).y), 0.1);
+}
+
 TEST(GridSlamPipeline, AScanOlderThanTheFirstOdometryIsDropped)
 {
   GridSlamPipeline p(smallGrid());

@@ -8,13 +8,17 @@
 
 using namespace rbpf_slam;
 
-TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
+TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltInDefaults)
 {
-  // config/grid_slam.yaml documents the defaults; reading it must change nothing.
+  // config/grid_slam.yaml is rbpf's; config/grid_single_map.yaml laid over it restores every built-in value (the
+  // single-map filter's), so the two files together document them.
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_slam.yaml");
+  io::YamlParamSource single(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_single_map.yaml");
   core::GridSlamConfig read, defaults;
   read.particles = 1;  // so that the file's value is seen to arrive
   io::readGridSlamConfig(params, &read);
+  io::readGridSlamConfig(single, &read);
+  EXPECT_TRUE(single.unusedKeys().empty());
   EXPECT_EQ(read.mode, defaults.mode);
   EXPECT_EQ(read.particles, defaults.particles);
   EXPECT_EQ(read.seed, defaults.seed);
@@ -40,6 +44,7 @@ TEST(GridSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.proposal_sigma_theta, defaults.proposal_sigma_theta);
   EXPECT_EQ(read.min_matched_ratio, defaults.min_matched_ratio);
   EXPECT_EQ(read.proposal_motion_weight, defaults.proposal_motion_weight);
+  EXPECT_EQ(read.odometry_veto, defaults.odometry_veto);
   EXPECT_EQ(read.linear_update, defaults.linear_update);
   EXPECT_EQ(read.angular_update, defaults.angular_update);
   EXPECT_EQ(read.temporal_update, defaults.temporal_update);
@@ -98,9 +103,9 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
 }
 
-TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
+TEST(GridSlamConfigFile, ShippedConfigRunsRbpfWithTheCoarseLevelTheVetoAndGMappingsThresholds)
 {
-  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_rbpf.yaml");
+  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_slam.yaml");
   core::GridSlamConfig c;
   io::readGridSlamConfig(params, &c);
   EXPECT_EQ(c.validate(), "");
@@ -108,17 +113,9 @@ TEST(GridSlamConfigFile, ShippedRbpfOverlayIsValidAndUsesTheCoarseLevel)
   EXPECT_EQ(c.particles, 30);
   EXPECT_GT(c.matcher.coarse_kernel, 0);
   EXPECT_EQ(c.proposal_motion_weight, 1.0);
-  EXPECT_EQ(c.threads, 2);
-  EXPECT_TRUE(params.unusedKeys().empty());
-  // The overlay sets no travel threshold: laid over grid_slam.yaml the node keeps its thresholds (1 m, 0.5 rad),
-  // laid over every-scan settings it keeps every scan.
+  EXPECT_EQ(c.odometry_veto, 100.0);
+  EXPECT_EQ(c.resampling.method, core::ResamplingMethod::kLowVariance);
   EXPECT_EQ(c.linear_update, 1.0);
   EXPECT_EQ(c.angular_update, 0.5);
   EXPECT_EQ(c.temporal_update, 0.0);
-  core::GridSlamConfig every;
-  every.linear_update = every.angular_update = every.temporal_update = 0.0;
-  io::readGridSlamConfig(params, &every);
-  EXPECT_EQ(every.linear_update, 0.0);
-  EXPECT_EQ(every.angular_update, 0.0);
-  EXPECT_EQ(every.temporal_update, 0.0);
 }

@@ -96,6 +96,25 @@ TEST(Tum, WrittenTrajectoryReadsBack)
   EXPECT_THROW(io::readTum(dir + "/missing.tum", &t, &p), std::runtime_error);
 }
 
+TEST(Tum, UnixEpochStampsKeepTheirSubMillisecondPart)
+{
+  // Two poses 0.4 ms apart at a Unix-epoch stamp: twelve significant digits would write both as ...123.457 (1 ms
+  // steps); the files keep nanoseconds.
+  const std::string dir = temp_files::makeDir("rbpf_run_output");
+  const std::string path = dir + "/epoch.tum";
+  const std::vector<double> stamps{ 1700000000.123456789, 1700000000.123856789 };
+  io::writeTum(path, stamps, { Pose2(), Pose2(0.1, 0.0, 0.0) });
+  std::vector<double> t;
+  std::vector<Pose2> p;
+  io::readTum(path, &t, &p);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_NEAR(t[0], stamps[0], 1e-6);
+  EXPECT_NEAR(t[1], stamps[1], 1e-6);
+  EXPECT_NEAR(t[1] - t[0], 0.0004, 1e-6);
+  EXPECT_EQ(io::stampText(1700000000.5), "1700000000.500000000");
+  EXPECT_EQ(io::stampText(std::nan("")), "");
+}
+
 TEST(FastSlamRunRecord, SearchesWhileTrackingAreCountedByHowEachEnded)
 {
   io::FastSlamRunRecord record;

@@ -131,7 +131,7 @@ def _timing(out):
 def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
     bag = _record_indoor_drive(tmp_path, 'indoor.bag')
     grid_yaml = os.path.join(ROOT, 'config', 'grid_slam.yaml')
-    rbpf_yaml = os.path.join(ROOT, 'config', 'grid_rbpf.yaml')
+    single_yaml = os.path.join(ROOT, 'config', 'grid_single_map.yaml')
     far = tmp_path / 'far.yaml'
     far.write_text('linear_update: 20.0\nangular_update: 3.0\ntemporal_update: 100.0\n')
 
@@ -152,10 +152,10 @@ def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
     assert (timing['updates'], timing['linear_update'], timing['angular_update'], timing['temporal_update']) == \
         (processed, 1.0, 0.5, 0.0)
     assert text['processed'] == str(processed) and text['linear_update'] == '1'
-    # --every-scan: every scan, whatever the files given (before or after it) set, rbpf's overlay included.
+    # --every-scan: every scan, whatever the files given (before or after it) set, the single-map overlay included.
     printed = {}
-    for name, args in (('every', ['--every-scan', '--config', grid_yaml]),
-                       ('every_over_files', ['--every-scan', '--config', grid_yaml, '--config', rbpf_yaml,
+    for name, args in (('every', ['--every-scan', '--config', grid_yaml, '--config', single_yaml]),
+                       ('every_over_files', ['--every-scan', '--config', grid_yaml,
                                              '--config', str(far), '--particles', '3']),
                        ('every_first', ['--config', str(far), '--every-scan'])):
         out, stdout, scans, processed = run(name, *args)

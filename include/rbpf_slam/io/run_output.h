@@ -11,24 +11,13 @@
 #include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/io/files.h"
+#include "rbpf_slam/io/tum_file.h"
 #include "rbpf_slam/core/filter/pose2.h"
 
 namespace rbpf_slam
 {
 namespace io
 {
-/** @brief One pose as a TUM trajectory line: t x y z qx qy qz qw (planar: z = 0, rotation about z). */
-void writeTumLine(std::ostream& out, double stamp, const core::Pose2& pose);
-
-/** @brief A whole trajectory in the TUM format (evo reads it). @throws std::runtime_error naming the file. */
-void writeTum(const std::string& path, const std::vector<double>& stamps, const std::vector<core::Pose2>& poses);
-
-/**
- * @brief Reads a TUM trajectory (t x y z qx qy qz qw; '#' comments) as planar poses (yaw from the quaternion).
- * @throws std::runtime_error naming the file and line when it cannot be read or a line is malformed.
- */
-void readTum(const std::string& path, std::vector<double>* stamps, std::vector<core::Pose2>* poses);
-
 /**
  * @brief The one landmark CSV of the package: the tree map file of forest_map_file.h without an anchor (slam_bag's
  * map.csv, the FastSLAM node's tree inventory, fastslam_benchmark's maps; rbpf_slam.evaluate.read_landmarks_csv

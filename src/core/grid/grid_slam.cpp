@@ -68,6 +68,8 @@ std::string GridSlamConfig::validate() const
     return "min_matched_ratio must be in [0, 1]";
   if (!(std::isfinite(proposal_motion_weight) && proposal_motion_weight >= 0.0))
     return "proposal_motion_weight must be >= 0";
+  if (!(std::isfinite(odometry_veto) && odometry_veto >= 0.0))
+    return "odometry_veto must be >= 0 (0 = off)";
   std::string e = motion.validate();
   if (e.empty())
     e = matcher.validate();
@@ -105,6 +107,8 @@ void GridSlam::reset()
   resetMaps();
   initialised_ = false;
   last_odometry_ = Pose2();
+  seen_odometry_ = Pose2();
+  last_scan_increment_ = OdometryIncrement();
   last_stamp_ = 0.0;
   mapping_pose_ = Pose2();
 }
@@ -185,6 +189,8 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
     const bool waited = config_.temporal_update > 0.0 && stamp - last_stamp_ >= config_.temporal_update;
     if (!travelled && !waited && (config_.linear_update > 0.0 || config_.angular_update > 0.0))
     {
+      carry(decomposeOdometry(seen_odometry_, odometry));
+      seen_odometry_ = odometry;
       GridSlamStep skipped;
       skipped.skipped = true;
       skipped.neff = weights_.empty() ? static_cast<double>(particles_.size()) : effectiveSampleSize(weights_);
@@ -198,6 +204,7 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
     // as REP-105 tools expect): every particle starts at the first odometry pose.
     initialised_ = true;
     last_odometry_ = odometry;
+    seen_odometry_ = odometry;
     mapping_pose_ = odometry;
     for (auto& p : particles_)
       p.pose = odometry;
@@ -208,7 +215,9 @@ GridSlamStep GridSlam::update(const Pose2& odometry, const ScanData& scan, const
     return first;
   }
   const OdometryIncrement u = decomposeOdometry(last_odometry_, odometry);
+  last_scan_increment_ = decomposeOdometry(seen_odometry_, odometry);
   last_odometry_ = odometry;
+  seen_odometry_ = odometry;
   return step(u, scan, sensor);
 }
 

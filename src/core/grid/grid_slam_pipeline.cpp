@@ -39,6 +39,28 @@ GridPipelineUpdate GridSlamPipeline::update(GridScan&& item, bool covered)
   u.odometry_covered = covered;
   u.odometry = odometry_.at(item.stamp);
   const auto t0 = std::chrono::steady_clock::now();
+  const bool stopped = filter_->initialised() && !odometry_.empty() &&
+                       item.stamp - odometry_.latest() > kOdometryStopped;
+  if (stopped)
+  {
+    // The robot may be moving while its pose cannot be told: the scan is left out, the map kept.
+    u.odometry_stopped = true;
+    u.outage_began = outage_.scans == 0;
+    if (u.outage_began)
+      outage_.since = odometry_.latest();
+    ++outage_.scans;
+    outage_.last_scan = item.stamp;
+    u.step.skipped = true;
+    u.estimate = filter_->poseAt(u.odometry);
+    u.map_to_odom = filter_->mapToOdom();
+    return u;
+  }
+  if (outage_.scans > 0)
+  {
+    u.outage_seconds = item.stamp - outage_.since;
+    u.outage_scans = outage_.scans;
+    outage_ = Outage();
+  }
   try
   {
     // No odometry before the scan: its pose would be a guess (TF refuses to extrapolate into the past too).

@@ -1,6 +1,7 @@
 #include "rbpf_slam/core/grid/rbpf_grid_slam.h"
 
 #include <algorithm>
+#include <initializer_list>
 #include <cmath>
 #include <thread>
 
@@ -19,6 +20,32 @@ void RbpfGridSlam::resetMaps()
   maps_.assign(n, OccupancyGrid(config_.grid));
   histories_.assign(n, nullptr);
   best_index_ = 0;
+  carried_ = Spread();
+  carried_max_theta_ = carried_max_xy_ = 0.0;
+}
+
+RbpfGridSlam::Spread RbpfGridSlam::spreadOf(const OdometryIncrement& u) const
+{
+  const OdometryNoiseSigmas s = odometryNoiseSigmas(u, config_.motion);
+  Spread v;
+  v.along = s.trans * s.trans;
+  // rot1's noise moves the end point sideways; the translation a turn causes (alpha4) has no direction of its own:
+  // a turn on the spot moves the robot across as much as along.
+  const double turn_trans = config_.motion.alpha4 * (std::abs(u.rot1) + std::abs(u.rot2));
+  v.across = u.trans * s.rot1 * u.trans * s.rot1 + turn_trans * turn_trans;
+  v.theta = s.rot1 * s.rot1 + s.rot2 * s.rot2;     // both rotations turn the heading
+  return v;
+}
+
+void RbpfGridSlam::carry(const OdometryIncrement& u)
+{
+  // The noise of the scans' increments adds up as a random walk (as when GMapping draws every particle's motion
+  // at every scan): the spread of the travel folded into the next processed scan is the sum of their variances,
+  // not that of one increment as long as all of them. Nothing else changes here.
+  const Spread v = spreadOf(u);
+  carried_.add(v);
+  carried_max_theta_ = std::max(carried_max_theta_, std::sqrt(v.theta));
+  carried_max_xy_ = std::max(carried_max_xy_, std::sqrt(v.along + v.across));
 }
 
 int RbpfGridSlam::startMaps(const Pose2& odometry, const ScanData& scan, const Pose2& sensor)
@@ -33,6 +60,8 @@ int RbpfGridSlam::startMaps(const Pose2& odometry, const ScanData& scan, const P
     histories_[i] = root;
   }
   best_index_ = 0;
+  carried_ = Spread();
+  carried_max_theta_ = carried_max_xy_ = 0.0;
   return beams;
 }
 
@@ -46,24 +75,65 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
   log_weights_.resize(n);
   std::vector<int> matched(n, 0);
-  // The odometry's spread for this increment (rot1 and rot2 noise both turn the heading; rot1 noise also moves
-  // the end point sideways), floored: the motion factor of the weight.
-  double sigma_xy = 0.0, sigma_theta = 0.0;
+  // The odometry's spread since the last processed scan: the skipped scans' increments and this one's (equal to
+  // the whole increment's when every scan is processed). Floored, it is the motion factor of the weight and the
+  // odometry's veto; its growth over one scan's widens the matcher's first steps.
+  Spread spread = carried_;
+  const Spread v_last = spreadOf(lastScanIncrement());
+  spread.add(v_last);
+  const double floor_xy = config_.matcher.prior_floor_xy, floor_theta = config_.matcher.prior_floor_theta;
+  const double sigma_xy = std::max(std::sqrt(spread.along + spread.across), floor_xy);
+  const double sigma_theta = std::max(std::sqrt(spread.theta), floor_theta);
+  // The veto's spread: the motion model's and the match's own precision (half a cell; the last climbing step).
+  const double match_xy = 0.5 * config_.grid.resolution, match_theta = matcher_.lastAngularStep();
+  const double veto_along = std::sqrt(spread.along + match_xy * match_xy);
+  const double veto_across = std::sqrt(spread.across + match_xy * match_xy);
+  const double veto_theta = std::sqrt(spread.theta + match_theta * match_theta);
   {
-    const OdometryNoiseSigmas s = odometryNoiseSigmas(u, config_.motion);
-    sigma_xy = std::max(std::hypot(s.trans, u.trans * s.rot1), config_.matcher.prior_floor_xy);
-    sigma_theta = std::max(std::hypot(s.rot1, s.rot2), config_.matcher.prior_floor_theta);
+    // One doubling of the first steps per doubling of the spread against one scan's largest (rounded).
+    const double one_theta = std::max({ carried_max_theta_, std::sqrt(v_last.theta), floor_theta });
+    const double one_xy = std::max({ carried_max_xy_, std::sqrt(v_last.along + v_last.across), floor_xy });
+    const double ratio = std::max(sigma_theta / one_theta, sigma_xy / one_xy);
+    step.widen = ratio > 1.0 ? std::min(ScanMatcher::kMaxWiden, static_cast<int>(std::floor(std::log2(ratio) + 0.5)))
+                             : 0;
   }
+  // The odometry sample of the whole increment with the motion noise scaled to that spread: the rotation
+  // alphas by the ratio of the headings' standard deviations, the translation ones by the positions' (1 when every
+  // scan is processed).
+  OdometryMotionNoise noise = config_.motion;
+  if (carried_.theta > 0.0 || carried_.along > 0.0)
+  {
+    const Spread whole = spreadOf(u);
+    const double f_theta = whole.theta > 1e-12 ? std::sqrt(spread.theta / whole.theta) : 1.0;
+    const double f_trans = whole.along > 1e-12 ? std::sqrt(spread.along / whole.along) : 1.0;
+    noise.alpha1 *= f_theta;
+    noise.alpha2 *= f_theta;
+    noise.alpha3 *= f_trans;
+    noise.alpha4 *= f_trans;
+  }
+  carried_ = Spread();
+  carried_max_theta_ = carried_max_xy_ = 0.0;
   // The random draws first, in particle order: the odometry sample and the jitter around the match (drawn
   // whether or not the match is trusted), so the result does not depend on the threads.
   predicted_.resize(n);
   jitter_.resize(n);
+  means_.resize(n);
   for (std::size_t i = 0; i < n; ++i)
   {
-    predicted_[i] = sampleOdometryMotion(particles_[i].pose, u, config_.motion, random_);
+    predicted_[i] = sampleOdometryMotion(particles_[i].pose, u, noise, random_);
     jitter_[i] = Pose2(random_.gaussian(config_.proposal_sigma_xy), random_.gaussian(config_.proposal_sigma_xy),
                        random_.gaussian(config_.proposal_sigma_theta));
+    means_[i] = applyOdometry(particles_[i].pose, u);
   }
+  // The squared Mahalanobis distance of pose @p x from the odometry's mean @p mean.
+  const auto odometry_distance = [&](const Pose2& x, const Pose2& mean) {
+    const double dx = x.x - mean.x, dy = x.y - mean.y;
+    const double c = std::cos(mean.theta), sn = std::sin(mean.theta);
+    const double along = (c * dx + sn * dy) / veto_along, across = (-sn * dx + c * dy) / veto_across;
+    const double turn = wrapAngle(x.theta - mean.theta) / veto_theta;
+    return along * along + across * across + turn * turn;
+  };
+  const int widen = step.widen;
   // Proposal: each particle's odometry sample, scan-matched against its own map (independent per particle: read
   // only, so the matches may run on several threads).
   matches_.resize(n);
@@ -71,9 +141,22 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   const auto match_range = [&](std::size_t first, std::size_t stride) {
     for (std::size_t i = first; i < n; i += stride)
     {
-      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_);
+      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen);
       trusted_[i] = used > 0 && static_cast<double>(matches_[i].matched) >= min_matched;
-      if (!trusted_[i])  // weighed at the odometry sample, which the particle keeps
+      if (trusted_[i] && config_.odometry_veto > 0.0 &&
+          odometry_distance(matches_[i].pose, means_[i]) > config_.odometry_veto)
+      {
+        // Vetoed: the odometry says the match cannot be where the particle went. The position falls back to the
+        // odometry sample's; the heading is matched from there (walls fix it even where they fix no position),
+        // unless that too is improbable.
+        const int evaluations = matches_[i].evaluations;
+        matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen, true);
+        matches_[i].evaluations += evaluations;
+        const bool turn_ok = static_cast<double>(matches_[i].matched) >= min_matched &&
+                             odometry_distance(matches_[i].pose, means_[i]) <= config_.odometry_veto;
+        trusted_[i] = turn_ok ? 3 : 2;
+      }
+      if (trusted_[i] == 0 || trusted_[i] == 2)  // weighed at the odometry sample, which the particle keeps
       {
         const int evaluations = matches_[i].evaluations;
         matches_[i] = matcher_.evaluate(maps_[i], predicted_[i], sensor, end_points_);
@@ -101,7 +184,8 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     // The pose: a small Gaussian around a trusted match (the weight is the likelihood at the match, GMapping's
     // "best score" normaliser), else the odometry sample itself.
     Pose2 pose = predicted_[i];
-    if (trusted_[i])
+    step.matches_vetoed += trusted_[i] >= 2 ? 1 : 0;
+    if (trusted_[i] == 1 || trusted_[i] == 3)
     {
       pose = Pose2(m.pose.x + jitter_[i].x, m.pose.y + jitter_[i].y, wrapAngle(m.pose.theta + jitter_[i].theta));
       ++step.matches_trusted;
@@ -109,7 +193,7 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     double motion_log = 0.0;
     if (config_.proposal_motion_weight > 0.0)
     {
-      const Pose2 mean = applyOdometry(p.pose, u);
+      const Pose2& mean = means_[i];
       const double dx = pose.x - mean.x, dy = pose.y - mean.y, dt = wrapAngle(pose.theta - mean.theta);
       motion_log = -config_.proposal_motion_weight *
                    ((dx * dx + dy * dy) / (2.0 * sigma_xy * sigma_xy) +

@@ -255,7 +255,7 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
                              Pose2(p.x, p.y, wrapAngle(p.theta - ang)) };
     ScanMatch step = best;
     int taken = -1;
-    for (int j = 0; j < 6; ++j)
+    for (int j = level.turn_only ? 4 : 0; j < 6; ++j)
     {
       if (j == back)
         continue;
@@ -284,20 +284,37 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
 }
 
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                             const std::vector<std::pair<double, double>>& end_points) const
+                             const std::vector<std::pair<double, double>>& end_points, int widen, bool turn_only) const
 {
   int evaluations = 0;
   Pose2 from = start;
   Level fine = fineLevel();
+  fine.turn_only = turn_only;
+  widen = std::max(0, std::min(widen, kMaxWiden));
+  // A wider start: the first level's steps doubled widen times, and as many more halvings, so the last step
+  // (and the fine level's start) stays the same.
+  const double wide = std::ldexp(1.0, widen);
   if (config_.coarse_kernel > 0)
   {
-    const Level coarse{ true, config_.coarse_kernel, config_.coarse_sigma, config_.coarse_beam_step,
-                        config_.coarse_refinements, config_.linear_step, config_.angular_step };
+    const Level coarse{ true,
+                        config_.coarse_kernel,
+                        config_.coarse_sigma,
+                        config_.coarse_beam_step,
+                        config_.coarse_refinements + widen,
+                        config_.linear_step * wide,
+                        config_.angular_step * wide,
+                        turn_only };
     from = climb(coarse, map, start, sensor, end_points, &evaluations).pose;
     // The fine climb starts with the coarse one's last step size.
     const double last = std::ldexp(1.0, -config_.coarse_refinements);
     fine.linear_step *= last;
     fine.angular_step *= last;
+  }
+  else
+  {
+    fine.linear_step *= wide;
+    fine.angular_step *= wide;
+    fine.refinements += widen;
   }
   ScanMatch best;
   if (config_.climb_beam_step > 1)

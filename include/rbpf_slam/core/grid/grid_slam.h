@@ -70,6 +70,15 @@ struct GridSlamConfig
   /// covariance of the increment), so a match far from where the odometry puts the particle counts less.
   /// 0 = off (GMapping's code weighs by the likelihood at the match only).
   double proposal_motion_weight = 0.0;
+  /// `rbpf` mode only: the odometry's veto. A trusted match whose pose is improbable under the motion model of the
+  /// odometry travelled since the last processed scan is not taken: the particle keeps its odometry sample, weighed
+  /// there. Improbable: its squared Mahalanobis distance from the odometry's mean (along the motion, across it, the
+  /// heading; each variance the motion model's plus the match's own precision, half a cell and the matcher's last
+  /// heading step) beyond this bound. The position then falls back to the odometry sample's and only the heading
+  /// is matched (unless that too is beyond the bound: then the odometry sample, weighed there). 100 = ten standard
+  /// deviations: a gate for gross errors, as real odometry has heavy tails (slip, gaps in the log) that the
+  /// Gaussian class does not hold. 0 = off.
+  double odometry_veto = 100.0;
   /// Travel thresholds (GMapping's linearUpdate / angularUpdate / temporalUpdate, with GMapping's defaults 1 m,
   /// 0.5 rad, off): a scan is processed only after the odometry has moved this far [m] or turned this much [rad]
   /// since the last processed scan, or (temporal_update > 0) this much time [s] has passed; the first scan is
@@ -104,6 +113,8 @@ struct GridSlamStep
   int best_correlation = 0;    ///< its number of end points on occupied cells (rbpf: matched end points)
   int beams_mapped = 0;
   int matches_trusted = 0;     ///< rbpf mode: particles whose scan match was trusted
+  int matches_vetoed = 0;      ///< rbpf mode: particles whose match the odometry vetoed (GridSlamConfig::odometry_veto)
+  int widen = 0;               ///< rbpf mode: doublings of the matcher's first steps for the travel folded in
   long matcher_evaluations = 0;  ///< rbpf mode: poses scored by the scan matcher, all particles (cost diagnostic)
 };
 
@@ -209,8 +220,18 @@ protected:
   virtual void resetMaps() = 0;
   /** @brief The first scan, every particle at @p odometry: starts the map(s); returns the beams mapped. */
   virtual int startMaps(const Pose2& odometry, const ScanData& scan, const Pose2& sensor) = 0;
-  /** @brief Every further scan above the travel thresholds, the odometry increment @p u since the last one. */
+  /**
+   * @brief Every further scan above the travel thresholds, the odometry increment @p u since the last processed
+   * one; lastScanIncrement() is the part since the scan before (processed or not).
+   */
   virtual GridSlamStep step(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor) = 0;
+  /**
+   * @brief A scan below the travel thresholds moved the odometry by @p u since the scan before: a method may note
+   * the spread it adds (the particles, the maps and the weights must not change). Default: nothing.
+   */
+  virtual void carry(const OdometryIncrement& u) { (void)u; }
+  /** @brief The odometry increment since the scan before the one being processed (processed or not). */
+  const OdometryIncrement& lastScanIncrement() const { return last_scan_increment_; }
   /**
    * @brief The skeleton's weighting step on log_weights_ (each particle's previous log-weight plus its scan's
    * log-likelihood): sets the particles' weights, runs @p before_resampling (the particles as weighed), and
@@ -229,6 +250,8 @@ protected:
 private:
   bool initialised_ = false;
   Pose2 last_odometry_;  ///< of the last processed scan
+  Pose2 seen_odometry_;  ///< of the last scan, processed or not
+  OdometryIncrement last_scan_increment_;
   double last_stamp_ = 0.0;
 };
 

@@ -32,6 +32,15 @@ struct GridPipelineUpdate
   GridSlamStep step;
   int timeline = 0;  ///< restarts before this scan (a restart flushes the old timeline's scans)
   bool odometry_covered = true;  ///< false: processed after waiting, with odometry that ends before the scan
+  /// The odometry stopped: the scan is more than kOdometryStopped past the newest odometry. It is not used (the
+  /// robot may be moving while its pose cannot be told): the map and the particles are kept, the estimate is held.
+  bool odometry_stopped = false;
+  /// This scan began an outage of the odometry (the first with odometry_stopped): report it once.
+  bool outage_began = false;
+  /// This scan, covered again, ended an outage: how long the odometry was missing [s] (from the newest odometry
+  /// before it to this scan) and the scans it kept out of the map; 0 otherwise.
+  double outage_seconds = 0.0;
+  int outage_scans = 0;
   /// Non-empty when the filter refused the scan (a non-finite pose, a scan out of any map's reach): nothing
   /// changed, the scan is dropped, and this says why.
   std::string error;
@@ -57,6 +66,17 @@ struct GridTimelineMap
 class GridSlamPipeline : public SensorPipeline<GridScan, GridPipelineUpdate>
 {
 public:
+  /// [s] a scan further than this past the newest odometry finds the odometry stopped (GridPipelineUpdate).
+  static constexpr double kOdometryStopped = 0.5;
+  /** @brief An outage of the odometry that has not ended: since when [s] (the newest odometry) and the scans it
+   * kept out of the map so far; scans 0 when there is none. */
+  struct Outage
+  {
+    double since = 0.0, last_scan = 0.0;
+    int scans = 0;
+  };
+  const Outage& outage() const { return outage_; }
+
   /** @throws std::invalid_argument when @p config is not valid. */
   explicit GridSlamPipeline(const GridSlamConfig& config, const PipelineTiming& timing = PipelineTiming());
 
@@ -92,9 +112,11 @@ private:
       ended_.push_back({ restarts() - 1, filter_->map().toImage() });
     }
     filter_->reset();
+    outage_ = Outage();
   }
 
   std::unique_ptr<GridSlam> filter_;
+  Outage outage_;
   std::vector<GridTimelineMap> ended_;
   double seconds_filter_ = 0.0, worst_seconds_ = 0.0;
 };

@@ -35,15 +35,33 @@ private:
   void resetMaps() override;
   int startMaps(const Pose2& odometry, const ScanData& scan, const Pose2& sensor) override;
   GridSlamStep step(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor) override;
+  void carry(const OdometryIncrement& u) override;
+
+  /** @brief Variances of one scan's increment @p u: along and across the motion [m^2], heading [rad^2]. */
+  struct Spread
+  {
+    double along = 0.0, across = 0.0, theta = 0.0;
+    void add(const Spread& o)
+    {
+      along += o.along;
+      across += o.across;
+      theta += o.theta;
+    }
+  };
+  Spread spreadOf(const OdometryIncrement& u) const;
 
   ScanMatcher matcher_;
   std::vector<OccupancyGrid> maps_;  ///< one per particle
   std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
   std::size_t best_index_ = 0;
   // Per step, per particle: the odometry sample, the jitter around its match, the match, whether it is trusted.
-  std::vector<Pose2> predicted_, jitter_;
+  std::vector<Pose2> predicted_, jitter_, means_;  // means_: the odometry's mean, the motion model's centre
   std::vector<ScanMatch> matches_;
   std::vector<char> trusted_;
+  // Since the last processed scan: the variances the skipped scans' increments added, and the largest one scan's
+  // increment had (its heading and position).
+  Spread carried_;
+  double carried_max_theta_ = 0.0, carried_max_xy_ = 0.0;
 };
 
 }  // namespace core

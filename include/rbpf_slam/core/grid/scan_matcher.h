@@ -83,10 +83,22 @@ public:
 
   /**
    * @brief Hill climbing from @p start: tries +-x, +-y (map frame) and +-theta; takes the best improving move
-   * and repeats; when none improves, halves the steps (refinements times).
+   * and repeats; when none improves, halves the steps (refinements times). @p widen (0..kMaxWiden) doubles the
+   * first level's (the coarse one's, else the fine one's) first steps that many times and adds as many halvings,
+   * so the last step is unchanged: a wider reach for a start whose error is larger than one scan's. @p turn_only:
+   * the climb only turns, the position stays @p start's.
    */
   ScanMatch match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,
-                  const std::vector<std::pair<double, double>>& end_points) const;
+                  const std::vector<std::pair<double, double>>& end_points, int widen = 0,
+                  bool turn_only = false) const;
+  /** @brief [rad] the heading step the climb ends with (the fine level's, after the coarse level's halvings). */
+  double lastAngularStep() const
+  {
+    return std::ldexp(config_.angular_step,
+                      -(config_.refinements + (config_.coarse_kernel > 0 ? config_.coarse_refinements : 0)));
+  }
+  /// Largest @p widen of match().
+  static constexpr int kMaxWiden = 3;
 
 private:
   /** @brief The window, score sigma and beam stride of one level of the climb. */
@@ -98,6 +110,7 @@ private:
     int beam_step;
     int refinements;
     double linear_step, angular_step;
+    bool turn_only = false;  // the climb only turns (the position stays the start's)
   };
   /**
    * @brief The end points a level uses, rotated into the map's axes for one sensor heading: the climb's four
