@@ -377,6 +377,7 @@ void loadYaml(const std::string& path, const Reader& reader)
                    path.c_str(), key.c_str());
 }
 
+#ifndef RBPF_SLAM_BAG_GRID_ONLY
 /** @brief The frame the first message on @p topic names (clouds, scans, trunk arrays). @throws when none does. */
 std::string firstFrame(rosbag::Bag& bag, const std::string& bag_path, const std::string& topic)
 {
@@ -395,6 +396,7 @@ std::string firstFrame(rosbag::Bag& bag, const std::string& bag_path, const std:
   }
   throw std::runtime_error(bag_path + ": the messages on " + topic + " name no frame");
 }
+#endif
 
 /** @brief The detector's and the filter's configuration from the files and options, as the node reads them. */
 #ifndef RBPF_SLAM_BAG_GRID_ONLY
