@@ -7,8 +7,9 @@ the online estimate) with the package's evaluator (rbpf_slam.evaluate, as
 `trajectory_eval`) against the bag's reference, and prints per seed and then median / worst:
   ATE RMS after a least-squares rigid fit, ATE RMS aligned at the first pose, RPE over pose pairs --travel
   metres of reference travel apart (mean translation [m] and rotation [deg]), wall time of the process [s],
-  filter time [s], peak resident memory of the process [MB] and, where slam_bag reports them, the map's
-  storage [MB per particle per 1000 m2 of map].
+  filter time [s], peak resident memory of the process [MB] (slam_bag's own VmHWM, what /usr/bin/time -v
+  reports, where its timing.json has it) and, where slam_bag reports them, the map's storage [MB per particle
+  per 1000 m2 of map].
 The bag's odometry (the first run's odometry.tum) is scored alike. A peer's trajectory (`--peer NAME=FILE`:
 one pose per scan of the bag, in order, as `t x y theta` or TUM lines) is scored by scan index; its time and
 memory are whatever you give with --peer-time NAME=SECONDS,MB (printed beside, not measured here).
@@ -183,6 +184,10 @@ def _main(argv):
                     t = json.load(f)
                 e['filter'] = t.get('seconds_filter')
                 e['mb_per_particle_1000m2'] = t.get('mb_per_particle_per_1000m2')
+                # The runner's own peak (VmHWM): the child's ru_maxrss also holds this process's pages, copied
+                # at the fork before the exec.
+                if t.get('peak_rss_mb'):
+                    e['rss'] = t['peak_rss_mb']
             print(row('seed %d' % seed, e))
             sys.stdout.flush()
             return e

@@ -345,6 +345,17 @@ void replay(rosbag::Bag& bag, const std::vector<std::string>& topics,
 }
 
 /** @brief timing.json: the counts and times; @p extra, when given, are further `"key": value` pairs. */
+/** @brief This process's peak resident memory [MB] (VmHWM of /proc/self/status); 0 where it cannot be read. */
+double peakResidentMegabytes()
+{
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.compare(0, 6, "VmHWM:") == 0)
+      return std::atof(line.c_str() + 6) / 1024.0;
+  return 0.0;
+}
+
 std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, std::uint64_t seed,
                        const std::string& extra = std::string())
 {
@@ -851,13 +862,14 @@ int runGrid(const Options& o)
                              << "\ntemporal_update " << gc.temporal_update << "\nmap_tiles " << memory.tiles
                              << "\nmap_mb " << memory.megabytes() << "\nbest_map_area_m2 " << memory.best_area
                              << "\nmb_per_particle_per_1000m2 " << memory.megabytesPerParticlePer1000SquareMetres()
-                             << "\n";
+                             << "\npeak_rss_mb " << peakResidentMegabytes() << "\n";
     std::ostringstream extra;
     extra.precision(12);
     extra << "\"linear_update\": " << gc.linear_update << ", \"angular_update\": " << gc.angular_update
           << ", \"temporal_update\": " << gc.temporal_update << ", \"map_tiles\": " << memory.tiles
           << ", \"map_mb\": " << memory.megabytes() << ", \"best_map_area_m2\": " << memory.best_area
-          << ", \"mb_per_particle_per_1000m2\": " << memory.megabytesPerParticlePer1000SquareMetres();
+          << ", \"mb_per_particle_per_1000m2\": " << memory.megabytesPerParticlePer1000SquareMetres()
+          << ", \"peak_rss_mb\": " << peakResidentMegabytes();
     out.stream("timing.json") << timingJson(scans, processed, 0.0, seconds, gc.particles, gc.seed, extra.str());
     out.commit();
   }

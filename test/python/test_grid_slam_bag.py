@@ -178,6 +178,8 @@ def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
     assert int(text['map_tiles']) == tiles and float(text['map_mb']) == pytest.approx(mb, rel=1e-9)
     assert float(text['best_map_area_m2']) == pytest.approx(area, rel=1e-9)
     assert float(text['mb_per_particle_per_1000m2']) == pytest.approx(timing['mb_per_particle_per_1000m2'], rel=1e-9)
+    # The runner's own peak memory (VmHWM): a grid run does not load FastSLAM's libraries (PCL alone took ~35 MB).
+    assert 5.0 < timing['peak_rss_mb'] < 200.0 and float(text['peak_rss_mb']) == pytest.approx(timing['peak_rss_mb'])
     assert 'map memory: %d distinct tiles (shared tiles once) in %.2f MB; best map %d tiles, %.0f m^2; %.3f MB per ' \
         'particle per 1000 m^2 of map' % (tiles, mb, round(best_tiles), area,
                                           timing['mb_per_particle_per_1000m2']) in printed['every_over_files'], \
