@@ -163,12 +163,13 @@ class NodeVsOffline(unittest.TestCase):
     def test_grid_node_runs_the_offline_pipeline(self):
         bag = self.record('indoor', ['--indoor-map', os.path.join(ROOT, 'config', 'worlds', 'indoor.yaml')],
                           '3 0\n6 0\n7 1\n')
-        # slam_bag gets the node's settings: the shipped file, then the travel thresholds the node was given.
+        # slam_bag gets the node's settings: the shipped files, then the travel thresholds the node was given.
         thresholds = os.path.join(self.dir, 'grid_thresholds.yaml')
         with open(thresholds, 'w') as f:
             for key in ('linear_update', 'angular_update', 'temporal_update'):
                 f.write('%s: %r\n' % (key, float(rospy.get_param('grid_slam/' + key))))
         offline = self.offline(bag, ['--filter', 'grid', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml'),
+                                     '--config', os.path.join(ROOT, 'config', 'grid_single_map.yaml'),
                                      '--config', thresholds])
         node = self.play(bag, ['/scan', '/odom', '/tf', '/tf_static'], 'grid', len(offline))
         self.compare('grid', node, offline)
