@@ -1,4 +1,5 @@
 #include "rbpf_slam/io/forest_map_file.h"
+#include "rbpf_slam/io/tum_file.h"
 
 #include "rbpf_slam/io/files.h"
 
@@ -41,14 +42,6 @@ std::vector<std::string> splitCommas(const std::string& line)
   return out;
 }
 
-std::string stamp(double t)
-{
-  if (!std::isfinite(t))
-    return "";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.9f", t);
-  return buf;
-}
 
 std::string csvNumber(double v, const char* format);
 
@@ -175,7 +168,7 @@ std::string forestMapCsv(const ForestMap& map)
                   l.mean.y(), 2.0 * l.radius, std::sqrt(std::max(0.0, l.covariance(0, 0))),
                   std::sqrt(std::max(0.0, l.covariance(1, 1))), 2.0 * std::sqrt(std::max(0.0, l.radius_variance)),
                   l.observations, l.provisional ? 1 : 0, 0.5 * (l.covariance(0, 1) + l.covariance(1, 0)),
-                  stamp(l.first_seen).c_str(), stamp(l.last_seen).c_str());
+                  stampText(l.first_seen).c_str(), stampText(l.last_seen).c_str());
     csv += line;
   }
   return csv;

@@ -52,21 +52,30 @@ inline double castRay(double x, double y, double a)
   return best;
 }
 
-inline ScanData simulateScan(const Pose2& sensor, Random* noise = nullptr)
+// A 181-beam scan over 180 degrees from @p sensor: each beam's range from @p cast(x, y, angle) (+Inf: no return),
+// beyond @p range_max no return, with 1 cm of noise when @p noise is given.
+template <typename Caster>
+ScanData castScan(const Pose2& sensor, Caster cast, double range_max, Random* noise = nullptr)
 {
   ScanData scan;
   scan.angle_min = -M_PI / 2;
   scan.angle_increment = M_PI / 180;
   scan.range_min = 0.02;
-  scan.range_max = 30.0;
+  scan.range_max = range_max;
   for (int i = 0; i <= 180; ++i)
   {
-    double r = castRay(sensor.x, sensor.y, sensor.theta + scan.angle_min + i * scan.angle_increment);
+    double r = cast(sensor.x, sensor.y, sensor.theta + scan.angle_min + i * scan.angle_increment);
     if (noise && std::isfinite(r))
       r += noise->gaussian(0.01);
-    scan.ranges.push_back(static_cast<float>(r));
+    scan.ranges.push_back(r <= range_max ? static_cast<float>(r) : std::numeric_limits<float>::infinity());
   }
   return scan;
+}
+
+// The room seen from @p sensor (every wall within the scanner's 30 m).
+inline ScanData simulateScan(const Pose2& sensor, Random* noise = nullptr)
+{
+  return castScan(sensor, castRay, 30.0, noise);
 }
 
 // A drive through the room: 0.05 m steps along a loop around the box.

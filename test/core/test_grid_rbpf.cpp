@@ -375,23 +375,16 @@ namespace
 // every scan ends a metre beyond what the map holds, and the match slides back onto the mapped walls.
 ScanData corridorScan(const Pose2& sensor)
 {
-  ScanData scan;
-  scan.angle_min = -M_PI / 2;
-  scan.angle_increment = M_PI / 180;
-  scan.range_min = 0.02;
-  scan.range_max = 4.0;
-  for (int i = 0; i <= 180; ++i)
-  {
-    const double a = sensor.theta + scan.angle_min + i * scan.angle_increment;
+  const auto cast = [](double x, double y, double a) {
     const double dx = std::cos(a), dy = std::sin(a);
     double r = std::numeric_limits<double>::infinity();
     if (std::abs(dy) > 1e-9)
-      r = std::min(r, ((dy > 0 ? 1.0 : -1.0) - sensor.y) / dy);
+      r = std::min(r, ((dy > 0 ? 1.0 : -1.0) - y) / dy);
     if (dx < -1e-9)
-      r = std::min(r, (-1.0 - sensor.x) / dx);
-    scan.ranges.push_back(r <= scan.range_max ? static_cast<float>(r) : std::numeric_limits<float>::infinity());
-  }
-  return scan;
+      r = std::min(r, (-1.0 - x) / dx);
+    return r;
+  };
+  return castScan(sensor, cast, 4.0);
 }
 
 struct CorridorRun

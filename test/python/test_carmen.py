@@ -394,6 +394,13 @@ def flaser_text(poses, stamp_texts, n=361):
                    for p, t in zip(poses, stamp_texts))
 
 
+def _convert(capsys, log, out, *options):
+    """Converts @log to @out with the options; asserts it succeeded. Returns (stdout, the bag's messages)."""
+    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q'] + list(options), capsys)
+    assert code == 0
+    return stdout, read_bag(out)
+
+
 def test_log_without_odometry_or_stamps_is_refused(tmp_path, capsys):
     """The orebro layout: FLASER lines only, every stamp 0. Neither odometry nor times can be had from it
     without being told: one error naming both, and the options that resolve them."""
@@ -406,17 +413,12 @@ def test_log_without_odometry_or_stamps_is_refused(tmp_path, capsys):
     assert err.count('\n') == 1
     log = str(tmp_path / 'bad.log')
     out = str(tmp_path / 'o.bag')
-    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--laser-poses', 'odometry', '--line-period', '0.2'],
-                               capsys)
-    assert code == 0
-    bag = read_bag(out)
+    stdout, bag = _convert(capsys, log, out, '--laser-poses', 'odometry', '--line-period', '0.2')
     np.testing.assert_allclose([pose2(m) for _, m in bag['/odom']], poses, atol=1e-6)
     np.testing.assert_allclose(header_stamps(bag, '/scan'), cc.REBUILT_START + 0.2 * np.arange(8), atol=1e-9)
     assert '8 0 or negative; spaced from 1 s (the log has no trustworthy stamp) at 0.2 s per line (given by ' \
         '--line-period)' in stdout
-    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--no-odometry', '--line-period', '0.2'], capsys)
-    assert code == 0
-    bag = read_bag(out)
+    _, bag = _convert(capsys, log, out, '--no-odometry', '--line-period', '0.2')
     assert '/odom' not in bag and len(bag['/scan']) == 8 and len(bag['/ground_truth/odom']) == 8
 
 
@@ -450,17 +452,14 @@ def test_odom_lines_that_repeat_the_laser_poses_are_refused(tmp_path, capsys, or
     assert err.count('\n') == 1
     log = str(tmp_path / 'bad.log')
     out = str(tmp_path / 'o.bag')
-    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--no-odometry'], capsys)
-    assert code == 0
-    bag = read_bag(out)
+    _, bag = _convert(capsys, log, out, '--no-odometry')
     assert '/odom' not in bag and len(bag['/scan']) == 12
     np.testing.assert_allclose([pose2(m) for _, m in bag['/ground_truth/odom']], poses, atol=1e-6)
-    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--laser-poses', 'odometry'], capsys)
-    assert code == 0 and 'odometry from the robot poses of the laser lines (--laser-poses odometry)' in stdout
-    np.testing.assert_allclose([pose2(m) for _, m in read_bag(out)['/odom']], poses, atol=1e-6)
-    code, stdout, _ = run_main(carmen.main, [log, '-o', out, '-q', '--corrected', 'no'], capsys)
-    assert code == 0
-    odom = np.array([pose2(m) for _, m in read_bag(out)['/odom']])
+    stdout, bag = _convert(capsys, log, out, '--laser-poses', 'odometry')
+    assert 'odometry from the robot poses of the laser lines (--laser-poses odometry)' in stdout
+    np.testing.assert_allclose([pose2(m) for _, m in bag['/odom']], poses, atol=1e-6)
+    _, bag = _convert(capsys, log, out, '--corrected', 'no')
+    odom = np.array([pose2(m) for _, m in bag['/odom']])
     assert len(odom) == 12 + (11 if order == 'after' else 12)  # the ODOM lines, and a sample at each scan after one
     np.testing.assert_allclose(odom[:2], [poses[0]] * 2, atol=1e-3)  # the ODOM line, the scan after it
 

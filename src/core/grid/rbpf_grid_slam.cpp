@@ -20,8 +20,7 @@ void RbpfGridSlam::resetMaps()
   maps_.assign(n, OccupancyGrid(config_.grid));
   histories_.assign(n, nullptr);
   best_index_ = 0;
-  carried_ = Spread();
-  carried_max_theta_ = carried_max_xy_ = 0.0;
+  carried_ = Carried();
 }
 
 RbpfGridSlam::Spread RbpfGridSlam::spreadOf(const OdometryIncrement& u) const
@@ -43,9 +42,9 @@ void RbpfGridSlam::carry(const OdometryIncrement& u)
   // at every scan): the spread of the travel folded into the next processed scan is the sum of their variances,
   // not that of one increment as long as all of them. Nothing else changes here.
   const Spread v = spreadOf(u);
-  carried_.add(v);
-  carried_max_theta_ = std::max(carried_max_theta_, std::sqrt(v.theta));
-  carried_max_xy_ = std::max(carried_max_xy_, std::sqrt(v.along + v.across));
+  carried_.sum.add(v);
+  carried_.max_theta = std::max(carried_.max_theta, std::sqrt(v.theta));
+  carried_.max_xy = std::max(carried_.max_xy, std::sqrt(v.along + v.across));
 }
 
 int RbpfGridSlam::startMaps(const Pose2& odometry, const ScanData& scan, const Pose2& sensor)
@@ -60,8 +59,7 @@ int RbpfGridSlam::startMaps(const Pose2& odometry, const ScanData& scan, const P
     histories_[i] = root;
   }
   best_index_ = 0;
-  carried_ = Spread();
-  carried_max_theta_ = carried_max_xy_ = 0.0;
+  carried_ = Carried();
   return beams;
 }
 
@@ -78,7 +76,7 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   // The odometry's spread since the last processed scan: the skipped scans' increments and this one's (equal to
   // the whole increment's when every scan is processed). Floored, it is the motion factor of the weight and the
   // odometry's veto; its growth over one scan's widens the matcher's first steps.
-  Spread spread = carried_;
+  Spread spread = carried_.sum;
   const Spread v_last = spreadOf(lastScanIncrement());
   spread.add(v_last);
   const double floor_xy = config_.matcher.prior_floor_xy, floor_theta = config_.matcher.prior_floor_theta;
@@ -91,8 +89,8 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   const double veto_theta = std::sqrt(spread.theta + match_theta * match_theta);
   {
     // One doubling of the first steps per doubling of the spread against one scan's largest (rounded).
-    const double one_theta = std::max({ carried_max_theta_, std::sqrt(v_last.theta), floor_theta });
-    const double one_xy = std::max({ carried_max_xy_, std::sqrt(v_last.along + v_last.across), floor_xy });
+    const double one_theta = std::max({ carried_.max_theta, std::sqrt(v_last.theta), floor_theta });
+    const double one_xy = std::max({ carried_.max_xy, std::sqrt(v_last.along + v_last.across), floor_xy });
     const double ratio = std::max(sigma_theta / one_theta, sigma_xy / one_xy);
     step.widen = ratio > 1.0 ? std::min(ScanMatcher::kMaxWiden, static_cast<int>(std::floor(std::log2(ratio) + 0.5)))
                              : 0;
@@ -101,7 +99,7 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   // alphas by the ratio of the headings' standard deviations, the translation ones by the positions' (1 when every
   // scan is processed).
   OdometryMotionNoise noise = config_.motion;
-  if (carried_.theta > 0.0 || carried_.along > 0.0)
+  if (carried_.sum.theta > 0.0 || carried_.sum.along > 0.0)
   {
     const Spread whole = spreadOf(u);
     const double f_theta = whole.theta > 1e-12 ? std::sqrt(spread.theta / whole.theta) : 1.0;
@@ -111,8 +109,7 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     noise.alpha3 *= f_trans;
     noise.alpha4 *= f_trans;
   }
-  carried_ = Spread();
-  carried_max_theta_ = carried_max_xy_ = 0.0;
+  carried_ = Carried();
   // The random draws first, in particle order: the odometry sample and the jitter around the match (drawn
   // whether or not the match is trusted), so the result does not depend on the threads.
   predicted_.resize(n);
@@ -137,13 +134,14 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   // Proposal: each particle's odometry sample, scan-matched against its own map (independent per particle: read
   // only, so the matches may run on several threads).
   matches_.resize(n);
-  trusted_.assign(n, 0);
+  use_.assign(n, MatchUse::kOdometry);
   const auto match_range = [&](std::size_t first, std::size_t stride) {
     for (std::size_t i = first; i < n; i += stride)
     {
       matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen);
-      trusted_[i] = used > 0 && static_cast<double>(matches_[i].matched) >= min_matched;
-      if (trusted_[i] && config_.odometry_veto > 0.0 &&
+      if (used > 0 && static_cast<double>(matches_[i].matched) >= min_matched)
+        use_[i] = MatchUse::kMatch;
+      if (use_[i] == MatchUse::kMatch && config_.odometry_veto > 0.0 &&
           odometry_distance(matches_[i].pose, means_[i]) > config_.odometry_veto)
       {
         // Vetoed: the odometry says the match cannot be where the particle went. The position falls back to the
@@ -154,9 +152,9 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
         matches_[i].evaluations += evaluations;
         const bool turn_ok = static_cast<double>(matches_[i].matched) >= min_matched &&
                              odometry_distance(matches_[i].pose, means_[i]) <= config_.odometry_veto;
-        trusted_[i] = turn_ok ? 3 : 2;
+        use_[i] = turn_ok ? MatchUse::kHeading : MatchUse::kVetoed;
       }
-      if (trusted_[i] == 0 || trusted_[i] == 2)  // weighed at the odometry sample, which the particle keeps
+      if (use_[i] == MatchUse::kOdometry || use_[i] == MatchUse::kVetoed)  // weighed at the odometry sample, which the particle keeps
       {
         const int evaluations = matches_[i].evaluations;
         matches_[i] = matcher_.evaluate(maps_[i], predicted_[i], sensor, end_points_);
@@ -184,8 +182,8 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     // The pose: a small Gaussian around a trusted match (the weight is the likelihood at the match, GMapping's
     // "best score" normaliser), else the odometry sample itself.
     Pose2 pose = predicted_[i];
-    step.matches_vetoed += trusted_[i] >= 2 ? 1 : 0;
-    if (trusted_[i] == 1 || trusted_[i] == 3)
+    step.matches_vetoed += use_[i] == MatchUse::kVetoed || use_[i] == MatchUse::kHeading ? 1 : 0;
+    if (use_[i] == MatchUse::kMatch || use_[i] == MatchUse::kHeading)
     {
       pose = Pose2(m.pose.x + jitter_[i].x, m.pose.y + jitter_[i].y, wrapAngle(m.pose.theta + jitter_[i].theta));
       ++step.matches_trusted;

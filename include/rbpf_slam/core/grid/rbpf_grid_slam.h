@@ -54,14 +54,25 @@ private:
   std::vector<OccupancyGrid> maps_;  ///< one per particle
   std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
   std::size_t best_index_ = 0;
-  // Per step, per particle: the odometry sample, the jitter around its match, the match, whether it is trusted.
+  /** @brief What became of a particle's match in one step. */
+  enum class MatchUse : char
+  {
+    kOdometry,  ///< not trusted (too few end points matched): the odometry sample, weighed there
+    kMatch,     ///< taken
+    kVetoed,    ///< beyond the odometry's veto, its heading too: the odometry sample, weighed there
+    kHeading,   ///< beyond the veto: the odometry sample's position with the matched heading
+  };
+  // Per step, per particle: the odometry sample, the jitter around its match, the match, what became of it.
   std::vector<Pose2> predicted_, jitter_, means_;  // means_: the odometry's mean, the motion model's centre
   std::vector<ScanMatch> matches_;
-  std::vector<char> trusted_;
-  // Since the last processed scan: the variances the skipped scans' increments added, and the largest one scan's
-  // increment had (its heading and position).
-  Spread carried_;
-  double carried_max_theta_ = 0.0, carried_max_xy_ = 0.0;
+  std::vector<MatchUse> use_;
+  /** @brief What the scans below the travel thresholds added since the last processed scan. */
+  struct Carried
+  {
+    Spread sum;                          ///< their variances
+    double max_theta = 0.0, max_xy = 0.0;  ///< the largest one scan's increment had (heading, position)
+  };
+  Carried carried_;
 };
 
 }  // namespace core
