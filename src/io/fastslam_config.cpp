@@ -8,7 +8,7 @@ namespace rbpf_slam
 {
 namespace io
 {
-void readFastSlamConfig(const ParamSource& p, core::FastSlamConfig* c)
+void readFastSlamConfig(const ParamSource& p, core::TrunkSlamConfig* c)
 {
   p.get("particles", &c->particles);
   p.get("motion/alpha1", &c->motion.alpha1);

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <utility>
 
@@ -99,6 +100,16 @@ void writeFilesAtomic(const std::vector<FileContent>& files)
   }
   for (auto& o : outputs)
     o.commit();
+}
+
+std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, unsigned long long seed,
+                       const std::string& extra)
+{
+  std::ostringstream timing;
+  timing << "{\"sweeps\": " << sweeps << ", \"updates\": " << updates << ", \"seconds_extraction\": " << extraction
+         << ", \"seconds_filter\": " << filter << ", \"particles\": " << particles << ", \"seed\": " << seed
+         << (extra.empty() ? "" : ", ") << extra << "}\n";
+  return timing.str();
 }
 
 }  // namespace io

@@ -461,5 +461,10 @@ void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path)
   writeFilesAtomic(encodeMapImage(map, yaml_path));
 }
 
+std::string endedMapPath(const std::string& yaml_path, int timeline)
+{
+  return withoutExtension(yaml_path) + ".restart" + std::to_string(timeline + 1) + ".yaml";
+}
+
 }  // namespace io
 }  // namespace rbpf_slam

@@ -216,5 +216,16 @@ std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const 
   return out;
 }
 
+std::vector<FileContent> FastSlamRunRecord::folder(const std::string& dir, const core::TrunkSlamPipeline& pipeline,
+                                                   int sweeps, int updates) const
+{
+  const core::SmoothedRun smoothed = pipeline.smoothed();
+  std::vector<FileContent> out = files(dir, pipeline.filter(), &smoothed);
+  const core::FastSlamConfig& fc = pipeline.filter().config();
+  out.emplace_back(dir + "/timing.json", timingJson(sweeps, updates, pipeline.secondsExtraction(),
+                                                    pipeline.secondsFilter(), fc.particles, fc.seed));
+  return out;
+}
+
 }  // namespace io
 }  // namespace rbpf_slam

@@ -2,7 +2,7 @@
 #include "rbpf_slam/ros/pose_msgs.h"
 #include "rbpf_slam/ros/fastslam_node.h"
 
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -61,7 +61,7 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
 {
   const RosParamSource params(pnh_);
   config_ = readRosConfig(params);
-  core::FastSlamConfig filter_config = readCoreConfig<core::FastSlamConfig>(params, &io::readFastSlamConfig);
+  core::TrunkSlamConfig filter_config = readCoreConfig<core::TrunkSlamConfig>(params, &io::readFastSlamConfig);
   // The run folder's tables and the best particle's history grow with every update: kept only when the node is to
   // write a run folder, so that a node without one holds memory that grows with the map alone.
   filter_config.keep_history = !config_.run_folder.empty();
@@ -154,7 +154,8 @@ bool FastSlamRos::writeRunFolder(std::string* message)
   {
     if (!io::makeDirectories(dir))
       throw std::runtime_error(dir + ": cannot create the folder (" + std::strerror(errno) + ")");
-    io::writeFilesAtomic(record_.files(dir, pipeline_->filter()));
+    // What slam_bag writes, the run smoothed at its end and timing.json included.
+    io::writeFilesAtomic(record_.folder(dir, *pipeline_, static_cast<int>(sweeps_), static_cast<int>(updates_)));
   }
   catch (const std::exception& e)
   {
@@ -189,7 +190,7 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
     return;
   }
   const core::StampVerdict v = pipeline_->addOdometry(
-      msg->header.stamp.toSec(), core::Pose2(p.position.x, p.position.y, yawOf(p.orientation)), clockForStamps());
+      msg->header.stamp.toSec(), planarPose(p), clockForStamps());
   report(v, "odometry", msg->header.stamp);
   saveEndedMaps();
   processPending();
@@ -205,6 +206,8 @@ void FastSlamRos::onTrunks(const rbpf_slam::TrunkArray::ConstPtr& msg)
   const core::StampVerdict v = pipeline_->addTrunks(std::move(sweep), clockForStamps(),
                                                     ros::WallTime::now().toSec());
   report(v, "trunks", msg->header.stamp);
+  if (v == core::StampVerdict::kAccept || v == core::StampVerdict::kReset)
+    ++sweeps_;
   saveEndedMaps();
   if (pipeline_->droppedPending() > dropped_before)  // no odometry at all: the waiting arrays do not grow without bound
     ROS_WARN_THROTTLE(5.0, "%s: %zu trunk arrays wait for odometry on %s; dropping the oldest", name_.c_str(),

@@ -315,7 +315,7 @@ void GridSlamRos::saveEndedMaps()
   {
     const std::string target = io::expandHome(config_.map_path);
     const std::size_t slash = target.rfind('/');
-    const std::string file = io::withoutExtension(target) + ".restart" + std::to_string(ended.timeline + 1) + ".yaml";
+    const std::string file = io::endedMapPath(target, ended.timeline);
     try
     {
       if (slash != std::string::npos && slash > 0 && !io::makeDirectories(target.substr(0, slash)))

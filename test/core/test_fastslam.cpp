@@ -13,7 +13,7 @@
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/core/filter/particle_filter.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
 using rbpf_slam::test::observe;

@@ -16,7 +16,7 @@
 #include "rbpf_slam/core/filter/history_chain.h"
 #include "rbpf_slam/core/filter/stamp_gate.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "fastslam_test_util.h"
 #include "grid_test_world.h"
 
@@ -307,9 +307,12 @@ TEST(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
   // A negative sigma bound is refused.
   gc.max_sigma = -5.0;
   EXPECT_NE(gc.validate().find("gps/max_sigma"), std::string::npos);
-  FastSlamConfig fc;
+  TrunkSlamConfig fc;
   fc.gnss.max_sigma = -5.0;
   EXPECT_FALSE(fc.validate().empty());
+  // The filter alone does not know the fixes: the pipeline that owns them refuses them.
+  EXPECT_TRUE(static_cast<const FastSlamConfig&>(fc).validate().empty());
+  EXPECT_THROW(TrunkSlamPipeline(TrunkDetectorConfig(), fc), std::invalid_argument);
 }
 
 TEST(HistoryNode, MillionsOfEntriesAreFreedWithoutRecursion)

@@ -8,7 +8,7 @@
 #include "grid_test_world.h"
 #include "rbpf_slam/core/grid/grid_slam_pipeline.h"
 #include "rbpf_slam/core/filter/random.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
 using grid_test_world::simulateScan;

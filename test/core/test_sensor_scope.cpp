@@ -8,7 +8,7 @@
 #include "fastslam_test_util.h"
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/extraction/trunk_clustering.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/fastslam/visibility_scope.h"
 
 using namespace rbpf_slam::core;

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "rbpf_slam/core/fastslam/fastslam.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/forest_map/loop_closing.h"
 #include "rbpf_slam/core/forest_map/trunk_smoother.h"
 
@@ -19,6 +19,7 @@ using rbpf_slam::core::between;
 using rbpf_slam::core::chiSquareQuantile;
 using rbpf_slam::core::FastSlam;
 using rbpf_slam::core::FastSlamConfig;
+using rbpf_slam::core::TrunkSlamConfig;
 using rbpf_slam::core::Landmark;
 using rbpf_slam::core::LandmarkMap;
 using rbpf_slam::core::LandmarkObservation;
@@ -303,7 +304,7 @@ namespace
  * seen within 1-12 m (the scope the sweeps leave to the filter). Returns the final estimate. */
 Pose2 drivePipeline(const LoopDrive& d, bool loop_closure, int* closed, double* smoothed_error)
 {
-  FastSlamConfig fc;
+  TrunkSlamConfig fc;
   fc.seed = 3;
   fc.loop_closure.enabled = loop_closure;
   TrunkSlamPipeline p(TrunkDetectorConfig(), fc);

@@ -15,7 +15,7 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
 {
   // config/fastslam.yaml documents the defaults; reading it must change nothing.
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
-  core::FastSlamConfig read, defaults;
+  core::TrunkSlamConfig read, defaults;
   io::readFastSlamConfig(params, &read);
   EXPECT_EQ(read.particles, defaults.particles);
   EXPECT_EQ(read.max_trunks_per_sweep, defaults.max_trunks_per_sweep);
@@ -71,7 +71,7 @@ TEST(FastSlamConfigFile, ResamplingKeys)
   {
     std::ofstream(path) << "resampling: multinomial\nresample_neff_ratio: 0.25\n";
     io::YamlParamSource params(path);
-    core::FastSlamConfig c;
+    core::TrunkSlamConfig c;
     io::readFastSlamConfig(params, &c);
     EXPECT_EQ(c.resampling.method, core::ResamplingMethod::kMultinomial);
     EXPECT_EQ(c.resampling.neff_ratio, 0.25);
@@ -81,14 +81,14 @@ TEST(FastSlamConfigFile, ResamplingKeys)
     // The former name is no longer read: an unknown key, which the tools warn of as misspelt.
     std::ofstream(path) << "resample_threshold: 0.25\n";
     io::YamlParamSource params(path);
-    core::FastSlamConfig c;
+    core::TrunkSlamConfig c;
     io::readFastSlamConfig(params, &c);
-    EXPECT_EQ(c.resampling.neff_ratio, core::FastSlamConfig().resampling.neff_ratio);
+    EXPECT_EQ(c.resampling.neff_ratio, core::TrunkSlamConfig().resampling.neff_ratio);
     EXPECT_EQ(params.unusedKeys(), std::vector<std::string>{ "resample_threshold" });
   }
   std::ofstream(path) << "resampling: stratified\n";
   io::YamlParamSource bad(path);
-  core::FastSlamConfig c;
+  core::TrunkSlamConfig c;
   EXPECT_THROW(io::readFastSlamConfig(bad, &c), std::runtime_error);
   std::remove(path.c_str());
 }
@@ -97,7 +97,7 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
 {
   const std::string path = std::string(::testing::TempDir()) + "fastslam_bad.yaml";
   std::ofstream(path) << "motion:\n  alpha3: lots\n";
-  core::FastSlamConfig c;
+  core::TrunkSlamConfig c;
   try
   {
     io::readFastSlamConfig(io::YamlParamSource(path), &c);
@@ -138,7 +138,7 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
     EXPECT_NE(std::string(e.what()).find("motion_model"), std::string::npos) << e.what();
   }
   std::ofstream(path) << "proposal: fastslam2\nmixture_fraction: 0.1\n";
-  core::FastSlamConfig ok;
+  core::TrunkSlamConfig ok;
   io::readFastSlamConfig(io::YamlParamSource(path), &ok);
   EXPECT_EQ(ok.proposal, core::PoseProposal::kFastSlam2);
   EXPECT_EQ(ok.mixture_fraction, 0.1);
@@ -152,7 +152,7 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
   for (const char* name : { "forest_atv", "skid_steer_indoor", "car", "indoor_commanded" })
   {
     const std::string path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/odometry/" + name + ".yaml";
-    core::FastSlamConfig c;
+    core::TrunkSlamConfig c;
     io::readFastSlamConfig(io::YamlParamSource(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml"), &c);
     io::YamlParamSource cls(path);
     io::readFastSlamConfig(cls, &c);
@@ -161,7 +161,7 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
     EXPECT_GT(c.motion_step, 0.0) << name;
     // The commanded-velocity class takes the velocity model, the measured ones the odometry model.
     EXPECT_EQ(c.motion_model == core::MotionModel::kVelocity, std::string(name) == "indoor_commanded") << name;
-    const core::FastSlamConfig d;
+    const core::TrunkSlamConfig d;
     EXPECT_EQ(c.particles, d.particles) << name;
     EXPECT_EQ(c.association_gate, d.association_gate) << name;
   }
@@ -170,7 +170,7 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
 TEST(FastSlamConfigFile, TheScannerOverlaySetsOnlyTheProvisionalRule)
 {
   const std::string dir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
-  core::FastSlamConfig c;
+  core::TrunkSlamConfig c;
   io::readFastSlamConfig(io::YamlParamSource(dir + "fastslam.yaml"), &c);
   EXPECT_TRUE(c.provisional_weighs);
   io::YamlParamSource overlay(dir + "scanner_2d.yaml");
@@ -182,7 +182,7 @@ TEST(FastSlamConfigFile, TheScannerOverlaySetsOnlyTheProvisionalRule)
 TEST(FastSlamConfigFile, TheShippedFileLeavesOnlyTheNodesKeysUnread)
 {
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
-  core::FastSlamConfig c;
+  core::TrunkSlamConfig c;
   io::readFastSlamConfig(params, &c);
   const std::vector<std::string>& node = io::nodeOnlyKeys();
   for (const auto& k : params.unusedKeys())

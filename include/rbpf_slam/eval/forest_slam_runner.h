@@ -9,7 +9,7 @@
 #include "rbpf_slam/sim/forest_world.h"
 #include "rbpf_slam/sim/scenario.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {

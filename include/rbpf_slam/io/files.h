@@ -64,6 +64,13 @@ inline void writeFileAtomic(const std::string& path, const std::string& content)
   writeFilesAtomic({ { path, content } });
 }
 
+/**
+ * @brief A run's timing.json (the offline runners' and the FastSLAM node's run folders; evaluate_bag_run reads it):
+ * the counts and processing seconds; @p extra, when given, are further `"key": value` pairs.
+ */
+std::string timingJson(int sweeps, int updates, double extraction, double filter, int particles, unsigned long long seed,
+                       const std::string& extra = std::string());
+
 }  // namespace io
 }  // namespace rbpf_slam
 

@@ -41,6 +41,11 @@ core::OccupancyImage loadMapImage(const std::string& yaml_path);
 void saveMapImage(const core::OccupancyImage& map, const std::string& yaml_path);
 /** @brief What saveMapImage writes, image first: for callers that write it with other files at once. */
 std::vector<FileContent> encodeMapImage(const core::OccupancyImage& map, const std::string& yaml_path);
+/**
+ * @brief Where the map that restart @p timeline + 1 ended is kept beside the map @p yaml_path (FILE.yaml ->
+ * FILE.restartN.yaml + .pgm), by the node and slam_bag alike.
+ */
+std::string endedMapPath(const std::string& yaml_path, int timeline);
 
 }  // namespace io
 }  // namespace rbpf_slam

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/forest_map/forest_changes.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/forest_map_file.h"

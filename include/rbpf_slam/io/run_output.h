@@ -8,7 +8,7 @@
 
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/fastslam/filter_health.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/tum_file.h"
@@ -73,6 +73,13 @@ public:
    * run when @p smoothed is given and ok. */
   std::vector<FileContent> files(const std::string& dir, const core::FastSlam& filter,
                                  const core::SmoothedRun* smoothed = nullptr) const;
+  /**
+   * @brief The whole run folder @p dir, as the node (~run_folder, save_run) and slam_bag (--out) write it: files()
+   * with @p pipeline's filter and the run smoothed at its end, and timing.json (@p sweeps sensor messages used,
+   * @p updates pipeline updates, the pipeline's processing seconds).
+   */
+  std::vector<FileContent> folder(const std::string& dir, const core::TrunkSlamPipeline& pipeline, int sweeps,
+                                  int updates) const;
 
 private:
   bool keep_tables_ = true;

@@ -19,7 +19,7 @@
 
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/io/forest_map_file.h"
 #include "rbpf_slam/io/map_session.h"
 #include "rbpf_slam/io/run_output.h"
@@ -125,6 +125,7 @@ private:
   double sensor_height_ = 0.0;  ///< [m] of the sensor above base_link (lever arm of a tilted body)
   bool have_sensor_pose_ = false;
   std::size_t updates_ = 0;
+  std::size_t sweeps_ = 0;  ///< trunk arrays the pipeline took
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

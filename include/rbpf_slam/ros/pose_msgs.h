@@ -48,6 +48,12 @@ inline geometry_msgs::Quaternion quaternionOfYaw(double yaw)
   return q;
 }
 
+/** @brief The planar part of @p p: x, y and the yaw of its orientation. */
+inline core::Pose2 planarPose(const geometry_msgs::Pose& p)
+{
+  return core::Pose2(p.position.x, p.position.y, yawOf(p.orientation));
+}
+
 /** @brief A planar pose as a geometry_msgs/Pose (z = 0). */
 inline geometry_msgs::Pose toPoseMsg(const core::Pose2& p)
 {

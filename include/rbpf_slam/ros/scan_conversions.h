@@ -8,7 +8,7 @@
 
 #include "rbpf_slam/core/grid/occupancy_grid.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {

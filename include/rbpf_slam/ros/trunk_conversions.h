@@ -14,7 +14,7 @@
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "rbpf_slam/core/fastslam/visibility_scope.h"
 #include "rbpf_slam/core/forest_map/forest_changes.h"
 

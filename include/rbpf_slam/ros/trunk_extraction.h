@@ -19,7 +19,7 @@
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/TrunkExtractionConfig.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 namespace rbpf_slam
 {

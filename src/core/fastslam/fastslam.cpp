@@ -226,10 +226,7 @@ std::string FastSlamConfig::validate() const
     return "roughening sigmas must be >= 0";
   if (!(mixture_fraction >= 0.0 && mixture_fraction < 1.0))
     return "mixture_fraction must be in [0, 1)";
-  const std::string loop = loop_closure.validate();
-  if (!loop.empty())
-    return loop;
-  return gnss.validate();
+  return "";
 }
 
 FastSlam::FastSlam(const FastSlamConfig& config)

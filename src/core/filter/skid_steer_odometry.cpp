@@ -25,6 +25,20 @@ SkidSteerOdometry::SkidSteerOdometry(const SkidSteerConfig& config) : config_(co
     throw std::invalid_argument("skid-steer odometry: " + e);
 }
 
+std::string SkidSteerOdometry::addWheelAngles(double stamp, const std::vector<double>& angles, double wheel_radius)
+{
+  if (angles.size() < 4)
+    return "fewer than 4 wheel positions";
+  if (!wheel_angles_.empty())
+  {
+    const auto d = [&](int i) { return (angles[i] - wheel_angles_[i]) * wheel_radius; };
+    if (!addEncoders(stamp, 0.5 * (d(1) + d(3)), 0.5 * (d(0) + d(2))))
+      return "wheel angles not finite or stamp not after the previous";
+  }
+  wheel_angles_.assign(angles.begin(), angles.begin() + 4);
+  return "";
+}
+
 bool SkidSteerOdometry::addGyro(double stamp, double yaw_rate)
 {
   if (!std::isfinite(stamp) || !std::isfinite(yaw_rate) || stamp < gyro_stamp_)

@@ -9,8 +9,6 @@
 #include <Eigen/Core>
 
 #include "rbpf_slam/core/fastslam/data_association.h"
-#include "rbpf_slam/core/forest_map/gnss.h"
-#include "rbpf_slam/core/forest_map/loop_closure_config.h"
 #include "rbpf_slam/core/filter/history_chain.h"
 #include "rbpf_slam/core/fastslam/landmark_evidence.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
@@ -118,11 +116,6 @@ struct FastSlamConfig
   /// Tracking in a saved map (TrunkSlamPipeline::setPriorMap): search the map again by constellation when the health
   /// warns that its trees are not re-observed (a lost pose), and move the particles where it finds the robot.
   bool relocalize_when_lost = true;
-  /// Loop closure within a run (TrunkSlamPipeline): a revisit found from the trees, the path and map smoothed, the
-  /// particles drawn again around the smoothed pose. Not with a saved map (that run's relocalization holds it).
-  LoopClosureConfig loop_closure;
-  /// Satellite fixes (TrunkSlamPipeline::addFix): the map's anchor fitted to them, and a weak prior on the particles.
-  GnssFusionConfig gnss;
 
   // Landmark existence (log odds): + evidence_hit per match, - evidence_miss per expected miss (inside the
   // scope, not hidden behind a nearer landmark); removed below delete_evidence; provisional until seen

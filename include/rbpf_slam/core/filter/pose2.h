@@ -55,6 +55,12 @@ inline Pose2 interpolate(const Pose2& a, const Pose2& b, double s)
   return Pose2(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), wrapAngle(a.theta + s * wrapAngle(b.theta - a.theta)));
 }
 
+/** @brief A sensor on base_link: planar pose and height (for the lever arm on a tilted body). */
+struct SensorMount
+{
+  double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0;
+};
+
 }  // namespace core
 }  // namespace rbpf_slam
 

@@ -2,6 +2,7 @@
 #define RBPF_SLAM_CORE_FILTER_SKID_STEER_ODOMETRY_H
 
 #include <string>
+#include <vector>
 
 #include "rbpf_slam/core/filter/pose2.h"
 
@@ -38,6 +39,15 @@ public:
    * @return false (and nothing changes) when the stamp goes backwards or an input is not finite.
    */
   bool addEncoders(double stamp, double left, double right);
+  /**
+   * @brief Cumulative wheel angles [rad] of a four-wheel robot, front right, front left, rear right, rear left (the
+   * order of the ESE 650 logs' JointState), read at @p stamp; the wheels' travel since the previous reading is their
+   * change times @p wheel_radius [m], each side the mean of its two wheels (addEncoders). The first reading only sets
+   * the reference.
+   * @return empty, or why the reading was refused (and nothing changes): fewer than four angles, an angle not
+   * finite, or the stamp not after the previous.
+   */
+  std::string addWheelAngles(double stamp, const std::vector<double>& angles, double wheel_radius);
   /** @brief A gyro yaw rate [rad/s] measured at @p stamp; false when refused (backwards, not finite). */
   bool addGyro(double stamp, double yaw_rate);
 
@@ -49,6 +59,7 @@ public:
 private:
   SkidSteerConfig config_;
   Pose2 pose_;
+  std::vector<double> wheel_angles_;  // the last reading of addWheelAngles (empty before the first)
   double encoder_stamp_ = -1e300;
   double gyro_stamp_ = -1e300;
   double gyro_rate_ = 0.0;

@@ -1,7 +1,8 @@
-#include "rbpf_slam/core/fastslam/trunk_slam_pipeline.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 #include <cmath>
 
 namespace rbpf_slam
@@ -16,7 +17,7 @@ double since(std::chrono::steady_clock::time_point t0)
 }
 }  // namespace
 
-TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
+TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const TrunkSlamConfig& filter,
                                      const PipelineTiming& timing)
   : SensorPipeline(timing)
   , detector_config_(detector)
@@ -24,6 +25,9 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
   , detector_(new TrunkDetector(detector))
   , gnss_(filter.gnss)
 {
+  const std::string error = filter.validate();
+  if (!error.empty())
+    throw std::invalid_argument("TrunkSlamPipeline: " + error);
   // Loop closure smooths the best particle's own path: the filter keeps the histories.
   if (filter_config_.loop_closure.enabled)
   {

@@ -1,4 +1,4 @@
-#include "rbpf_slam/core/fastslam/trunk_sweep.h"
+#include "rbpf_slam/core/trunk_slam/trunk_sweep.h"
 
 #include <algorithm>
 #include <cmath>

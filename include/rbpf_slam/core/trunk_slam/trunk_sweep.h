@@ -1,5 +1,5 @@
-#ifndef RBPF_SLAM_CORE_FASTSLAM_TRUNK_SWEEP_H
-#define RBPF_SLAM_CORE_FASTSLAM_TRUNK_SWEEP_H
+#ifndef RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SWEEP_H
+#define RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SWEEP_H
 
 #include <cmath>
 #include <vector>
@@ -20,12 +20,6 @@ namespace rbpf_slam
 {
 namespace core
 {
-/** @brief The lidar on base_link: planar pose and height (for the lever arm on a tilted body). */
-struct SensorMount
-{
-  double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0;
-};
-
 /**
  * @brief Which bearings a sweep covers in its period: it starts at @p start_angle and turns counter-clockwise
  * through @p span. A spinning lidar starts behind (-pi) and covers 2 pi; a 2D scanner covers angle_min ..
@@ -138,4 +132,4 @@ double evidenceShare(const FastSlamConfig& config, const std::vector<TrunkObserv
 }  // namespace core
 }  // namespace rbpf_slam
 
-#endif  // RBPF_SLAM_CORE_FASTSLAM_TRUNK_SWEEP_H
+#endif  // RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SWEEP_H

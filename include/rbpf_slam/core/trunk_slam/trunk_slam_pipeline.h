@@ -1,5 +1,5 @@
-#ifndef RBPF_SLAM_CORE_FASTSLAM_TRUNK_SLAM_PIPELINE_H
-#define RBPF_SLAM_CORE_FASTSLAM_TRUNK_SLAM_PIPELINE_H
+#ifndef RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SLAM_PIPELINE_H
+#define RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SLAM_PIPELINE_H
 
 #include <cmath>
 #include <deque>
@@ -13,7 +13,8 @@
 #include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/fastslam/filter_health.h"
-#include "rbpf_slam/core/fastslam/trunk_sweep.h"
+#include "rbpf_slam/core/trunk_slam/trunk_slam_config.h"
+#include "rbpf_slam/core/trunk_slam/trunk_sweep.h"
 #include "rbpf_slam/core/filter/odometry_buffer.h"
 #include "rbpf_slam/core/filter/sensor_pipeline.h"
 #include "rbpf_slam/core/forest_map/constellation.h"
@@ -78,7 +79,8 @@ struct TimelineMap
 class TrunkSlamPipeline : public SensorPipeline<TrunkSweep, PipelineUpdate>
 {
 public:
-  TrunkSlamPipeline(const TrunkDetectorConfig& detector, const FastSlamConfig& filter,
+  /** @throws std::invalid_argument when @p filter.validate() reports a problem. */
+  TrunkSlamPipeline(const TrunkDetectorConfig& detector, const TrunkSlamConfig& filter,
                     const PipelineTiming& timing = PipelineTiming());
 
   /** @brief Trunks a detector found (e.g. a TrunkArray); @p arrival on the caller's clock (see odometry_wait).
@@ -187,7 +189,7 @@ private:
   std::vector<TimelineMap> ended_;
 
   TrunkDetectorConfig detector_config_;
-  FastSlamConfig filter_config_;
+  TrunkSlamConfig filter_config_;
   std::unique_ptr<TrunkDetector> detector_;
   std::unique_ptr<FastSlam> filter_;
   std::unique_ptr<LoopClosing> loops_;  ///< without a saved map, when enabled
@@ -225,4 +227,4 @@ private:
 }  // namespace core
 }  // namespace rbpf_slam
 
-#endif  // RBPF_SLAM_CORE_FASTSLAM_TRUNK_SLAM_PIPELINE_H
+#endif  // RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SLAM_PIPELINE_H
