@@ -61,6 +61,11 @@ def find_slam_bag(explicit):
                          '--slam-bag')
 
 
+def default_configs():
+    """The shipped filter: config/grid_slam_advanced.yaml, then config/grid_slam.yaml on top."""
+    return [paths.package_file('config', 'grid_slam_advanced.yaml'), paths.package_file('config', 'grid_slam.yaml')]
+
+
 def run_seed(cmd):
     """Runs one slam_bag process; returns (wall seconds, peak RSS MB, stderr text, exit code)."""
     started = time.monotonic()
@@ -109,7 +114,8 @@ def _main(argv):
     p.add_argument('--bag', required=True, help='bag with scans, odometry TF and a reference path')
     p.add_argument('--seeds', default='0-9', help='seeds, e.g. 0-9 or 1,4 (default 0-9)')
     p.add_argument('--config', action='append', default=None, metavar='YAML',
-                   help='filter configs, in order (default config/grid_slam.yaml)')
+                   help='filter configs, in order, later over earlier (default config/grid_slam_advanced.yaml '
+                        'then config/grid_slam.yaml, the shipped filter; give both before your own)')
     p.add_argument('--particles', type=int, default=None, help='particles (default: the configs\')')
     p.add_argument('--thresholds', action='store_true',
                    help='apply the configs\' travel thresholds (default: every scan, slam_bag --every-scan)')
@@ -127,7 +133,7 @@ def _main(argv):
     p.add_argument('--slam-bag', help='the runner (default: the built slam_bag)')
     args = p.parse_args(argv)
     seeds = parse_seeds(args.seeds)
-    configs = args.config or [paths.package_file('config', 'grid_slam.yaml')]
+    configs = args.config or default_configs()
     for path in [args.bag] + configs:
         if not os.path.isfile(path):
             raise ValueError('%s: expected a file, got none' % path)

@@ -11,11 +11,12 @@ Landmark_Groundtruth.dat.gz, Barcodes.dat.gz).
 1. Converts the logs once into OUT/bags/ (victoria_park_to_bag --detections; mrclam_to_bag --robot N for each
    robot); a bag newer than its inputs is reused. The bags are removed at the end unless --keep-bags.
 2. Runs slam_bag once per seed (and robot) with the inputs and configuration of the table DATA_SETS below:
-     vp_detections     the published tree detections (/landmarks), config/fastslam.yaml + odometry/car.yaml
+     vp_detections     the published tree detections (/landmarks), config/fastslam_advanced.yaml +
+                       config/fastslam.yaml + odometry/car.yaml
      vp_laser          the raw 2D laser (/scan) through the trunk extraction, the same configuration +
                        scanner_2d.yaml (provisional landmarks weigh no particle: a planar scan's clutter)
-     mrclam            the barcode readings (/landmarks), unknown association, config/fastslam.yaml +
-                       odometry/indoor_commanded.yaml
+     mrclam            the barcode readings (/landmarks), unknown association, config/fastslam_advanced.yaml +
+                       config/fastslam.yaml + odometry/indoor_commanded.yaml
      mrclam_known_ids  the same with an overlay OUT/known_ids.yaml holding only use_known_ids: true (the barcode
                        names the landmark: known association is a property of the data, not a tuning)
    Each call is timed (wall clock). Outputs in OUT/<set>/seedS (MR.CLAM: OUT/<set>/robotN/seedS).
@@ -57,7 +58,7 @@ DATA_SETS = {
         'title': 'Victoria Park, the published tree detections',
         'data': 'victoria_park', 'bag': 'victoria_park',
         'input': ['--landmarks', '/landmarks'],
-        'configs': ['config/fastslam.yaml', 'config/odometry/car.yaml'],
+        'configs': ['config/fastslam_advanced.yaml', 'config/fastslam.yaml', 'config/odometry/car.yaml'],
         'extraction_config': None, 'known_ids': False,
         'good_ate': 5.0, 'coverage': 'fitted', 'gate': None,
     },
@@ -65,7 +66,8 @@ DATA_SETS = {
         'title': 'Victoria Park, trunks extracted from the raw 2D laser',
         'data': 'victoria_park', 'bag': 'victoria_park',
         'input': ['--scan', '/scan'],
-        'configs': ['config/fastslam.yaml', 'config/odometry/car.yaml', 'config/scanner_2d.yaml'],
+        'configs': ['config/fastslam_advanced.yaml', 'config/fastslam.yaml', 'config/odometry/car.yaml',
+                    'config/scanner_2d.yaml'],
         'extraction_config': None, 'known_ids': False,
         'good_ate': 5.0, 'coverage': 'fitted', 'gate': None,
     },
@@ -73,7 +75,7 @@ DATA_SETS = {
         'title': 'MR.CLAM Dataset 1, barcode readings, unknown association',
         'data': 'mrclam', 'bag': 'mrclam',
         'input': ['--landmarks', '/landmarks'],
-        'configs': ['config/fastslam.yaml', 'config/odometry/indoor_commanded.yaml'],
+        'configs': ['config/fastslam_advanced.yaml', 'config/fastslam.yaml', 'config/odometry/indoor_commanded.yaml'],
         'extraction_config': None, 'known_ids': False,
         'good_ate': 0.3, 'coverage': 'no_fit', 'gate': 0.5,
     },
@@ -81,7 +83,7 @@ DATA_SETS = {
         'title': 'MR.CLAM Dataset 1, barcode readings, known association (the barcode)',
         'data': 'mrclam', 'bag': 'mrclam',
         'input': ['--landmarks', '/landmarks'],
-        'configs': ['config/fastslam.yaml', 'config/odometry/indoor_commanded.yaml'],
+        'configs': ['config/fastslam_advanced.yaml', 'config/fastslam.yaml', 'config/odometry/indoor_commanded.yaml'],
         'extraction_config': None, 'known_ids': True,
         'good_ate': 0.3, 'coverage': 'no_fit', 'gate': 0.5,
     },

@@ -161,14 +161,22 @@ def nodes_for(opts):
              (['_particles:=%d' % opts.particles] if opts.particles else []))]
 
 
-def load_params(opts, env):
+def param_files(opts):
+    """The (node namespace, YAML file) pairs to load, in order: the filter's advanced file first, the user's file on
+    top (as the launch files load them), then --config."""
     cfg = paths.package_file('config')
-    files = {'grid': [('grid_slam', os.path.join(cfg, 'grid_slam.yaml'))],
+    files = {'grid': [('grid_slam', os.path.join(cfg, 'grid_slam_advanced.yaml')),
+                      ('grid_slam', os.path.join(cfg, 'grid_slam.yaml'))],
              'fastslam': [('trunk_extraction', os.path.join(cfg, 'trunk_extraction.yaml')),
+                          ('fastslam', os.path.join(cfg, 'fastslam_advanced.yaml')),
                           ('fastslam', os.path.join(cfg, 'fastslam.yaml'))]}[opts.filter]
     if opts.config:
         files.append((files[-1][0], opts.config))
-    for ns, path in files:
+    return files
+
+
+def load_params(opts, env):
+    for ns, path in param_files(opts):
         subprocess.run(['rosparam', 'load', path, '/' + ns], env=env, check=True)
     subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=env, check=True)
 
@@ -185,7 +193,7 @@ def _main(argv):
     src.add_argument('--bag', help='a bag with the sensor topics, odometry and /tf, /tf_static (played looped)')
     src.add_argument('--trunk-drive', choices=('loop', 'survey'),
                      help='FastSLAM: write and play once a drive of --hours without a jump in time (see above)')
-    p.add_argument('--config', help='a YAML laid over the filter\'s shipped one (e.g. config/grid_single_map.yaml)')
+    p.add_argument('--config', help='a YAML laid over the filter\'s shipped ones (e.g. config/grid_single_map.yaml)')
     p.add_argument('--particles', type=int, default=0)
     p.add_argument('--hours', type=float, default=1.0, help='sensor time to replay [h] (default 1)')
     p.add_argument('--rate', type=float, default=20.0, help='rosbag play rate (default 20)')

@@ -117,7 +117,7 @@ TEST(GridRbpf, CoarseToFineWidensTheCaptureRange)
   std::vector<std::pair<double, double>> ends;
   GridSlam::scanEndPoints(simulateScan(truth), ScanLimits(), 1, &ends);
   const double deg = M_PI / 180.0;
-  // config/grid_slam.yaml's matcher, with and without its coarse level.
+  // The shipped matcher (rbpf/* of config/grid_slam_advanced.yaml), with and without its coarse level.
   ScanMatcherConfig fine_only;
   fine_only.linear_step = fine_only.angular_step = 0.1;
   fine_only.refinements = 2;
@@ -235,8 +235,8 @@ TEST(GridRbpf, SameSeedSameResultAndFollowsTheTruth)
 
 TEST(GridRbpf, MotionWeightedProposalChangesTheWeightsAndFollowsTheTruth)
 {
-  // The motion model in the weight (config/grid_slam.yaml) changes the weights, hence the run, and the filter
-  // still holds the drifting-odometry loop.
+  // The motion model in the weight (proposal_motion_weight of config/grid_slam_advanced.yaml) changes the weights,
+  // hence the run, and the filter still holds the drifting-odometry loop.
   const RbpfRun plain = runRoomRbpf(7);
   const RbpfRun weighted = runRoomRbpf(7, 0.5, 1.0);
   bool differs = false;

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -11,11 +12,52 @@
 
 using namespace rbpf_slam;
 
+namespace
+{
+const std::string kConfigDir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
+// The shipped configuration is two files, read in this order: the advanced keys, then the keys a user sets on top.
+const std::string kAdvancedFile = kConfigDir + "fastslam_advanced.yaml";
+const std::string kUserFile = kConfigDir + "fastslam.yaml";
+
+/** @brief The shipped configuration as the launch files and slam_bag load it: the advanced file, then the user's. */
+void readShippedConfig(core::TrunkSlamConfig* c)
+{
+  io::readFastSlamConfig(io::YamlParamSource(kAdvancedFile), c);
+  io::readFastSlamConfig(io::YamlParamSource(kUserFile), c);
+}
+
+/** @brief A source that has no key and records every key asked of it: the keys a reader knows. */
+class AskedKeys : public io::ParamSource
+{
+public:
+  bool get(const std::string& key, double*) const override { return ask(key); }
+  bool get(const std::string& key, int*) const override { return ask(key); }
+  bool get(const std::string& key, bool*) const override { return ask(key); }
+  bool get(const std::string& key, std::string*) const override { return ask(key); }
+  mutable std::set<std::string> keys;
+
+private:
+  bool ask(const std::string& key) const
+  {
+    keys.insert(key);
+    return false;
+  }
+};
+
+bool isNodeOnlyKey(const std::string& key)
+{
+  const std::vector<std::string>& node = io::nodeOnlyKeys();
+  return std::find(node.begin(), node.end(), key) != node.end();
+}
+}  // namespace
+
 TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
 {
-  // config/fastslam.yaml documents the defaults; reading it must change nothing.
-  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
+  // config/fastslam_advanced.yaml and config/fastslam.yaml document the defaults; reading them must change nothing.
+  io::YamlParamSource advanced(kAdvancedFile);
+  io::YamlParamSource params(kUserFile);
   core::TrunkSlamConfig read, defaults;
+  io::readFastSlamConfig(advanced, &read);
   io::readFastSlamConfig(params, &read);
   EXPECT_EQ(read.particles, defaults.particles);
   EXPECT_EQ(read.max_trunks_per_sweep, defaults.max_trunks_per_sweep);
@@ -56,13 +98,70 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.seed, defaults.seed);
   EXPECT_EQ(read.proposal, defaults.proposal);
   EXPECT_EQ(read.mixture_fraction, defaults.mixture_fraction);
+  EXPECT_EQ(read.relocalize_when_lost, defaults.relocalize_when_lost);
+  EXPECT_EQ(read.gnss.enabled, defaults.gnss.enabled);
+  EXPECT_EQ(read.loop_closure.enabled, defaults.loop_closure.enabled);
+  EXPECT_EQ(read.loop_closure.search_interval, defaults.loop_closure.search_interval);
+  EXPECT_EQ(read.loop_closure.smoother.time_budget, defaults.loop_closure.smoother.time_budget);
   // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
-  for (const auto& k : params.unusedKeys())
-    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
-                k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
-                k == "time_jump_threshold" || k == "run_folder" || k == "map_file" || k == "initial_x" ||
-                k == "initial_y" || k == "initial_yaw" || k == "map_path" || k == "relocalize")
-        << "unexpected key " << k;
+  for (const io::YamlParamSource* source : { &advanced, &params })
+    for (const auto& k : source->unusedKeys())
+      EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
+                  k == "transform_tolerance" || k == "publish_tf" || k == "inventory_path" || k == "max_path_poses" ||
+                  k == "time_jump_threshold" || k == "run_folder" || k == "map_file" || k == "initial_x" ||
+                  k == "initial_y" || k == "initial_yaw" || k == "map_path" || k == "relocalize")
+          << "unexpected key " << k;
+}
+
+TEST(FastSlamConfigFile, TheUsersFileIsShortAndTheTwoFilesSplitTheKeys)
+{
+  // Before any read, a source's unused keys are all its leaf keys.
+  const std::vector<std::string> user = io::YamlParamSource(kUserFile).unusedKeys();
+  const std::vector<std::string> advanced = io::YamlParamSource(kAdvancedFile).unusedKeys();
+  EXPECT_LE(user.size(), 25u) << "config/fastslam.yaml holds the keys a user sets; the others go in the advanced file";
+  EXPECT_GE(user.size(), 10u);
+  EXPECT_GT(advanced.size(), user.size());
+  // No key in both: each is stated, and explained, once.
+  const std::set<std::string> user_set(user.begin(), user.end());
+  std::set<std::string> all = user_set;
+  for (const auto& k : advanced)
+  {
+    EXPECT_EQ(user_set.count(k), 0u) << "key " << k << " is in both files";
+    all.insert(k);
+  }
+  EXPECT_EQ(all.size(), user.size() + advanced.size());
+  // The frames, the particles and the seed are the user's.
+  for (const char* k : { "map_frame", "odom_frame", "base_frame", "particles", "seed" })
+    EXPECT_EQ(user_set.count(k), 1u) << k;
+  // Every key the reader knows is stated in one of the two files, and every key of the files is the reader's or the
+  // node's own.
+  AskedKeys asked;
+  core::TrunkSlamConfig c;
+  io::readFastSlamConfig(asked, &c);
+  EXPECT_GT(asked.keys.size(), 50u);
+  for (const auto& k : asked.keys)
+    EXPECT_EQ(all.count(k), 1u) << "key " << k << " is in neither file";
+  for (const auto& k : all)
+    EXPECT_TRUE(asked.keys.count(k) || isNodeOnlyKey(k)) << "key " << k << " is read by no one";
+}
+
+TEST(FastSlamConfigFile, AMisspeltKeyOverTheAdvancedFileIsStillReported)
+{
+  // The tools warn of each file's unused keys: the advanced file leaves only the node's keys, and a user's file laid
+  // over it still shows its misspelt key (and only that one).
+  const std::string path = std::string(::testing::TempDir()) + "fastslam_user.yaml";
+  std::ofstream(path) << "particles: 50\nmotion:\n  alpha1: 0.1\nparticels: 60\n";
+  io::YamlParamSource advanced(kAdvancedFile), user(path);
+  core::TrunkSlamConfig c;
+  io::readFastSlamConfig(advanced, &c);
+  io::readFastSlamConfig(user, &c);
+  for (const auto& k : advanced.unusedKeys())
+    EXPECT_TRUE(isNodeOnlyKey(k)) << "key " << k << " of the advanced file would be warned of";
+  EXPECT_EQ(user.unusedKeys(), std::vector<std::string>{ "particels" });
+  EXPECT_EQ(c.particles, 50);
+  EXPECT_EQ(c.motion.alpha1, 0.1);
+  EXPECT_EQ(c.motion.alpha2, core::TrunkSlamConfig().motion.alpha2);  // the rest of motion/ stays
+  std::remove(path.c_str());
 }
 
 TEST(FastSlamConfigFile, ResamplingKeys)
@@ -147,13 +246,13 @@ TEST(FastSlamConfigFile, WrongTypeAndInvalidValueNameTheKey)
 
 TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
 {
-  // Each accuracy class of config/odometry/ read after config/fastslam.yaml sets the motion model and its step,
+  // Each accuracy class of config/odometry/ read after the shipped files sets the motion model and its step,
   // nothing else, and every class differs from the defaults somewhere or is the defaults' own statement.
   for (const char* name : { "forest_atv", "skid_steer_indoor", "car", "indoor_commanded" })
   {
     const std::string path = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/odometry/" + name + ".yaml";
     core::TrunkSlamConfig c;
-    io::readFastSlamConfig(io::YamlParamSource(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml"), &c);
+    readShippedConfig(&c);
     io::YamlParamSource cls(path);
     io::readFastSlamConfig(cls, &c);
     EXPECT_TRUE(cls.unusedKeys().empty()) << name;
@@ -169,24 +268,25 @@ TEST(FastSlamConfigFile, OdometryClassesOverrideTheMotionModelOnly)
 
 TEST(FastSlamConfigFile, TheScannerOverlaySetsOnlyTheProvisionalRule)
 {
-  const std::string dir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
   core::TrunkSlamConfig c;
-  io::readFastSlamConfig(io::YamlParamSource(dir + "fastslam.yaml"), &c);
+  readShippedConfig(&c);
   EXPECT_TRUE(c.provisional_weighs);
-  io::YamlParamSource overlay(dir + "scanner_2d.yaml");
+  io::YamlParamSource overlay(kConfigDir + "scanner_2d.yaml");
   io::readFastSlamConfig(overlay, &c);
   EXPECT_TRUE(overlay.unusedKeys().empty());
   EXPECT_FALSE(c.provisional_weighs);
 }
 
-TEST(FastSlamConfigFile, TheShippedFileLeavesOnlyTheNodesKeysUnread)
+TEST(FastSlamConfigFile, TheShippedFilesLeaveOnlyTheNodesKeysUnread)
 {
-  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/fastslam.yaml");
+  io::YamlParamSource advanced(kAdvancedFile), params(kUserFile);
   core::TrunkSlamConfig c;
+  io::readFastSlamConfig(advanced, &c);
   io::readFastSlamConfig(params, &c);
   const std::vector<std::string>& node = io::nodeOnlyKeys();
-  for (const auto& k : params.unusedKeys())
-    EXPECT_NE(std::find(node.begin(), node.end(), k), node.end()) << "key " << k << " is read by no one";
+  for (const io::YamlParamSource* source : { &advanced, &params })
+    for (const auto& k : source->unusedKeys())
+      EXPECT_NE(std::find(node.begin(), node.end(), k), node.end()) << "key " << k << " is read by no one";
   EXPECT_NE(std::find(node.begin(), node.end(), "map_frame"), node.end());
   EXPECT_EQ(std::find(node.begin(), node.end(), "particles"), node.end());
 }

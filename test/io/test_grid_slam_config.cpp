@@ -1,6 +1,10 @@
+#include <algorithm>
+#include <cstdio>
 #include <fstream>
+#include <set>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -8,14 +12,49 @@
 
 using namespace rbpf_slam;
 
+namespace
+{
+const std::string kConfigDir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
+// The shipped configuration is two files, read in this order: the advanced keys (rbpf's tuning), then the keys a user
+// sets on top; config/grid_single_map.yaml goes over both for the single-map filter.
+const std::string kAdvancedFile = kConfigDir + "grid_slam_advanced.yaml";
+const std::string kUserFile = kConfigDir + "grid_slam.yaml";
+
+/** @brief A source that has no key and records every key asked of it: the keys a reader knows. */
+class AskedKeys : public io::ParamSource
+{
+public:
+  bool get(const std::string& key, double*) const override { return ask(key); }
+  bool get(const std::string& key, int*) const override { return ask(key); }
+  bool get(const std::string& key, bool*) const override { return ask(key); }
+  bool get(const std::string& key, std::string*) const override { return ask(key); }
+  mutable std::set<std::string> keys;
+
+private:
+  bool ask(const std::string& key) const
+  {
+    keys.insert(key);
+    return false;
+  }
+};
+
+bool isNodeOnlyKey(const std::string& key)
+{
+  const std::vector<std::string>& node = io::nodeOnlyKeys();
+  return std::find(node.begin(), node.end(), key) != node.end();
+}
+}  // namespace
+
 TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltInDefaults)
 {
-  // config/grid_slam.yaml is rbpf's; config/grid_single_map.yaml laid over it restores every built-in value (the
-  // single-map filter's), so the two files together document them.
-  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_slam.yaml");
-  io::YamlParamSource single(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_single_map.yaml");
+  // config/grid_slam_advanced.yaml and config/grid_slam.yaml are rbpf's; config/grid_single_map.yaml laid over them
+  // restores every built-in value (the single-map filter's), so the three files together document them.
+  io::YamlParamSource advanced(kAdvancedFile);
+  io::YamlParamSource params(kUserFile);
+  io::YamlParamSource single(kConfigDir + "grid_single_map.yaml");
   core::GridSlamConfig read, defaults;
   read.particles = 1;  // so that the file's value is seen to arrive
+  io::readGridSlamConfig(advanced, &read);
   io::readGridSlamConfig(params, &read);
   io::readGridSlamConfig(single, &read);
   EXPECT_TRUE(single.unusedKeys().empty());
@@ -66,11 +105,79 @@ TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltI
   EXPECT_EQ(read.matcher.climb_beam_step, defaults.matcher.climb_beam_step);
   EXPECT_EQ(read.threads, defaults.threads);
   // The keys the nodelet reads itself (frames, timing, map file) are the only ones this reader leaves.
-  for (const auto& k : params.unusedKeys())
-    EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
-                k == "transform_tolerance" || k == "map_update_interval" || k == "publish_tf" || k == "map_path" ||
-                k == "max_path_poses" || k == "time_jump_threshold")
-        << "unexpected key " << k;
+  for (const io::YamlParamSource* source : { &advanced, &params })
+    for (const auto& k : source->unusedKeys())
+      EXPECT_TRUE(k == "map_frame" || k == "odom_frame" || k == "base_frame" || k == "odom_timeout" ||
+                  k == "transform_tolerance" || k == "map_update_interval" || k == "publish_tf" || k == "map_path" ||
+                  k == "max_path_poses" || k == "time_jump_threshold")
+          << "unexpected key " << k;
+}
+
+TEST(GridSlamConfigFile, TheUsersFileIsShortAndTheTwoFilesSplitTheKeys)
+{
+  // Before any read, a source's unused keys are all its leaf keys.
+  const std::vector<std::string> user = io::YamlParamSource(kUserFile).unusedKeys();
+  const std::vector<std::string> advanced = io::YamlParamSource(kAdvancedFile).unusedKeys();
+  EXPECT_LE(user.size(), 25u) << "config/grid_slam.yaml holds the keys a user sets; the others go in the advanced file";
+  EXPECT_GE(user.size(), 10u);
+  EXPECT_GT(advanced.size(), 0u);
+  // No key in both: each is stated, and explained, once.
+  const std::set<std::string> user_set(user.begin(), user.end());
+  std::set<std::string> all = user_set;
+  for (const auto& k : advanced)
+  {
+    EXPECT_EQ(user_set.count(k), 0u) << "key " << k << " is in both files";
+    all.insert(k);
+  }
+  EXPECT_EQ(all.size(), user.size() + advanced.size());
+  // The frames, the mode, the particles and the seed are the user's.
+  for (const char* k : { "map_frame", "odom_frame", "base_frame", "mode", "particles", "seed" })
+    EXPECT_EQ(user_set.count(k), 1u) << k;
+  // Every key the reader knows is stated in one of the two files, and every key of the files is the reader's or the
+  // node's own.
+  AskedKeys asked;
+  core::GridSlamConfig c;
+  io::readGridSlamConfig(asked, &c);
+  EXPECT_GT(asked.keys.size(), 40u);
+  for (const auto& k : asked.keys)
+    EXPECT_EQ(all.count(k), 1u) << "key " << k << " is in neither file";
+  for (const auto& k : all)
+    EXPECT_TRUE(asked.keys.count(k) || isNodeOnlyKey(k)) << "key " << k << " is read by no one";
+}
+
+TEST(GridSlamConfigFile, TheUsersFileAloneIsNotTheShippedFilter)
+{
+  // The advanced file holds values that differ from the built-in ones (rbpf's matcher, its weights): the user's file
+  // read without it leaves them at the built-in values, so every loader must read both (slam_bag: two --config).
+  core::GridSlamConfig alone, both;
+  io::readGridSlamConfig(io::YamlParamSource(kUserFile), &alone);
+  io::readGridSlamConfig(io::YamlParamSource(kAdvancedFile), &both);
+  io::readGridSlamConfig(io::YamlParamSource(kUserFile), &both);
+  EXPECT_EQ(alone.mode, both.mode);
+  EXPECT_EQ(alone.particles, both.particles);
+  EXPECT_EQ(both.matcher.coarse_kernel, 1);
+  EXPECT_EQ(alone.matcher.coarse_kernel, core::GridSlamConfig().matcher.coarse_kernel);
+  EXPECT_NE(alone.matcher.coarse_kernel, both.matcher.coarse_kernel);
+  EXPECT_NE(alone.proposal_motion_weight, both.proposal_motion_weight);
+}
+
+TEST(GridSlamConfigFile, AMisspeltKeyOverTheAdvancedFileIsStillReported)
+{
+  // The tools warn of each file's unused keys: the advanced file leaves only the node's keys, and a user's file laid
+  // over it still shows its misspelt key (and only that one).
+  const std::string path = std::string(::testing::TempDir()) + "grid_slam_user.yaml";
+  std::ofstream(path) << "particles: 12\nrbpf:\n  kernel: 2\nlinear_updte: 0.2\n";
+  io::YamlParamSource advanced(kAdvancedFile), user(path);
+  core::GridSlamConfig c;
+  io::readGridSlamConfig(advanced, &c);
+  io::readGridSlamConfig(user, &c);
+  for (const auto& k : advanced.unusedKeys())
+    EXPECT_TRUE(isNodeOnlyKey(k)) << "key " << k << " of the advanced file would be warned of";
+  EXPECT_EQ(user.unusedKeys(), std::vector<std::string>{ "linear_updte" });
+  EXPECT_EQ(c.particles, 12);
+  EXPECT_EQ(c.matcher.kernel, 2);
+  EXPECT_EQ(c.matcher.coarse_kernel, 1);  // the rest of rbpf/ stays the advanced file's
+  std::remove(path.c_str());
 }
 
 TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
@@ -105,9 +212,9 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
 
 TEST(GridSlamConfigFile, ShippedConfigRunsRbpfWithTheCoarseLevelTheVetoAndGMappingsThresholds)
 {
-  io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/grid_slam.yaml");
   core::GridSlamConfig c;
-  io::readGridSlamConfig(params, &c);
+  io::readGridSlamConfig(io::YamlParamSource(kAdvancedFile), &c);
+  io::readGridSlamConfig(io::YamlParamSource(kUserFile), &c);
   EXPECT_EQ(c.validate(), "");
   EXPECT_EQ(c.mode, core::GridSlamMode::kRbpf);
   EXPECT_EQ(c.particles, 30);

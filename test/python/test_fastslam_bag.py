@@ -135,12 +135,15 @@ def test_fastslam2_repeats_byte_for_byte(bags, tmp_path):
     d, full, _ = bags
     config = str(tmp_path / 'fastslam2.yaml')
     with open(os.path.join(ROOT, 'config', 'fastslam.yaml')) as src, open(config, 'w') as dst:
-        dst.write(src.read().replace('proposal: fastslam1', 'proposal: fastslam2'))
+        text = src.read()
+        assert 'proposal: fastslam1' in text
+        dst.write(text.replace('proposal: fastslam1', 'proposal: fastslam2'))
+    advanced = os.path.join(ROOT, 'config', 'fastslam_advanced.yaml')
     outs = []
     for k in range(2):
         out = str(tmp_path / ('run%d' % k))
-        subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', full, '--config', config, '--out', out,
-                        '--seed', '5', '--quiet'], check=True)
+        subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', full, '--config', advanced,
+                        '--config', config, '--out', out, '--seed', '5', '--quiet'], check=True)
         outs.append(out)
     for name in ('estimate.tum', 'estimate_best_history.tum', 'odometry.tum', 'updates.csv', 'map.csv'):
         assert filecmp.cmp(os.path.join(outs[0], name), os.path.join(outs[1], name), shallow=False), name
@@ -183,8 +186,9 @@ def test_landmark_detections_of_any_detector(tmp_path):
     bag = str(tmp_path / 'freiburg.bag')
     cc.convert_to_bag(freiburg.convert, freiburg.build_parser().parse_args([d, '-o', bag, '--quiet']))
     out = str(tmp_path / 'run')
-    subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', bag, '--landmarks', '/landmarks', '--config',
-                    os.path.join(ROOT, 'config', 'fastslam.yaml'), '--seed', '1', '--out', out, '--quiet'],
+    subprocess.run([_tool('slam_bag'), '--filter', 'fastslam', '--bag', bag, '--landmarks', '/landmarks',
+                    '--config', os.path.join(ROOT, 'config', 'fastslam_advanced.yaml'),
+                    '--config', os.path.join(ROOT, 'config', 'fastslam.yaml'), '--seed', '1', '--out', out, '--quiet'],
                    check=True)
     est = np.loadtxt(os.path.join(out, 'estimate.tum'), ndmin=2)
     assert len(est) == 332

@@ -1,8 +1,16 @@
 """rbpf_slam.grid_benchmark (scripts/grid_benchmark): seeds, the summary statistics and the table rows (the runs
 themselves: test_grid_slam_bag.py)."""
+import os
+
 import pytest
 
 from rbpf_slam import grid_benchmark as gb
+
+
+def test_the_default_configs_are_the_shipped_filter_advanced_file_first():
+    configs = gb.default_configs()
+    assert [os.path.basename(c) for c in configs] == ['grid_slam_advanced.yaml', 'grid_slam.yaml']
+    assert all(os.path.isfile(c) for c in configs)
 
 
 def test_seeds():

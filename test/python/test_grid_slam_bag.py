@@ -130,6 +130,7 @@ def _timing(out):
 
 def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
     bag = _record_indoor_drive(tmp_path, 'indoor.bag')
+    advanced_yaml = os.path.join(ROOT, 'config', 'grid_slam_advanced.yaml')
     grid_yaml = os.path.join(ROOT, 'config', 'grid_slam.yaml')
     single_yaml = os.path.join(ROOT, 'config', 'grid_single_map.yaml')
     far = tmp_path / 'far.yaml'
@@ -154,8 +155,9 @@ def test_travel_thresholds_every_scan_and_the_memory_report(tmp_path):
     assert text['processed'] == str(processed) and text['linear_update'] == '1'
     # --every-scan: every scan, whatever the files given (before or after it) set, the single-map overlay included.
     printed = {}
-    for name, args in (('every', ['--every-scan', '--config', grid_yaml, '--config', single_yaml]),
-                       ('every_over_files', ['--every-scan', '--config', grid_yaml,
+    for name, args in (('every', ['--every-scan', '--config', advanced_yaml, '--config', grid_yaml,
+                                  '--config', single_yaml]),
+                       ('every_over_files', ['--every-scan', '--config', advanced_yaml, '--config', grid_yaml,
                                              '--config', str(far), '--particles', '3']),
                        ('every_first', ['--config', str(far), '--every-scan'])):
         out, stdout, scans, processed = run(name, *args)

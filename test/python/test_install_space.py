@@ -76,6 +76,7 @@ def test_the_install_space_holds_files_not_links_into_the_build_machine():
         links += [os.path.join(d, n) for n in names + dirs if os.path.islink(os.path.join(d, n))]
     assert not links, 'symbolic links in the install space: %s' % links[:10]
     for rel in ('share/rbpf_slam/package.xml', 'share/rbpf_slam/config/fastslam.yaml',
+                'share/rbpf_slam/config/fastslam_advanced.yaml', 'share/rbpf_slam/config/grid_slam_advanced.yaml',
                 'share/rbpf_slam/config/worlds/paper_forest.yaml', 'share/rbpf_slam/launch/forest_demo.launch',
                 'share/rbpf_slam/config/rviz/forest.rviz', 'lib/rbpf_slam/fastslam_benchmark',
                 'lib/rbpf_slam/plot_forest_run', 'lib/rbpf_slam/fastslam_experiments',

@@ -158,6 +158,12 @@ def test_the_known_ids_overlay_is_the_only_difference():
     assert all(os.path.isfile(cmd[i + 1]) for i, c in enumerate(cmd[:-2]) if c == '--config')
 
 
+def test_every_data_set_loads_the_advanced_file_then_the_users_file_first():
+    m = _load()
+    for name, spec in m.DATA_SETS.items():
+        assert spec['configs'][:2] == ['config/fastslam_advanced.yaml', 'config/fastslam.yaml'], name
+
+
 def test_lists_and_seeds_of_the_command_line():
     m = _load()
     assert m.parse_list('3, 1,3', ['1', '2', '3'], 'robot') == ['1', '3']

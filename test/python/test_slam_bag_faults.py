@@ -329,7 +329,8 @@ def test_a_signal_leaves_no_output(tmp_path, signum):
     _bag(bag, n=600, scans=True, clouds=False)
     out = tmp_path / 'out'
     proc = subprocess.Popen([_tool('slam_bag'), '--filter', 'grid', '--bag', bag, '--out', str(out), '--particles',
-                             '300', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml')],
+                             '300', '--config', os.path.join(ROOT, 'config', 'grid_slam_advanced.yaml'),
+                             '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml')],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     time.sleep(2.0)
     assert proc.poll() is None, 'finished before the signal: make the bag longer'

@@ -5,6 +5,8 @@ import shutil
 
 from rbpf_slam import soak_benchmark as sb
 
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
 
 def test_the_nodes_of_each_filter():
     grid = sb.nodes_for(argparse.Namespace(filter='grid', particles=30))
@@ -13,6 +15,19 @@ def test_the_nodes_of_each_filter():
     fast = sb.nodes_for(argparse.Namespace(filter='fastslam', particles=0))
     assert [name for name, _ in fast] == ['trunk_extraction', 'fastslam']
     assert fast[1][1] == ['rosrun', 'rbpf_slam', 'fastslam', '__name:=fastslam']
+
+
+def test_the_parameter_files_of_each_filter():
+    def files(filter_name, config=None):
+        return [(ns, os.path.relpath(path, ROOT)) for ns, path in
+                sb.param_files(argparse.Namespace(filter=filter_name, config=config))]
+    # The advanced file first, the user's file on top, an overlay last.
+    assert files('grid', os.path.join(ROOT, 'config', 'grid_single_map.yaml')) == [
+        ('grid_slam', 'config/grid_slam_advanced.yaml'), ('grid_slam', 'config/grid_slam.yaml'),
+        ('grid_slam', 'config/grid_single_map.yaml')]
+    assert files('fastslam') == [('trunk_extraction', 'config/trunk_extraction.yaml'),
+                                 ('fastslam', 'config/fastslam_advanced.yaml'), ('fastslam', 'config/fastslam.yaml')]
+    assert all(os.path.isfile(os.path.join(ROOT, f)) for name in ('grid', 'fastslam') for _, f in files(name))
 
 
 def test_resident_memory_of_a_process():

@@ -119,6 +119,7 @@ class NodeVsOffline(unittest.TestCase):
         offline_map = os.path.join(self.dir, 'offline_map.csv')
         offline = self.offline(bag, ['--filter', 'fastslam', '--extraction-config',
                                      os.path.join(ROOT, 'config', 'trunk_extraction.yaml'),
+                                     '--config', os.path.join(ROOT, 'config', 'fastslam_advanced.yaml'),
                                      '--config', os.path.join(ROOT, 'config', 'fastslam.yaml'),
                                      '--save-map', offline_map])
         node = self.play(bag, ['/points', '/odom', '/tf', '/tf_static'], 'fastslam', len(offline))
@@ -168,7 +169,9 @@ class NodeVsOffline(unittest.TestCase):
         with open(thresholds, 'w') as f:
             for key in ('linear_update', 'angular_update', 'temporal_update'):
                 f.write('%s: %r\n' % (key, float(rospy.get_param('grid_slam/' + key))))
-        offline = self.offline(bag, ['--filter', 'grid', '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml'),
+        offline = self.offline(bag, ['--filter', 'grid',
+                                     '--config', os.path.join(ROOT, 'config', 'grid_slam_advanced.yaml'),
+                                     '--config', os.path.join(ROOT, 'config', 'grid_slam.yaml'),
                                      '--config', os.path.join(ROOT, 'config', 'grid_single_map.yaml'),
                                      '--config', thresholds])
         node = self.play(bag, ['/scan', '/odom', '/tf', '/tf_static'], 'grid', len(offline))
