@@ -239,6 +239,20 @@ SlamBagOptions parseOptions(int argc, char** argv)
 
 void checkPaths(const SlamBagOptions& o)
 {
+  // A filter's short file (config/X.yaml) holds the keys a user sets; its advanced file (config/X_advanced.yaml)
+  // the rest. The short file alone leaves the advanced keys at their built-in values, which is not the node's filter.
+  for (std::size_t i = 0; i < o.config_paths.size(); ++i)
+  {
+    const std::string advanced = io::withoutExtension(o.config_paths[i]) + "_advanced.yaml";
+    struct stat beside;
+    if (::stat(advanced.c_str(), &beside) == 0 &&
+        std::find(o.config_paths.begin(), o.config_paths.begin() + static_cast<long>(i), advanced) ==
+            o.config_paths.begin() + static_cast<long>(i))
+      std::fprintf(stderr, "slam_bag: warning: %s is given without %s before it: its advanced keys keep their "
+                   "built-in values, not the node's (--config %s --config %s)\n", o.config_paths[i].c_str(),
+                   advanced.c_str(), advanced.c_str(), o.config_paths[i].c_str());
+  }
+
   struct stat st;
   if (::stat(o.bag_path.c_str(), &st) != 0)
     throw std::runtime_error(o.bag_path + ": " + std::strerror(errno));
