@@ -55,114 +55,151 @@ void downsampleVoxels(std::vector<Eigen::Vector3f>* points, double leaf)
     points->emplace_back(q.x, q.y, q.z);
 }
 
-std::vector<std::vector<int>> clusterHorizontal(const std::vector<Eigen::Vector3f>& points, double tolerance)
+namespace
 {
-  // 1. One representative per cell of the projection (its first point); cells numbered as they first appear.
+/** The cells of the horizontal projection: a representative of each, each point's cell. */
+struct CellProjection
+{
+  std::vector<Eigen::Vector2f> reps;  // each cell's representative
+  std::vector<int> point_cell;        // each point's cell
+};
+
+/** The cells, tolerance / kCellsPerTolerance wide (clusterHorizontal's step 1). */
+CellProjection projectToCells(const std::vector<Eigen::Vector3f>& points, double tolerance)
+{
+  CellProjection cells;
   const double leaf = tolerance / kCellsPerTolerance;
   std::unordered_map<std::int64_t, int> cell_of;
   cell_of.reserve(points.size());
-  std::vector<Eigen::Vector2f> reps;
-  std::vector<int> point_cell(points.size());
+  cells.point_cell.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
   {
     const auto& q = points[i];
     const std::int64_t key = packCell(static_cast<std::int64_t>(std::floor(q.x() / leaf)),
                                       static_cast<std::int64_t>(std::floor(q.y() / leaf)));
-    const auto inserted = cell_of.emplace(key, static_cast<int>(reps.size()));
+    const auto inserted = cell_of.emplace(key, static_cast<int>(cells.reps.size()));
     if (inserted.second)
-      reps.emplace_back(q.x(), q.y());
-    point_cell[i] = inserted.first->second;
+      cells.reps.emplace_back(q.x(), q.y());
+    cells.point_cell[i] = inserted.first->second;
+  }
+  return cells;
+}
+
+/**
+ * The representatives closer than the tolerance, linked into a union-find forest (each set's root its smallest
+ * representative) by a sweep over square blocks (clusterHorizontal's step 2).
+ */
+class RepresentativeLinks
+{
+public:
+  RepresentativeLinks(const std::vector<Eigen::Vector2f>& reps, double tolerance) : reps_(reps)
+  {
+    const float tol = static_cast<float>(tolerance);
+    tol2_ = static_cast<float>(static_cast<double>(tol) * static_cast<double>(tol));
+    const double block = kBlockPerTolerance * tolerance;
+    entries_.resize(reps.size());
+    for (std::size_t r = 0; r < reps.size(); ++r)
+      entries_[r] = { static_cast<std::int64_t>(std::floor(reps[r].y() / block)),
+                      static_cast<std::int64_t>(std::floor(reps[r].x() / block)), static_cast<int>(r) };
+    std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) {
+      return a.by != b.by ? a.by < b.by : a.bx != b.bx ? a.bx < b.bx : a.rep < b.rep;
+    });
+    for (std::size_t i = 0; i < entries_.size(); ++i)
+    {
+      if (blocks_.empty() || blocks_.back().by != entries_[i].by || blocks_.back().bx != entries_[i].bx)
+        blocks_.push_back({ entries_[i].by, entries_[i].bx, i, i });
+      blocks_.back().end = i + 1;
+    }
+    parent_.resize(reps.size());
+    for (std::size_t r = 0; r < parent_.size(); ++r)
+      parent_[r] = static_cast<int>(r);
   }
 
-  // 2. Link representatives closer than the tolerance. They are sorted into square blocks a little wider than the
-  //    tolerance, so that linked ones lie in the same or adjacent blocks; each pair of blocks is visited once, in a
-  //    sweep over the sorted blocks (no tree, no hashing). Distances in single precision, compared as squares with
-  //    a strict <, as a kd-tree radius search over these points does.
-  const float tol = static_cast<float>(tolerance);
-  const float tol2 = static_cast<float>(static_cast<double>(tol) * static_cast<double>(tol));
-  const double block = kBlockPerTolerance * tolerance;
+  /** Links every pair of representatives closer than the tolerance. */
+  void linkAll()
+  {
+    std::size_t below = 0;  // first block of the next row that may neighbour the current block
+    for (std::size_t k = 0; k < blocks_.size(); ++k)
+    {
+      const Block& b = blocks_[k];
+      linkBlocks(b, b, true);
+      if (k + 1 < blocks_.size() && blocks_[k + 1].by == b.by && blocks_[k + 1].bx == b.bx + 1)
+        linkBlocks(b, blocks_[k + 1], false);
+      // Blocks (by + 1, bx - 1 .. bx + 1): the row's blocks are sorted, and so are the current ones.
+      below = std::max(below, k + 1);
+      while (below < blocks_.size() &&
+             (blocks_[below].by < b.by + 1 || (blocks_[below].by == b.by + 1 && blocks_[below].bx < b.bx - 1)))
+        ++below;
+      for (std::size_t m = below; m < blocks_.size() && blocks_[m].by == b.by + 1 && blocks_[m].bx <= b.bx + 1; ++m)
+        linkBlocks(b, blocks_[m], false);
+    }
+  }
+
+  /** The root of representative @p r's set (compressing the path to it). */
+  int root(int r)
+  {
+    while (parent_[static_cast<std::size_t>(r)] != r)
+    {
+      parent_[static_cast<std::size_t>(r)] = parent_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(r)])];
+      r = parent_[static_cast<std::size_t>(r)];
+    }
+    return r;
+  }
+
+private:
   struct Entry
   {
     std::int64_t by, bx;
     int rep;
   };
-  std::vector<Entry> entries(reps.size());
-  for (std::size_t r = 0; r < reps.size(); ++r)
-    entries[r] = { static_cast<std::int64_t>(std::floor(reps[r].y() / block)),
-                   static_cast<std::int64_t>(std::floor(reps[r].x() / block)), static_cast<int>(r) };
-  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-    return a.by != b.by ? a.by < b.by : a.bx != b.bx ? a.bx < b.bx : a.rep < b.rep;
-  });
   struct Block
   {
     std::int64_t by, bx;
     std::size_t begin, end;
   };
-  std::vector<Block> blocks;
-  for (std::size_t i = 0; i < entries.size(); ++i)
+
+  void linkBlocks(const Block& a, const Block& b, bool same)
   {
-    if (blocks.empty() || blocks.back().by != entries[i].by || blocks.back().bx != entries[i].bx)
-      blocks.push_back({ entries[i].by, entries[i].bx, i, i });
-    blocks.back().end = i + 1;
-  }
-  std::vector<int> parent(reps.size());
-  for (std::size_t r = 0; r < parent.size(); ++r)
-    parent[r] = static_cast<int>(r);
-  const auto root = [&parent](int r) {
-    while (parent[static_cast<std::size_t>(r)] != r)
-    {
-      parent[static_cast<std::size_t>(r)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(r)])];
-      r = parent[static_cast<std::size_t>(r)];
-    }
-    return r;
-  };
-  const auto linkBlocks = [&](const Block& a, const Block& b, bool same) {
     for (std::size_t i = a.begin; i < a.end; ++i)
     {
-      const Eigen::Vector2f& p = reps[static_cast<std::size_t>(entries[i].rep)];
+      const Eigen::Vector2f& p = reps_[static_cast<std::size_t>(entries_[i].rep)];
       for (std::size_t j = same ? i + 1 : b.begin; j < b.end; ++j)
       {
-        const Eigen::Vector2f& q = reps[static_cast<std::size_t>(entries[j].rep)];
+        const Eigen::Vector2f& q = reps_[static_cast<std::size_t>(entries_[j].rep)];
         const float dx = p.x() - q.x(), dy = p.y() - q.y();
-        if (dx * dx + dy * dy < tol2)
+        if (dx * dx + dy * dy < tol2_)
         {
-          const int ra = root(entries[i].rep), rb = root(entries[j].rep);
+          const int ra = root(entries_[i].rep), rb = root(entries_[j].rep);
           if (ra != rb)
-            parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+            parent_[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
         }
       }
     }
-  };
-  std::size_t below = 0;  // first block of the next row that may neighbour the current block
-  for (std::size_t k = 0; k < blocks.size(); ++k)
-  {
-    const Block& b = blocks[k];
-    linkBlocks(b, b, true);
-    if (k + 1 < blocks.size() && blocks[k + 1].by == b.by && blocks[k + 1].bx == b.bx + 1)
-      linkBlocks(b, blocks[k + 1], false);
-    // Blocks (by + 1, bx - 1 .. bx + 1): the row's blocks are sorted, and so are the current ones.
-    below = std::max(below, k + 1);
-    while (below < blocks.size() &&
-           (blocks[below].by < b.by + 1 || (blocks[below].by == b.by + 1 && blocks[below].bx < b.bx - 1)))
-      ++below;
-    for (std::size_t m = below; m < blocks.size() && blocks[m].by == b.by + 1 && blocks[m].bx <= b.bx + 1; ++m)
-      linkBlocks(b, blocks[m], false);
   }
 
-  // 3. Clusters numbered by their first cell, then the largest (in cells) first. Ties keep the order that the
-  //    same sort of the same sequence gave when a kd-tree (PCL's Euclidean cluster extraction, which sorts its
-  //    clusters exactly so) found these clusters, so that detections and their order repeat.
+  const std::vector<Eigen::Vector2f>& reps_;
+  float tol2_ = 0.0f;
+  std::vector<Entry> entries_;  // the representatives' blocks, sorted by row and column
+  std::vector<Block> blocks_;   // the blocks' ranges of entries_
+  std::vector<int> parent_;
+};
+
+/** The points' indices by cluster, the largest first (clusterHorizontal's step 3). */
+std::vector<std::vector<int>> clustersBySize(const CellProjection& projection, RepresentativeLinks* links)
+{
   struct Component
   {
     std::size_t cells;
     int id;
   };
-  std::vector<int> component_of_root(reps.size(), -1);
-  std::vector<int> component_of_cell(reps.size());
+  const std::size_t num_cells = projection.reps.size();
+  const std::vector<int>& point_cell = projection.point_cell;
+  std::vector<int> component_of_root(num_cells, -1);
+  std::vector<int> component_of_cell(num_cells);
   std::vector<Component> components;
-  for (std::size_t r = 0; r < reps.size(); ++r)
+  for (std::size_t r = 0; r < num_cells; ++r)
   {
-    int& c = component_of_root[static_cast<std::size_t>(root(static_cast<int>(r)))];
+    int& c = component_of_root[static_cast<std::size_t>(links->root(static_cast<int>(r)))];
     if (c < 0)
     {
       c = static_cast<int>(components.size());
@@ -179,11 +216,30 @@ std::vector<std::vector<int>> clusterHorizontal(const std::vector<Eigen::Vector3
   std::vector<std::vector<int>> clusters(components.size());
   for (std::size_t k = 0; k < components.size(); ++k)
     clusters[k].reserve(components[k].cells * 4);
-  for (std::size_t i = 0; i < points.size(); ++i)
+  for (std::size_t i = 0; i < point_cell.size(); ++i)
     clusters[static_cast<std::size_t>(rank[static_cast<std::size_t>(
                  component_of_cell[static_cast<std::size_t>(point_cell[i])])])]
         .push_back(static_cast<int>(i));
   return clusters;
+}
+}  // namespace
+
+std::vector<std::vector<int>> clusterHorizontal(const std::vector<Eigen::Vector3f>& points, double tolerance)
+{
+  // 1. One representative per cell of the projection (its first point); cells numbered as they first appear.
+  const CellProjection cells = projectToCells(points, tolerance);
+
+  // 2. Link representatives closer than the tolerance. They are sorted into square blocks a little wider than the
+  //    tolerance, so that linked ones lie in the same or adjacent blocks; each pair of blocks is visited once, in a
+  //    sweep over the sorted blocks (no tree, no hashing). Distances in single precision, compared as squares with
+  //    a strict <, as a kd-tree radius search over these points does.
+  RepresentativeLinks links(cells.reps, tolerance);
+  links.linkAll();
+
+  // 3. Clusters numbered by their first cell, then the largest (in cells) first. Ties keep the order that the
+  //    same sort of the same sequence gave when a kd-tree (PCL's Euclidean cluster extraction, which sorts its
+  //    clusters exactly so) found these clusters, so that detections and their order repeat.
+  return clustersBySize(cells, &links);
 }
 
 std::vector<TrunkCandidate> selectTrunkCandidates(const std::vector<Eigen::Vector3f>& points,

@@ -286,21 +286,12 @@ TrunkFit fitShortArc(const std::vector<Eigen::Vector2d>& points, double beam_spa
   return fit;
 }
 
-TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::vector<SilhouetteEdge>& edges,
-                       const TrunkDetectorConfig& config)
+namespace
 {
-  constexpr int kIterations = 20;
-  constexpr double kMaxStep = 0.5;     // [m] per iteration
-  constexpr double kConverged = 1e-7;  // [m]
-  constexpr double kChi2Z = 3.09;      // standard normal quantile of 99.9 %
-  TrunkFit fit;
-  const int n = static_cast<int>(points.size());
-  if (n < 2)
-    return fit;
-  // Start one prior radius behind the middle of the arc's lateral extent (as fitShortArc places the centre).
-  const Eigen::Vector2d mean = meanOf(points);
-  if (!(mean.norm() > 0.0))
-    return fit;
+/** The start (centre x, centre y, radius): one prior radius behind the middle of the arc's lateral extent. */
+Eigen::Vector3d partialArcStart(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& mean,
+                                const TrunkDetectorConfig& config)
+{
   const Eigen::Vector2d u0 = mean.normalized(), v0(-u0.y(), u0.x());
   double x_lo = 0.0, x_hi = 0.0;
   for (const auto& q : points)
@@ -311,19 +302,31 @@ TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::ve
   const Eigen::Vector2d middle = mean + v0 * (0.5 * (x_lo + x_hi));
   Eigen::Vector3d x;
   x << middle + middle.normalized() * config.arc_radius_prior, config.arc_radius_prior;
+  return x;
+}
 
-  // The centre lies on the arc's side of each edge ray: the sign of (mean x direction).
-  std::vector<double> side(edges.size());
-  for (std::size_t k = 0; k < edges.size(); ++k)
-    side[k] = mean.x() * edges[k].direction.y() - mean.y() * edges[k].direction.x() >= 0.0 ? 1.0 : -1.0;
-  const double sigma2 = config.range_sigma * config.range_sigma;
-  const double prior_w = 1.0 / (config.arc_radius_sigma * config.arc_radius_sigma);
-  // Information, gradient and chi-square at `at`.
-  const auto linearise = [&](const Eigen::Vector3d& at, Eigen::Matrix3d* info, Eigen::Vector3d* grad) {
+/** The least squares of fitPartialArc over (centre x, centre y, radius): the points, the radius prior, the edges. */
+class PartialArcProblem
+{
+public:
+  PartialArcProblem(const std::vector<Eigen::Vector2d>& points, const std::vector<SilhouetteEdge>& edges,
+                    const Eigen::Vector2d& mean, const TrunkDetectorConfig& config)
+      : points_(points), edges_(edges), config_(config), side_(edges.size())
+  {
+    // The centre lies on the arc's side of each edge ray: the sign of (mean x direction).
+    for (std::size_t k = 0; k < edges.size(); ++k)
+      side_[k] = mean.x() * edges[k].direction.y() - mean.y() * edges[k].direction.x() >= 0.0 ? 1.0 : -1.0;
+    sigma2_ = config.range_sigma * config.range_sigma;
+    prior_w_ = 1.0 / (config.arc_radius_sigma * config.arc_radius_sigma);
+  }
+
+  /** Information, gradient and chi-square at `at`. */
+  double linearise(const Eigen::Vector3d& at, Eigen::Matrix3d* info, Eigen::Vector3d* grad) const
+  {
     info->setZero();
     grad->setZero();
     double sum = 0.0;
-    for (const auto& q : points)
+    for (const auto& q : points_)
     {
       const Eigen::Vector2d d = q - at.head<2>();
       const double dn = d.norm();
@@ -331,44 +334,104 @@ TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::ve
         continue;
       const double res = dn - at.z();
       const Eigen::Vector3d J(-d.x() / dn, -d.y() / dn, -1.0);
-      *info += J * J.transpose() / sigma2;
-      *grad += J * res / sigma2;
-      sum += res * res / sigma2;
+      *info += J * J.transpose() / sigma2_;
+      *grad += J * res / sigma2_;
+      sum += res * res / sigma2_;
     }
-    (*info)(2, 2) += prior_w;
-    grad->z() += prior_w * (at.z() - config.arc_radius_prior);
-    sum += prior_w * std::pow(at.z() - config.arc_radius_prior, 2);
-    for (std::size_t k = 0; k < edges.size(); ++k)
+    (*info)(2, 2) += prior_w_;
+    grad->z() += prior_w_ * (at.z() - config_.arc_radius_prior);
+    sum += prior_w_ * std::pow(at.z() - config_.arc_radius_prior, 2);
+    for (std::size_t k = 0; k < edges_.size(); ++k)
     {
       // Distance from the centre to the edge ray, minus the radius. The edge lies anywhere between the two beams
       // (uniform over their spacing s at the trunk's range: variance s^2/12), and each beam, about as wide as
       // its spacing, returns from anywhere across it (as much again); the range noise does not move it sideways.
-      const Eigen::Vector2d& e = edges[k].direction;
-      const double lateral = at.head<2>().norm() * edges[k].spacing;
+      const Eigen::Vector2d& e = edges_[k].direction;
+      const double lateral = at.head<2>().norm() * edges_[k].spacing;
       const double var = 2.0 * lateral * lateral / 12.0;
-      const double res = side[k] * (at.x() * e.y() - at.y() * e.x()) - at.z();
-      const Eigen::Vector3d J(side[k] * e.y(), -side[k] * e.x(), -1.0);
+      const double res = side_[k] * (at.x() * e.y() - at.y() * e.x()) - at.z();
+      const Eigen::Vector3d J(side_[k] * e.y(), -side_[k] * e.x(), -1.0);
       *info += J * J.transpose() / var;
       *grad += J * res / var;
       sum += res * res / var;
     }
     return sum;
-  };
+  }
+
+private:
+  const std::vector<Eigen::Vector2d>& points_;
+  const std::vector<SilhouetteEdge>& edges_;
+  const TrunkDetectorConfig& config_;
+  std::vector<double> side_;
+  double sigma2_ = 0.0, prior_w_ = 0.0;
+};
+
+/** Gauss-Newton from @p x: false when a step is not finite. */
+bool minimisePartialArc(const PartialArcProblem& problem, Eigen::Vector3d* x)
+{
+  constexpr int kIterations = 20;
+  constexpr double kMaxStep = 0.5;     // [m] per iteration
+  constexpr double kConverged = 1e-7;  // [m]
   Eigen::Matrix3d H;
   Eigen::Vector3d g;
   for (int it = 0; it < kIterations; ++it)
   {
-    linearise(x, &H, &g);
+    problem.linearise(*x, &H, &g);
     const Eigen::Vector3d step = H.ldlt().solve(-g);
     if (!step.allFinite())
-      return fit;
-    x += step.norm() > kMaxStep ? (step * (kMaxStep / step.norm())).eval() : step;
+      return false;
+    *x += step.norm() > kMaxStep ? (step * (kMaxStep / step.norm())).eval() : step;
     if (step.norm() < kConverged)
       break;
   }
+  return true;
+}
+
+/**
+ * Whether the points show the trunk's front, its point nearest the sensor: the centre's bearing lies within theirs,
+ * widened by a mean beam spacing of the arc and two standard deviations of the centre's bearing. Then the front
+ * pins the depth and the silhouette edge the side; a few beams beside an occluder, or the end of a wall, which a
+ * circle of the prior radius fits as well as a trunk's edge does, show no front.
+ */
+bool showsTrunkFront(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& c, const Eigen::Matrix3d& cov)
+{
+  const int n = static_cast<int>(points.size());
+  const double bearing_c = std::atan2(c.y(), c.x());
+  double lo = 1e9, hi = -1e9;
+  for (const auto& q : points)
+  {
+    const double b = std::remainder(std::atan2(q.y(), q.x()) - bearing_c, 2.0 * kPi);
+    lo = std::min(lo, b);
+    hi = std::max(hi, b);
+  }
+  const Eigen::Vector2d across(-c.y() / c.norm(), c.x() / c.norm());
+  const double margin =
+      (hi - lo) / std::max(1, n - 1) + 2.0 * std::sqrt(across.dot(cov.topLeftCorner<2, 2>() * across)) / c.norm();
+  return !(lo > margin || hi < -margin);
+}
+}  // namespace
+
+TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::vector<SilhouetteEdge>& edges,
+                       const TrunkDetectorConfig& config)
+{
+  constexpr double kChi2Z = 3.09;  // standard normal quantile of 99.9 %
+  TrunkFit fit;
+  const int n = static_cast<int>(points.size());
+  if (n < 2)
+    return fit;
+  // Start one prior radius behind the middle of the arc's lateral extent (as fitShortArc places the centre).
+  const Eigen::Vector2d mean = meanOf(points);
+  if (!(mean.norm() > 0.0))
+    return fit;
+  Eigen::Vector3d x = partialArcStart(points, mean, config);
+  const PartialArcProblem problem(points, edges, mean, config);
+  if (!minimisePartialArc(problem, &x))
+    return fit;
   if (!x.allFinite() || x.z() <= 0.0)
     return fit;
-  const double chi2 = linearise(x, &H, &g);
+  Eigen::Matrix3d H;
+  Eigen::Vector3d g;
+  const double chi2 = problem.linearise(x, &H, &g);
   const Eigen::Matrix3d cov = H.inverse();
   if (!cov.allFinite())
     return fit;
@@ -393,22 +456,7 @@ TrunkFit fitPartialArc(const std::vector<Eigen::Vector2d>& points, const std::ve
       return fit;
   if (!(c.norm() > mean.norm()))
     return fit;
-  // The points must show the trunk's front, its point nearest the sensor: the centre's bearing lies within theirs,
-  // widened by a mean beam spacing of the arc and two standard deviations of the centre's bearing. Then the front
-  // pins the depth and the silhouette edge the side; a few beams beside an occluder, or the end of a wall, which a
-  // circle of the prior radius fits as well as a trunk's edge does, show no front.
-  const double bearing_c = std::atan2(c.y(), c.x());
-  double lo = 1e9, hi = -1e9;
-  for (const auto& q : points)
-  {
-    const double b = std::remainder(std::atan2(q.y(), q.x()) - bearing_c, 2.0 * kPi);
-    lo = std::min(lo, b);
-    hi = std::max(hi, b);
-  }
-  const Eigen::Vector2d across(-c.y() / c.norm(), c.x() / c.norm());
-  const double margin =
-      (hi - lo) / std::max(1, n - 1) + 2.0 * std::sqrt(across.dot(cov.topLeftCorner<2, 2>() * across)) / c.norm();
-  if (lo > margin || hi < -margin)
+  if (!showsTrunkFront(points, c, cov))
     return fit;
   fit.center = c;
   fit.radius = x.z();
@@ -494,6 +542,323 @@ bool isPoorSingleFit(const std::vector<Eigen::Vector2d>& points, const TrunkFit&
   return !points.empty() && ss / static_cast<double>(points.size()) > std::pow(kPoorFitRms * config.range_sigma, 2);
 }
 
+namespace
+{
+using Moments = Eigen::Matrix<double, 11, 1>;
+
+/** The points' bearings about the bearing @p b0 (wrapped). */
+std::vector<double> bearingsAbout(const std::vector<Eigen::Vector2d>& points, double b0)
+{
+  std::vector<double> bearing(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    bearing[i] = std::remainder(std::atan2(points[i].y(), points[i].x()) - b0, 2.0 * kPi);
+  return bearing;
+}
+
+/** The indices of @p bearing in its increasing order (stable). */
+std::vector<int> bearingOrder(const std::vector<double>& bearing)
+{
+  std::vector<int> order(bearing.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return bearing[static_cast<std::size_t>(a)] < bearing[static_cast<std::size_t>(b)];
+  });
+  return order;
+}
+
+/** The distance of @p q from the circle of @p fit. */
+double distanceTo(const TrunkFit& fit, const Eigen::Vector2d& q)
+{
+  return std::abs((q - fit.center).norm() - fit.radius);
+}
+
+/**
+ * The partitions of a cluster in bearing order into a middle interval and the rest, scored by the parts' algebraic
+ * fits from running sums of their moments.
+ */
+class PairCuts
+{
+public:
+  PairCuts(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& order, const Eigen::Vector2d& mean,
+           int min_part, const TrunkDetectorConfig& config)
+      : prefix_(points.size() + 1, Moments::Zero()),
+        mean_(mean),
+        n_(static_cast<int>(points.size())),
+        min_part_(min_part),
+        config_(config)
+  {
+    // Running sums in that order of the algebraic fit's moments (about the mean, where they stay well conditioned):
+    // 1, x, y, xx, xy, yy, xz, yz, z, zz with z = xx + yy, and the range.
+    for (std::size_t k = 0; k < order.size(); ++k)
+    {
+      const Eigen::Vector2d& p = points[static_cast<std::size_t>(order[k])];
+      const Eigen::Vector2d q = p - mean;
+      const double z = q.squaredNorm();
+      Moments m;
+      m << 1.0, q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y(), q.x() * z, q.y() * z, z, z * z, p.norm();
+      prefix_[k + 1] = prefix_[k] + m;
+    }
+    total_ = prefix_.back();
+  }
+
+  /**
+   * The middle interval [lo, hi) of the order against the rest. With two cuts the middle trunk hides the other
+   * on both sides, so it must be the nearer one.
+   */
+  double partition(int lo, int hi) const
+  {
+    const int inner = hi - lo;
+    if (inner < min_part_ || n_ - inner < min_part_)
+      return std::numeric_limits<double>::infinity();
+    const Moments middle = prefix_[static_cast<std::size_t>(hi)] - prefix_[static_cast<std::size_t>(lo)];
+    double s1 = 0.0, s2 = 0.0, range1 = 0.0, range2 = 0.0;
+    score(middle, &s1, &range1);
+    score(total_ - middle, &s2, &range2);
+    if (lo > 0 && hi < n_ && !(range1 < range2))
+      return std::numeric_limits<double>::infinity();
+    return s1 + s2;
+  }
+
+  /** One cut: every place. */
+  double bestOneCut(int* one_cut) const
+  {
+    double best_one = std::numeric_limits<double>::infinity();
+    for (int k = min_part_; k + min_part_ <= n_; ++k)
+    {
+      const double s = partition(0, k);
+      if (s < best_one)
+      {
+        best_one = s;
+        *one_cut = k;
+      }
+    }
+    return best_one;
+  }
+
+  /** Two cuts: a grid of kPairCuts places, then each cut moved to its best place nearby. */
+  double bestTwoCuts(int* lo_cut, int* hi_cut) const
+  {
+    const int n = n_;
+    double best_two = std::numeric_limits<double>::infinity();
+    int two_lo = -1, two_hi = -1;
+    const int cuts = std::min(kPairCuts, n);
+    for (int i = 1; i < cuts; ++i)
+      for (int j = i + 1; j < cuts; ++j)
+      {
+        const int lo = static_cast<int>(static_cast<long>(i) * n / cuts);
+        const int hi = static_cast<int>(static_cast<long>(j) * n / cuts);
+        const double s = partition(lo, hi);
+        if (s < best_two)
+        {
+          best_two = s;
+          two_lo = lo;
+          two_hi = hi;
+        }
+      }
+    if (two_lo >= 0)
+    {
+      const int reach = n / cuts + 1;
+      for (int pass = 0; pass < 2; ++pass)
+      {
+        const int lo0 = two_lo, hi0 = two_hi;
+        for (int lo = std::max(1, lo0 - reach); lo <= lo0 + reach; ++lo)
+        {
+          const double s = partition(lo, two_hi);
+          if (s < best_two)
+          {
+            best_two = s;
+            two_lo = lo;
+          }
+        }
+        for (int hi = hi0 - reach; hi <= std::min(n - 1, hi0 + reach); ++hi)
+        {
+          const double s = partition(two_lo, hi);
+          if (s < best_two)
+          {
+            best_two = s;
+            two_hi = hi;
+          }
+        }
+      }
+    }
+    *lo_cut = two_lo;
+    *hi_cut = two_hi;
+    return best_two;
+  }
+
+private:
+  /**
+   * A part's residuals' sum of squares as distances: to its algebraic circle (|p - c|^2 - r^2 is about 2 r times
+   * the distance) when that is a trunk-sized circle behind the part's points, else to its straight line (a piece too
+   * short or too noisy to show its curvature; its circle is fitted with the radius prior afterwards). Also the
+   * range of the part's centre (its circle's, or its mean range plus the prior radius).
+   */
+  void score(const Moments& m, double* sse, double* centre_range) const
+  {
+    const double count = m(0);
+    Eigen::Matrix3d A;
+    A << m(3), m(4), m(1), m(4), m(5), m(2), m(1), m(2), m(0);
+    const Eigen::Vector3d b(m(6), m(7), m(8));
+    const Eigen::Vector3d s = A.ldlt().solve(-b);
+    const Eigen::Vector2d part_mean = mean_ + Eigen::Vector2d(m(1), m(2)) / count;
+    if (s.allFinite())
+    {
+      const double r2 = 0.25 * (s.x() * s.x() + s.y() * s.y()) - s.z();
+      const Eigen::Vector2d c = mean_ + Eigen::Vector2d(-0.5 * s.x(), -0.5 * s.y());
+      if (r2 >= config_.min_radius * config_.min_radius && r2 <= config_.max_radius * config_.max_radius &&
+          c.norm() > part_mean.norm())
+      {
+        *sse = std::max(0.0, m(9) + b.dot(s)) / (4.0 * r2);
+        *centre_range = c.norm();
+        return;
+      }
+    }
+    const Eigen::Vector2d d = Eigen::Vector2d(m(1), m(2)) / count;
+    Eigen::Matrix2d scatter;
+    scatter << m(3) - count * d.x() * d.x(), m(4) - count * d.x() * d.y(), m(4) - count * d.x() * d.y(),
+        m(5) - count * d.y() * d.y();
+    *sse =
+        std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(scatter, Eigen::EigenvaluesOnly).eigenvalues()(0));
+    *centre_range = m(10) / count + config_.arc_radius_prior;
+  }
+
+  std::vector<Moments> prefix_;
+  Moments total_;
+  Eigen::Vector2d mean_;
+  int n_, min_part_;
+  const TrunkDetectorConfig& config_;
+};
+
+/** The candidate partitions of fitTrunkPair, tried one by one: the best that passes every test is kept in the pair. */
+class PairTrials
+{
+public:
+  PairTrials(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& order, int min_part, double b0,
+             double bearing_lo, double bearing_hi, double rss1, double floor, const TrunkDetectorConfig& config,
+             TrunkPairFit* pair)
+      : points_(points),
+        order_(order),
+        n_(static_cast<int>(points.size())),
+        min_part_(min_part),
+        t_(config.ransac_threshold),
+        b0_(b0),
+        bearing_lo_(bearing_lo),
+        bearing_hi_(bearing_hi),
+        rss1_(rss1),
+        floor_(floor),
+        config_(config),
+        pair_(pair)
+  {
+  }
+
+  /** The partition of the middle interval [lo, hi) of the order against the rest (none when lo < 0). */
+  void tryPartition(int lo, int hi)
+  {
+    if (lo < 0)
+      return;
+    Parts parts;
+    if (!fitParts(lo, hi, &parts) || !arePairOfTrunks(parts))
+      return;
+    // Clearly better than one circle: residuals capped at the inlier distance.
+    double rss2 = 0.0;
+    for (const auto& q : points_)
+      rss2 += std::pow(std::min(std::min(distanceTo(parts.fit[0], q), distanceTo(parts.fit[1], q)), t_), 2);
+    rss2 = std::max(rss2, floor_);
+    if (!(rss2 <= kPairRssRatio * rss1_) ||
+        !(static_cast<double>(n_) * std::log(rss1_ / rss2) - 4.0 * std::log(static_cast<double>(n_)) > 0.0) ||
+        !(rss2 < best_rss_))
+      return;
+    best_rss_ = rss2;
+    pair_->ok = true;
+    for (int p = 0; p < 2; ++p)
+    {
+      pair_->fits[p] = parts.fit[p];
+      pair_->members[p] = parts.member[p];
+    }
+  }
+
+private:
+  struct Parts
+  {
+    std::vector<int> member[2];
+    TrunkFit fit[2];
+  };
+
+  /** The parts' circles, refitted until their members stay; false when a part's fit fails. */
+  bool fitParts(int lo, int hi, Parts* parts)
+  {
+    for (int k = 0; k < n_; ++k)
+      parts->member[k >= lo && k < hi ? 0 : 1].push_back(order_[static_cast<std::size_t>(k)]);
+    for (int it = 0; it < kPairIterations; ++it)
+    {
+      for (int p = 0; p < 2; ++p)
+      {
+        std::sort(parts->member[p].begin(), parts->member[p].end());
+        part_.clear();
+        for (int i : parts->member[p])
+          part_.push_back(points_[static_cast<std::size_t>(i)]);
+        parts->fit[p] = fitTrunkCircle(part_, config_);
+        if (!parts->fit[p].ok)
+          return false;
+      }
+      std::vector<int> again[2];
+      for (int i = 0; i < n_; ++i)
+      {
+        const Eigen::Vector2d& q = points_[static_cast<std::size_t>(i)];
+        again[distanceTo(parts->fit[0], q) <= distanceTo(parts->fit[1], q) ? 0 : 1].push_back(i);
+      }
+      if (again[0] == parts->member[0] || static_cast<int>(again[0].size()) < min_part_ ||
+          static_cast<int>(again[1].size()) < min_part_)
+        break;
+      parts->member[0].swap(again[0]);
+      parts->member[1].swap(again[1]);
+    }
+    return true;
+  }
+
+  /** Whether the parts' circles are two trunks side by side that the points show whole. */
+  bool arePairOfTrunks(const Parts& parts) const
+  {
+    // Each part a trunk of its own, seen over a wide enough arc.
+    for (int p = 0; p < 2; ++p)
+    {
+      const int size = static_cast<int>(parts.member[p].size());
+      if (size < min_part_ || parts.fit[p].method != TrunkMethod::kCircle ||
+          checkTrunkFit(parts.fit[p], size, config_) != TrunkRejection::kNone)
+        return false;
+    }
+    // Two trunks side by side, not one circle fitted twice nor a trunk and a sliver of itself: the circles overlap
+    // by at most kPairOverlap inlier distances (their radii's errors).
+    const double apart = (parts.fit[0].center - parts.fit[1].center).norm();
+    if (apart < parts.fit[0].radius + parts.fit[1].radius - kPairOverlap * t_)
+      return false;
+    // The two silhouettes end where the points end: nothing else hides the pair's outer edges.
+    for (int p = 0; p < 2; ++p)
+    {
+      const TrunkFit& fit = parts.fit[p];
+      const double range = fit.center.norm();
+      if (!(range > fit.radius))
+        return false;
+      const double half = std::asin(fit.radius / range);
+      const double centre = std::remainder(std::atan2(fit.center.y(), fit.center.x()) - b0_, 2.0 * kPi);
+      const double margin = 2.0 * t_ / range + kSilhouetteSlack;
+      if (centre - half < bearing_lo_ - margin || centre + half > bearing_hi_ + margin)
+        return false;
+    }
+    return true;
+  }
+
+  const std::vector<Eigen::Vector2d>& points_;
+  const std::vector<int>& order_;
+  const int n_, min_part_;
+  const double t_, b0_, bearing_lo_, bearing_hi_, rss1_, floor_;
+  const TrunkDetectorConfig& config_;
+  TrunkPairFit* pair_;
+  std::vector<Eigen::Vector2d> part_;  // scratch: one part's points
+  double best_rss_ = std::numeric_limits<double>::infinity();
+};
+}  // namespace
+
 TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const TrunkFit& single,
                           const TrunkDetectorConfig& config)
 {
@@ -508,76 +873,13 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
 
   // Bearing order, about the bearing of the cluster's mean.
   const double b0 = std::atan2(mean.y(), mean.x());
-  std::vector<double> bearing(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    bearing[i] = std::remainder(std::atan2(points[i].y(), points[i].x()) - b0, 2.0 * kPi);
-  std::vector<int> order(points.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return bearing[static_cast<std::size_t>(a)] < bearing[static_cast<std::size_t>(b)];
-  });
+  const std::vector<double> bearing = bearingsAbout(points, b0);
+  const std::vector<int> order = bearingOrder(bearing);
 
   const double bearing_lo = bearing[static_cast<std::size_t>(order.front())];
   const double bearing_hi = bearing[static_cast<std::size_t>(order.back())];
 
-  // Running sums in that order of the algebraic fit's moments (about the mean, where they stay well conditioned):
-  // 1, x, y, xx, xy, yy, xz, yz, z, zz with z = xx + yy, and the range.
-  using Moments = Eigen::Matrix<double, 11, 1>;
-  std::vector<Moments> prefix(points.size() + 1, Moments::Zero());
-  for (std::size_t k = 0; k < order.size(); ++k)
-  {
-    const Eigen::Vector2d& p = points[static_cast<std::size_t>(order[k])];
-    const Eigen::Vector2d q = p - mean;
-    const double z = q.squaredNorm();
-    Moments m;
-    m << 1.0, q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y(), q.x() * z, q.y() * z, z, z * z, p.norm();
-    prefix[k + 1] = prefix[k] + m;
-  }
-  // A part's residuals' sum of squares as distances: to its algebraic circle (|p - c|^2 - r^2 is about 2 r times
-  // the distance) when that is a trunk-sized circle behind the part's points, else to its straight line (a piece too
-  // short or too noisy to show its curvature; its circle is fitted with the radius prior afterwards). Also the
-  // range of the part's centre (its circle's, or its mean range plus the prior radius).
-  const auto score = [&](const Moments& m, double* sse, double* centre_range) {
-    const double count = m(0);
-    Eigen::Matrix3d A;
-    A << m(3), m(4), m(1), m(4), m(5), m(2), m(1), m(2), m(0);
-    const Eigen::Vector3d b(m(6), m(7), m(8));
-    const Eigen::Vector3d s = A.ldlt().solve(-b);
-    const Eigen::Vector2d part_mean = mean + Eigen::Vector2d(m(1), m(2)) / count;
-    if (s.allFinite())
-    {
-      const double r2 = 0.25 * (s.x() * s.x() + s.y() * s.y()) - s.z();
-      const Eigen::Vector2d c = mean + Eigen::Vector2d(-0.5 * s.x(), -0.5 * s.y());
-      if (r2 >= config.min_radius * config.min_radius && r2 <= config.max_radius * config.max_radius &&
-          c.norm() > part_mean.norm())
-      {
-        *sse = std::max(0.0, m(9) + b.dot(s)) / (4.0 * r2);
-        *centre_range = c.norm();
-        return;
-      }
-    }
-    const Eigen::Vector2d d = Eigen::Vector2d(m(1), m(2)) / count;
-    Eigen::Matrix2d scatter;
-    scatter << m(3) - count * d.x() * d.x(), m(4) - count * d.x() * d.y(), m(4) - count * d.x() * d.y(),
-        m(5) - count * d.y() * d.y();
-    *sse = std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(scatter, Eigen::EigenvaluesOnly).eigenvalues()(0));
-    *centre_range = m(10) / count + config.arc_radius_prior;
-  };
-  // The middle interval [lo, hi) of the order against the rest. With two cuts the middle trunk hides the other
-  // on both sides, so it must be the nearer one.
-  const Moments total = prefix.back();
-  const auto partition = [&](int lo, int hi) {
-    const int inner = hi - lo;
-    if (inner < min_part || n - inner < min_part)
-      return std::numeric_limits<double>::infinity();
-    const Moments middle = prefix[static_cast<std::size_t>(hi)] - prefix[static_cast<std::size_t>(lo)];
-    double s1 = 0.0, s2 = 0.0, range1 = 0.0, range2 = 0.0;
-    score(middle, &s1, &range1);
-    score(total - middle, &s2, &range2);
-    if (lo > 0 && hi < n && !(range1 < range2))
-      return std::numeric_limits<double>::infinity();
-    return s1 + s2;
-  };
+  const PairCuts cuts(points, order, mean, min_part, config);
   // The single circle's residuals, each capped at the inlier distance.
   const double t = config.ransac_threshold;
   double rss1 = 0.0;
@@ -587,154 +889,28 @@ TrunkPairFit fitTrunkPair(const std::vector<Eigen::Vector2d>& points, const Trun
   rss1 = std::max(rss1, floor);
 
   // One cut: every place. Two cuts: a grid of kPairCuts places, then each cut moved to its best place nearby.
-  double best_one = std::numeric_limits<double>::infinity();
-  int one_cut = -1;
-  for (int k = min_part; k + min_part <= n; ++k)
-  {
-    const double s = partition(0, k);
-    if (s < best_one)
-    {
-      best_one = s;
-      one_cut = k;
-    }
-  }
-  double best_two = std::numeric_limits<double>::infinity();
-  int two_lo = -1, two_hi = -1;
-  const int cuts = std::min(kPairCuts, n);
-  for (int i = 1; i < cuts; ++i)
-    for (int j = i + 1; j < cuts; ++j)
-    {
-      const int lo = static_cast<int>(static_cast<long>(i) * n / cuts), hi = static_cast<int>(static_cast<long>(j) * n / cuts);
-      const double s = partition(lo, hi);
-      if (s < best_two)
-      {
-        best_two = s;
-        two_lo = lo;
-        two_hi = hi;
-      }
-    }
-  if (two_lo >= 0)
-  {
-    const int reach = n / cuts + 1;
-    for (int pass = 0; pass < 2; ++pass)
-    {
-      const int lo0 = two_lo, hi0 = two_hi;
-      for (int lo = std::max(1, lo0 - reach); lo <= lo0 + reach; ++lo)
-      {
-        const double s = partition(lo, two_hi);
-        if (s < best_two)
-        {
-          best_two = s;
-          two_lo = lo;
-        }
-      }
-      for (int hi = hi0 - reach; hi <= std::min(n - 1, hi0 + reach); ++hi)
-      {
-        const double s = partition(two_lo, hi);
-        if (s < best_two)
-        {
-          best_two = s;
-          two_hi = hi;
-        }
-      }
-    }
-  }
+  int one_cut = -1, two_lo = -1, two_hi = -1;
+  const double best_one = cuts.bestOneCut(&one_cut);
+  const double best_two = cuts.bestTwoCuts(&two_lo, &two_hi);
 
   // Each candidate partition: fit each part, give every point to the circle it lies nearer to, and again until
   // the parts stay. Kept when its circles pass every test.
-  double best_rss = std::numeric_limits<double>::infinity();
-  std::vector<Eigen::Vector2d> part;
-  const auto tryPartition = [&](int lo, int hi) {
-    if (lo < 0)
-      return;
-    std::vector<int> member[2];
-    for (int k = 0; k < n; ++k)
-      member[k >= lo && k < hi ? 0 : 1].push_back(order[static_cast<std::size_t>(k)]);
-    TrunkFit fit[2];
-    const auto distanceTo = [&](int p, const Eigen::Vector2d& q) {
-      return std::abs((q - fit[p].center).norm() - fit[p].radius);
-    };
-    for (int it = 0; it < kPairIterations; ++it)
-    {
-      for (int p = 0; p < 2; ++p)
-      {
-        std::sort(member[p].begin(), member[p].end());
-        part.clear();
-        for (int i : member[p])
-          part.push_back(points[static_cast<std::size_t>(i)]);
-        fit[p] = fitTrunkCircle(part, config);
-        if (!fit[p].ok)
-          return;
-      }
-      std::vector<int> again[2];
-      for (int i = 0; i < n; ++i)
-      {
-        const Eigen::Vector2d& q = points[static_cast<std::size_t>(i)];
-        again[distanceTo(0, q) <= distanceTo(1, q) ? 0 : 1].push_back(i);
-      }
-      if (again[0] == member[0] || static_cast<int>(again[0].size()) < min_part ||
-          static_cast<int>(again[1].size()) < min_part)
-        break;
-      member[0].swap(again[0]);
-      member[1].swap(again[1]);
-    }
-    // Each part a trunk of its own, seen over a wide enough arc.
-    for (int p = 0; p < 2; ++p)
-    {
-      const int size = static_cast<int>(member[p].size());
-      if (size < min_part || fit[p].method != TrunkMethod::kCircle ||
-          checkTrunkFit(fit[p], size, config) != TrunkRejection::kNone)
-        return;
-    }
-    // Two trunks side by side, not one circle fitted twice nor a trunk and a sliver of itself: the circles overlap
-    // by at most kPairOverlap inlier distances (their radii's errors).
-    const double apart = (fit[0].center - fit[1].center).norm();
-    if (apart < fit[0].radius + fit[1].radius - kPairOverlap * t)
-      return;
-    // The two silhouettes end where the points end: nothing else hides the pair's outer edges.
-    for (int p = 0; p < 2; ++p)
-    {
-      const double range = fit[p].center.norm();
-      if (!(range > fit[p].radius))
-        return;
-      const double half = std::asin(fit[p].radius / range);
-      const double centre = std::remainder(std::atan2(fit[p].center.y(), fit[p].center.x()) - b0, 2.0 * kPi);
-      const double margin = 2.0 * t / range + kSilhouetteSlack;
-      if (centre - half < bearing_lo - margin || centre + half > bearing_hi + margin)
-        return;
-    }
-    // Clearly better than one circle: residuals capped at the inlier distance.
-    double rss2 = 0.0;
-    for (const auto& q : points)
-      rss2 += std::pow(std::min(std::min(distanceTo(0, q), distanceTo(1, q)), t), 2);
-    rss2 = std::max(rss2, floor);
-    if (!(rss2 <= kPairRssRatio * rss1) ||
-        !(static_cast<double>(n) * std::log(rss1 / rss2) - 4.0 * std::log(static_cast<double>(n)) > 0.0) ||
-        !(rss2 < best_rss))
-      return;
-    best_rss = rss2;
-    pair.ok = true;
-    for (int p = 0; p < 2; ++p)
-    {
-      pair.fits[p] = fit[p];
-      pair.members[p] = member[p];
-    }
-  };
+  PairTrials trials(points, order, min_part, b0, bearing_lo, bearing_hi, rss1, floor, config, &pair);
   // The partition the algebraic circles explain better first, the other only when it fails; neither when even the
   // better one does not explain the points better than the single circle (its residuals uncapped).
   if (!(std::min(best_one, best_two) < rss1))
     return pair;
   if (best_two < best_one)
   {
-    tryPartition(two_lo, two_hi);
+    trials.tryPartition(two_lo, two_hi);
     if (!pair.ok && std::isfinite(best_one))
-      tryPartition(0, one_cut);
+      trials.tryPartition(0, one_cut);
   }
   else
   {
-    tryPartition(0, one_cut);
+    trials.tryPartition(0, one_cut);
     if (!pair.ok && std::isfinite(best_two))
-      tryPartition(two_lo, two_hi);
+      trials.tryPartition(two_lo, two_hi);
   }
   return pair;
 }

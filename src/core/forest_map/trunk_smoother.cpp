@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <unordered_map>
 
 #include <Eigen/Cholesky>
@@ -165,6 +166,97 @@ Landmark mergeTrees(const Landmark& recent, const Landmark& old)
   m.seen_range = std::fmax(recent.seen_range, old.seen_range);
   return m;
 }
+
+constexpr double kTreeCell = 2.0;  // [m] cells of the trees' grid for the association
+
+/** @brief The trees' indices by the cell (kTreeCell) their mean lies in. */
+using TreeGrid = std::unordered_map<long long, std::vector<std::size_t>>;
+
+long long treeCellKey(double x, double y)
+{
+  return (static_cast<long long>(std::floor(x / kTreeCell)) << 32) ^
+         (static_cast<long long>(std::floor(y / kTreeCell)) & 0xffffffffLL);
+}
+
+/** @brief The tree of @p grid nearest to the point @p p of covariance @p C (Mahalanobis, below @p gate), or -1. */
+long nearestTree(const TreeGrid& grid, const std::vector<Landmark>& trees, const Eigen::Vector2d& p,
+                 const Eigen::Matrix2d& C, double gate)
+{
+  double best = gate;
+  long best_j = -1;
+  const long cx = static_cast<long>(std::floor(p.x() / kTreeCell));
+  const long cy = static_cast<long>(std::floor(p.y() / kTreeCell));
+  for (long ix = cx - 1; ix <= cx + 1; ++ix)
+    for (long iy = cy - 1; iy <= cy + 1; ++iy)
+    {
+      const auto it = grid.find(treeCellKey((ix + 0.5) * kTreeCell, (iy + 0.5) * kTreeCell));
+      if (it == grid.end())
+        continue;
+      for (std::size_t j : it->second)
+      {
+        const Eigen::Vector2d e = p - trees[j].mean;
+        const double d2 = e.dot((C + trees[j].covariance).ldlt().solve(e));
+        if (d2 < best)
+        {
+          best = d2;
+          best_j = static_cast<long>(j);
+        }
+      }
+    }
+  return best_j;
+}
+
+ceres::Solver::Options solverOptions(int max_iterations, double budget, std::chrono::steady_clock::time_point t0)
+{
+  ceres::Solver::Options options;
+  // Sparse Cholesky of the whole normal equations: faster here than eliminating the trees first (the path is a
+  // chain, and most trees are seen from a few keyframes), with the same solution.
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.num_threads = 1;
+  options.max_num_iterations = max_iterations;
+  // The budget bounds the solve itself (what is left of it after building the graph): a solve stopped there is
+  // refused, so that no loop stalls the filter for longer.
+  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  options.max_solver_time_in_seconds = std::max(1e-3, budget - spent);
+  // Converged when an iteration changes the cost by less than 1e-4 of it: by then the path moves by millimetres.
+  options.function_tolerance = 1e-4;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  return options;
+}
+
+/** @brief Whether the solve ended without converging (then why, in @p out's reason). */
+bool solverFailed(const ceres::Solver::Summary& summary, double budget, int max_iterations, SmoothedRun* out)
+{
+  if (summary.termination_type == ceres::CONVERGENCE)
+    return false;
+  if (summary.termination_type == ceres::NO_CONVERGENCE && out->seconds >= budget - 1e-3)
+    out->reason = "the smoother took " + std::to_string(out->seconds) + " s, beyond its budget of " +
+                  std::to_string(budget) + " s";
+  else
+    out->reason = summary.termination_type == ceres::NO_CONVERGENCE ?
+                      "the smoother did not converge in " + std::to_string(max_iterations) + " iterations" :
+                      "the smoother failed: " + summary.message;
+  return true;
+}
+
+/** @brief The marginal covariance of the last keyframe's pose @p last (when there are @p keyframes > 1) into @p out. */
+void lastPoseCovariance(ceres::Problem* problem, const double* last, std::size_t keyframes, SmoothedRun* out)
+{
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = 1;
+  ceres::Covariance covariance(co);
+  if (keyframes > 1 && covariance.Compute({ std::make_pair(last, last) }, problem))
+  {
+    double c[9];
+    if (covariance.GetCovarianceBlock(last, last, c))
+    {
+      out->last_covariance = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(c);
+      out->has_covariance = out->last_covariance.allFinite();
+    }
+  }
+}
 }  // namespace
 
 double chiSquareQuantile(double quantile, int dof)
@@ -263,6 +355,175 @@ Eigen::Matrix3d TrunkSmoother::odometryCovariance(std::size_t a, std::size_t b) 
   return cov;
 }
 
+// One solve's graph, its members in the order the solve fills them: the keyframes, the parameter blocks (sized
+// before the problem, which points into them, and never resized after), the problem and the loop's identities.
+struct TrunkSmoother::Graph
+{
+  explicit Graph(double robust_scale) : cauchy(robust_scale) {}
+
+  std::vector<std::size_t> keyframes;              // the records that are keyframes
+  std::vector<std::size_t> keyframe_of;            // each record's keyframe
+  std::vector<std::array<double, 3>> poses;        // the keyframes' poses (x, y, theta)
+  std::unordered_map<int, std::size_t> index_of;   // each tree's index by its id
+  TreeGrid grid;                                   // the trees by cell, for the association
+  std::vector<std::array<double, 2>> tree_params;  // the trees' positions
+  std::vector<char> used;                          // the trees an observation ties to the path
+  std::optional<ceres::Problem> problem;           // once the parameter blocks are sized
+  ceres::CauchyLoss cauchy;                        // the range-bearing factors' loss
+  // The loop's identities, and the indices of their two trees.
+  std::vector<IdentityFactor> identity_factors;
+  std::vector<std::pair<std::size_t, std::size_t>> identity_trees;
+};
+
+void TrunkSmoother::chooseKeyframes(const std::vector<Pose2>& path, Graph* g) const
+{
+  const std::size_t n = records_.size();
+  // Keyframes: about every keyframe_distance of travel or keyframe_angle of turn.
+  g->keyframes = { 0 };
+  g->keyframe_of.assign(n, 0);
+  for (std::size_t i = 1; i < n; ++i)
+  {
+    const Pose2 d = between(records_[g->keyframes.back()].odometry, records_[i].odometry);
+    if (std::hypot(d.x, d.y) >= config_.keyframe_distance || std::abs(d.theta) >= config_.keyframe_angle)
+      g->keyframes.push_back(i);
+    g->keyframe_of[i] = g->keyframes.size() - 1;
+  }
+  g->poses.resize(g->keyframes.size());
+  for (std::size_t k = 0; k < g->keyframes.size(); ++k)
+    g->poses[k] = { path[g->keyframes[k]].x, path[g->keyframes[k]].y, path[g->keyframes[k]].theta };
+}
+
+void TrunkSmoother::indexTrees(const std::vector<Landmark>& trees, Graph* g)
+{
+  // The trees, and a grid of 2 m cells over them for the association.
+  for (std::size_t j = 0; j < trees.size(); ++j)
+  {
+    g->index_of[trees[j].id] = j;
+    g->grid[treeCellKey(trees[j].mean.x(), trees[j].mean.y())].push_back(j);
+  }
+  g->tree_params.resize(trees.size());
+  for (std::size_t j = 0; j < trees.size(); ++j)
+    g->tree_params[j] = { trees[j].mean.x(), trees[j].mean.y() };
+  g->used.assign(trees.size(), 0);
+}
+
+void TrunkSmoother::addOdometryFactors(Graph* g) const
+{
+  for (std::size_t k = 0; k + 1 < g->keyframes.size(); ++k)
+  {
+    const Pose2 d = between(records_[g->keyframes[k]].odometry, records_[g->keyframes[k + 1]].odometry);
+    OdometryFactor f{ Eigen::Vector3d(d.x, d.y, d.theta),
+                      sqrtInformation<3>(odometryCovariance(g->keyframes[k], g->keyframes[k + 1])) };
+    g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 3, 3, 3>(new OdometryFactor(f)),
+                                 nullptr, g->poses[k].data(), g->poses[k + 1].data());
+  }
+}
+
+void TrunkSmoother::addObservationFactors(const std::vector<Pose2>& path, const std::vector<Landmark>& trees, Graph* g,
+                                          SmoothedRun* out) const
+{
+  // Observations, each given to the tree it falls on from the particle's own pose.
+  for (std::size_t i = 0; i < records_.size(); ++i)
+  {
+    const Record& r = records_[i];
+    const std::size_t k = g->keyframe_of[i];
+    const Pose2 sensor_in_keyframe = between(records_[g->keyframes[k]].odometry, r.odometry) * r.mount;
+    const Pose2 s = path[i] * r.mount;
+    for (const LandmarkObservation& o : r.observations)
+    {
+      const double phi = s.theta + o.bearing, c = std::cos(phi), sn = std::sin(phi);
+      const Eigen::Vector2d p(s.x + o.range * c, s.y + o.range * sn);
+      Eigen::Matrix2d J;
+      J << c, -o.range * sn, sn, o.range * c;
+      const Eigen::Matrix2d C = J * o.covariance * J.transpose();
+      const long best_j = nearestTree(g->grid, trees, p, C, config_.association_gate);
+      if (best_j < 0)
+        continue;
+      RangeBearingFactor f{ sensor_in_keyframe, Eigen::Vector2d(o.range, o.bearing), sqrtInformation<2>(o.covariance) };
+      g->problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<RangeBearingFactor, 2, 3, 2>(new RangeBearingFactor(f)), &g->cauchy,
+          g->poses[k].data(), g->tree_params[best_j].data());
+      g->used[best_j] = 1;
+      ++out->observations;
+    }
+  }
+}
+
+void TrunkSmoother::addIdentityFactors(const std::vector<Landmark>& trees,
+                                       const std::vector<std::pair<int, int>>& identities, Graph* g) const
+{
+  // The loop: its trees' identities.
+  for (const auto& id : identities)
+  {
+    const auto a = g->index_of.find(id.first), b = g->index_of.find(id.second);
+    if (a == g->index_of.end() || b == g->index_of.end() || a->second == b->second || !g->used[a->second] ||
+        !g->used[b->second])
+      continue;
+    // The two trees' covariances, and the fit of a trunk's centre from other sides of its bark: loop_sigma, and a
+    // share of the radius (a trunk is no perfect circle).
+    const double r = 0.5 * (trees[a->second].radius + trees[b->second].radius) * config_.loop_radius_share;
+    const Eigen::Matrix2d cov = trees[a->second].covariance + trees[b->second].covariance +
+                                (config_.loop_sigma * config_.loop_sigma + r * r) * Eigen::Matrix2d::Identity();
+    IdentityFactor f{ sqrtInformation<2>(cov) };
+    g->identity_factors.push_back(f);
+    g->identity_trees.emplace_back(a->second, b->second);
+    g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<IdentityFactor, 2, 2, 2>(new IdentityFactor(f)),
+                                 nullptr, g->tree_params[a->second].data(), g->tree_params[b->second].data());
+  }
+}
+
+void TrunkSmoother::storePath(const Graph& g, const std::vector<Pose2>& corrected, SmoothedRun* out) const
+{
+  const std::size_t n = records_.size();
+  out->stamps.resize(n);
+  out->poses.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::size_t k = g.keyframe_of[i];
+    out->stamps[i] = records_[i].stamp;
+    out->poses[i] = corrected[k] * between(records_[g.keyframes[k]].odometry, records_[i].odometry);
+  }
+}
+
+void TrunkSmoother::storeTrees(const Graph& g, const std::vector<Pose2>& corrected, const std::vector<Pose2>& path,
+                               const std::vector<Landmark>& trees, SmoothedRun* out) const
+{
+  const std::size_t n = records_.size();
+  std::vector<Landmark> moved = trees;
+  for (std::size_t j = 0; j < trees.size(); ++j)
+  {
+    if (g.used[j])
+    {
+      moved[j].mean = Eigen::Vector2d(g.tree_params[j][0], g.tree_params[j][1]);
+      continue;
+    }
+    // Not tied by an observation kept here: moved with the keyframe of its last sighting.
+    std::size_t i = n - 1;
+    if (std::isfinite(trees[j].last_seen))
+    {
+      const auto it = std::lower_bound(records_.begin(), records_.end(), trees[j].last_seen,
+                                       [](const Record& r, double t) { return r.stamp < t; });
+      i = std::min<std::size_t>(n - 1, static_cast<std::size_t>(it - records_.begin()));
+    }
+    const std::size_t k = g.keyframe_of[i];
+    const Pose2 c = corrected[k] * path[g.keyframes[k]].inverse();
+    double x = 0.0, y = 0.0;
+    c.transformPoint(trees[j].mean.x(), trees[j].mean.y(), &x, &y);
+    moved[j].mean = Eigen::Vector2d(x, y);
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(c.theta).toRotationMatrix();
+    moved[j].covariance = R * trees[j].covariance * R.transpose();
+  }
+  std::vector<char> drop(trees.size(), 0);
+  for (const auto& ab : g.identity_trees)
+  {
+    moved[ab.second] = mergeTrees(moved[ab.first], moved[ab.second]);
+    drop[ab.first] = 1;
+  }
+  for (std::size_t j = 0; j < trees.size(); ++j)
+    if (!drop[j])
+      out->trees.push_back(moved[j]);
+}
+
 SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
                                  const std::vector<std::pair<int, int>>& identities, double time_budget) const
 {
@@ -276,180 +537,48 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
                  " updates recorded";
     return out;
   }
-  // Keyframes: about every keyframe_distance of travel or keyframe_angle of turn.
-  std::vector<std::size_t> keyframes{ 0 };
-  std::vector<std::size_t> keyframe_of(n, 0);
-  for (std::size_t i = 1; i < n; ++i)
-  {
-    const Pose2 d = between(records_[keyframes.back()].odometry, records_[i].odometry);
-    if (std::hypot(d.x, d.y) >= config_.keyframe_distance || std::abs(d.theta) >= config_.keyframe_angle)
-      keyframes.push_back(i);
-    keyframe_of[i] = keyframes.size() - 1;
-  }
-  out.keyframes = static_cast<int>(keyframes.size());
-  std::vector<std::array<double, 3>> poses(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k)
-    poses[k] = { path[keyframes[k]].x, path[keyframes[k]].y, path[keyframes[k]].theta };
-
-  // The trees, and a grid of 2 m cells over them for the association.
-  std::unordered_map<int, std::size_t> index_of;
-  std::unordered_map<long long, std::vector<std::size_t>> grid;
-  const double cell = 2.0;
-  const auto key = [cell](double x, double y) {
-    return (static_cast<long long>(std::floor(x / cell)) << 32) ^
-           (static_cast<long long>(std::floor(y / cell)) & 0xffffffffLL);
-  };
-  for (std::size_t j = 0; j < trees.size(); ++j)
-  {
-    index_of[trees[j].id] = j;
-    grid[key(trees[j].mean.x(), trees[j].mean.y())].push_back(j);
-  }
-  std::vector<std::array<double, 2>> tree_params(trees.size());
-  for (std::size_t j = 0; j < trees.size(); ++j)
-    tree_params[j] = { trees[j].mean.x(), trees[j].mean.y() };
-  std::vector<char> used(trees.size(), 0);
+  Graph g(config_.robust_scale);
+  chooseKeyframes(path, &g);
+  out.keyframes = static_cast<int>(g.keyframes.size());
+  indexTrees(trees, &g);
 
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  ceres::CauchyLoss cauchy(config_.robust_scale);
-  for (std::size_t k = 0; k + 1 < keyframes.size(); ++k)
-  {
-    const Pose2 d = between(records_[keyframes[k]].odometry, records_[keyframes[k + 1]].odometry);
-    OdometryFactor f{ Eigen::Vector3d(d.x, d.y, d.theta),
-                      sqrtInformation<3>(odometryCovariance(keyframes[k], keyframes[k + 1])) };
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 3, 3, 3>(new OdometryFactor(f)), nullptr,
-                             poses[k].data(), poses[k + 1].data());
-  }
-  // Observations, each given to the tree it falls on from the particle's own pose.
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    const Record& r = records_[i];
-    const std::size_t k = keyframe_of[i];
-    const Pose2 sensor_in_keyframe = between(records_[keyframes[k]].odometry, r.odometry) * r.mount;
-    const Pose2 s = path[i] * r.mount;
-    for (const LandmarkObservation& o : r.observations)
-    {
-      const double phi = s.theta + o.bearing, c = std::cos(phi), sn = std::sin(phi);
-      const Eigen::Vector2d p(s.x + o.range * c, s.y + o.range * sn);
-      Eigen::Matrix2d J;
-      J << c, -o.range * sn, sn, o.range * c;
-      const Eigen::Matrix2d C = J * o.covariance * J.transpose();
-      double best = config_.association_gate;
-      long best_j = -1;
-      const long cx = static_cast<long>(std::floor(p.x() / cell)), cy = static_cast<long>(std::floor(p.y() / cell));
-      for (long ix = cx - 1; ix <= cx + 1; ++ix)
-        for (long iy = cy - 1; iy <= cy + 1; ++iy)
-        {
-          const auto it = grid.find(key((ix + 0.5) * cell, (iy + 0.5) * cell));
-          if (it == grid.end())
-            continue;
-          for (std::size_t j : it->second)
-          {
-            const Eigen::Vector2d e = p - trees[j].mean;
-            const double d2 = e.dot((C + trees[j].covariance).ldlt().solve(e));
-            if (d2 < best)
-            {
-              best = d2;
-              best_j = static_cast<long>(j);
-            }
-          }
-        }
-      if (best_j < 0)
-        continue;
-      RangeBearingFactor f{ sensor_in_keyframe, Eigen::Vector2d(o.range, o.bearing), sqrtInformation<2>(o.covariance) };
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeBearingFactor, 2, 3, 2>(new RangeBearingFactor(f)),
-                               &cauchy, poses[k].data(), tree_params[best_j].data());
-      used[best_j] = 1;
-      ++out.observations;
-    }
-  }
-  // The loop: its trees' identities.
-  std::vector<IdentityFactor> identity_factors;
-  std::vector<std::pair<std::size_t, std::size_t>> identity_trees;
-  for (const auto& id : identities)
-  {
-    const auto a = index_of.find(id.first), b = index_of.find(id.second);
-    if (a == index_of.end() || b == index_of.end() || a->second == b->second || !used[a->second] || !used[b->second])
-      continue;
-    // The two trees' covariances, and the fit of a trunk's centre from other sides of its bark: loop_sigma, and a
-    // share of the radius (a trunk is no perfect circle).
-    const double r = 0.5 * (trees[a->second].radius + trees[b->second].radius) * config_.loop_radius_share;
-    const Eigen::Matrix2d cov = trees[a->second].covariance + trees[b->second].covariance +
-                                (config_.loop_sigma * config_.loop_sigma + r * r) * Eigen::Matrix2d::Identity();
-    IdentityFactor f{ sqrtInformation<2>(cov) };
-    identity_factors.push_back(f);
-    identity_trees.emplace_back(a->second, b->second);
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<IdentityFactor, 2, 2, 2>(new IdentityFactor(f)), nullptr,
-                             tree_params[a->second].data(), tree_params[b->second].data());
-  }
-  out.identities = static_cast<int>(identity_factors.size());
-  if (!identities.empty() && identity_factors.empty())
+  ceres::Problem& problem = g.problem.emplace(problem_options);
+  addOdometryFactors(&g);
+  addObservationFactors(path, trees, &g, &out);
+  addIdentityFactors(trees, identities, &g);
+  out.identities = static_cast<int>(g.identity_factors.size());
+  if (!identities.empty() && g.identity_factors.empty())
   {
     out.reason = "none of the loop's trees is tied to the path by an observation";
     return out;
   }
-  problem.SetParameterBlockConstant(poses[0].data());
-  for (char u : used)
+  problem.SetParameterBlockConstant(g.poses[0].data());
+  for (char u : g.used)
     out.trees_solved += u;
 
-  ceres::Solver::Options options;
-  // Sparse Cholesky of the whole normal equations: faster here than eliminating the trees first (the path is a
-  // chain, and most trees are seen from a few keyframes), with the same solution.
-  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  options.num_threads = 1;
-  options.max_num_iterations = config_.max_iterations;
-  // The budget bounds the solve itself (what is left of it after building the graph): a solve stopped there is
-  // refused, so that no loop stalls the filter for longer.
-  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  options.max_solver_time_in_seconds = std::max(1e-3, budget - spent);
-  // Converged when an iteration changes the cost by less than 1e-4 of it: by then the path moves by millimetres.
-  options.function_tolerance = 1e-4;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
+  const ceres::Solver::Options options = solverOptions(config_.max_iterations, budget, t0);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   out.iterations = static_cast<int>(summary.iterations.size());
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (summary.termination_type != ceres::CONVERGENCE)
-  {
-    if (summary.termination_type == ceres::NO_CONVERGENCE && out.seconds >= budget - 1e-3)
-      out.reason = "the smoother took " + std::to_string(out.seconds) + " s, beyond its budget of " +
-                   std::to_string(budget) + " s";
-    else
-      out.reason = summary.termination_type == ceres::NO_CONVERGENCE ?
-                       "the smoother did not converge in " + std::to_string(config_.max_iterations) + " iterations" :
-                       "the smoother failed: " + summary.message;
+  if (solverFailed(summary, budget, config_.max_iterations, &out))
     return out;
-  }
 
   // Consistency: the identities' residuals after the solve.
-  for (std::size_t f = 0; f < identity_factors.size(); ++f)
+  for (std::size_t f = 0; f < g.identity_factors.size(); ++f)
   {
     double r[2];
-    identity_factors[f](tree_params[identity_trees[f].first].data(), tree_params[identity_trees[f].second].data(), r);
+    g.identity_factors[f](g.tree_params[g.identity_trees[f].first].data(),
+                          g.tree_params[g.identity_trees[f].second].data(), r);
     out.identity_chi2 += r[0] * r[0] + r[1] * r[1];
   }
   out.identity_bound = chiSquareQuantile(config_.loop_quantile, 2 * out.identities);
 
   // The last keyframe's marginal covariance, for the spread of the particles drawn again.
   const auto t_cov = std::chrono::steady_clock::now();
-  {
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::SPARSE_QR;
-    co.num_threads = 1;
-    ceres::Covariance covariance(co);
-    const double* last = poses.back().data();
-    if (keyframes.size() > 1 && covariance.Compute({ std::make_pair(last, last) }, &problem))
-    {
-      double c[9];
-      if (covariance.GetCovarianceBlock(last, last, c))
-      {
-        out.last_covariance = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(c);
-        out.has_covariance = out.last_covariance.allFinite();
-      }
-    }
-  }
+  lastPoseCovariance(&problem, g.poses.back().data(), g.keyframes.size(), &out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.seconds_covariance = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_cov).count();
   if (out.seconds > budget)
@@ -466,50 +595,11 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   }
 
   // The path at every update, and the trees.
-  std::vector<Pose2> corrected(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k)
-    corrected[k] = Pose2(poses[k][0], poses[k][1], wrapAngle(poses[k][2]));
-  out.stamps.resize(n);
-  out.poses.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    const std::size_t k = keyframe_of[i];
-    out.stamps[i] = records_[i].stamp;
-    out.poses[i] = corrected[k] * between(records_[keyframes[k]].odometry, records_[i].odometry);
-  }
-  std::vector<Landmark> moved = trees;
-  for (std::size_t j = 0; j < trees.size(); ++j)
-  {
-    if (used[j])
-    {
-      moved[j].mean = Eigen::Vector2d(tree_params[j][0], tree_params[j][1]);
-      continue;
-    }
-    // Not tied by an observation kept here: moved with the keyframe of its last sighting.
-    std::size_t i = n - 1;
-    if (std::isfinite(trees[j].last_seen))
-    {
-      const auto it = std::lower_bound(records_.begin(), records_.end(), trees[j].last_seen,
-                                       [](const Record& r, double t) { return r.stamp < t; });
-      i = std::min<std::size_t>(n - 1, static_cast<std::size_t>(it - records_.begin()));
-    }
-    const std::size_t k = keyframe_of[i];
-    const Pose2 c = corrected[k] * path[keyframes[k]].inverse();
-    double x = 0.0, y = 0.0;
-    c.transformPoint(trees[j].mean.x(), trees[j].mean.y(), &x, &y);
-    moved[j].mean = Eigen::Vector2d(x, y);
-    const Eigen::Matrix2d R = Eigen::Rotation2Dd(c.theta).toRotationMatrix();
-    moved[j].covariance = R * trees[j].covariance * R.transpose();
-  }
-  std::vector<char> drop(trees.size(), 0);
-  for (const auto& ab : identity_trees)
-  {
-    moved[ab.second] = mergeTrees(moved[ab.first], moved[ab.second]);
-    drop[ab.first] = 1;
-  }
-  for (std::size_t j = 0; j < trees.size(); ++j)
-    if (!drop[j])
-      out.trees.push_back(moved[j]);
+  std::vector<Pose2> corrected(g.keyframes.size());
+  for (std::size_t k = 0; k < g.keyframes.size(); ++k)
+    corrected[k] = Pose2(g.poses[k][0], g.poses[k][1], wrapAngle(g.poses[k][2]));
+  storePath(g, corrected, &out);
+  storeTrees(g, corrected, path, trees, &out);
   out.ok = true;
   return out;
 }

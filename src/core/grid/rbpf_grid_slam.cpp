@@ -63,16 +63,28 @@ int RbpfGridSlam::startMaps(const Pose2& odometry, const ScanData& scan, const P
   return beams;
 }
 
-GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor)
+// The odometry's spread over one step and what follows from it: the motion factor of the weight, the odometry's
+// veto, the widening of the matcher's first steps.
+struct RbpfGridSlam::StepSpread
 {
-  GridSlamStep step;
-  scanEndPoints(scan, config_.limits, 1, &end_points_);
-  const std::size_t n = particles_.size();
-  const std::size_t used = (end_points_.size() + static_cast<std::size_t>(config_.matcher.beam_step) - 1) /
-                           static_cast<std::size_t>(config_.matcher.beam_step);
-  const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
-  log_weights_.resize(n);
-  std::vector<int> matched(n, 0);
+  Spread spread;                               // the variances since the last processed scan, this one's included
+  double sigma_xy, sigma_theta;                // their standard deviations, floored: the motion factor
+  double veto_along, veto_across, veto_theta;  // the veto's: the motion model's and the match's own precision
+  int widen;                                   // doublings of the matcher's first steps
+
+  // The squared Mahalanobis distance of pose @p x from the odometry's mean @p mean.
+  double odometryDistance(const Pose2& x, const Pose2& mean) const
+  {
+    const double dx = x.x - mean.x, dy = x.y - mean.y;
+    const double c = std::cos(mean.theta), sn = std::sin(mean.theta);
+    const double along = (c * dx + sn * dy) / veto_along, across = (-sn * dx + c * dy) / veto_across;
+    const double turn = wrapAngle(x.theta - mean.theta) / veto_theta;
+    return along * along + across * across + turn * turn;
+  }
+};
+
+RbpfGridSlam::StepSpread RbpfGridSlam::stepSpread() const
+{
   // The odometry's spread since the last processed scan: the skipped scans' increments and this one's (equal to
   // the whole increment's when every scan is processed). Floored, it is the motion factor of the weight and the
   // odometry's veto; its growth over one scan's widens the matcher's first steps.
@@ -87,14 +99,17 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   const double veto_along = std::sqrt(spread.along + match_xy * match_xy);
   const double veto_across = std::sqrt(spread.across + match_xy * match_xy);
   const double veto_theta = std::sqrt(spread.theta + match_theta * match_theta);
-  {
-    // One doubling of the first steps per doubling of the spread against one scan's largest (rounded).
-    const double one_theta = std::max({ carried_.max_theta, std::sqrt(v_last.theta), floor_theta });
-    const double one_xy = std::max({ carried_.max_xy, std::sqrt(v_last.along + v_last.across), floor_xy });
-    const double ratio = std::max(sigma_theta / one_theta, sigma_xy / one_xy);
-    step.widen = ratio > 1.0 ? std::min(ScanMatcher::kMaxWiden, static_cast<int>(std::floor(std::log2(ratio) + 0.5)))
-                             : 0;
-  }
+  // One doubling of the first steps per doubling of the spread against one scan's largest (rounded).
+  const double one_theta = std::max({ carried_.max_theta, std::sqrt(v_last.theta), floor_theta });
+  const double one_xy = std::max({ carried_.max_xy, std::sqrt(v_last.along + v_last.across), floor_xy });
+  const double ratio = std::max(sigma_theta / one_theta, sigma_xy / one_xy);
+  const int widen =
+      ratio > 1.0 ? std::min(ScanMatcher::kMaxWiden, static_cast<int>(std::floor(std::log2(ratio) + 0.5))) : 0;
+  return { spread, sigma_xy, sigma_theta, veto_along, veto_across, veto_theta, widen };
+}
+
+OdometryMotionNoise RbpfGridSlam::scaledNoise(const OdometryIncrement& u, const Spread& spread) const
+{
   // The odometry sample of the whole increment with the motion noise scaled to that spread: the rotation
   // alphas by the ratio of the headings' standard deviations, the translation ones by the positions' (1 when every
   // scan is processed).
@@ -109,9 +124,14 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     noise.alpha3 *= f_trans;
     noise.alpha4 *= f_trans;
   }
-  carried_ = Carried();
+  return noise;
+}
+
+void RbpfGridSlam::drawSamples(const OdometryIncrement& u, const OdometryMotionNoise& noise)
+{
   // The random draws first, in particle order: the odometry sample and the jitter around the match (drawn
   // whether or not the match is trusted), so the result does not depend on the threads.
+  const std::size_t n = particles_.size();
   predicted_.resize(n);
   jitter_.resize(n);
   means_.resize(n);
@@ -122,45 +142,47 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
                        random_.gaussian(config_.proposal_sigma_theta));
     means_[i] = applyOdometry(particles_[i].pose, u);
   }
-  // The squared Mahalanobis distance of pose @p x from the odometry's mean @p mean.
-  const auto odometry_distance = [&](const Pose2& x, const Pose2& mean) {
-    const double dx = x.x - mean.x, dy = x.y - mean.y;
-    const double c = std::cos(mean.theta), sn = std::sin(mean.theta);
-    const double along = (c * dx + sn * dy) / veto_along, across = (-sn * dx + c * dy) / veto_across;
-    const double turn = wrapAngle(x.theta - mean.theta) / veto_theta;
-    return along * along + across * across + turn * turn;
-  };
-  const int widen = step.widen;
+}
+
+void RbpfGridSlam::matchParticle(std::size_t i, const Pose2& sensor, const StepSpread& spread, std::size_t used,
+                                 double min_matched)
+{
+  const int widen = spread.widen;
+  matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen);
+  if (used > 0 && static_cast<double>(matches_[i].matched) >= min_matched)
+    use_[i] = MatchUse::kMatch;
+  if (use_[i] == MatchUse::kMatch && config_.odometry_veto > 0.0 &&
+      spread.odometryDistance(matches_[i].pose, means_[i]) > config_.odometry_veto)
+  {
+    // Vetoed: the odometry says the match cannot be where the particle went. The position falls back to the
+    // odometry sample's; the heading is matched from there (walls fix it even where they fix no position),
+    // unless that too is improbable.
+    const int evaluations = matches_[i].evaluations;
+    matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen, true);
+    matches_[i].evaluations += evaluations;
+    const bool turn_ok = static_cast<double>(matches_[i].matched) >= min_matched &&
+                         spread.odometryDistance(matches_[i].pose, means_[i]) <= config_.odometry_veto;
+    use_[i] = turn_ok ? MatchUse::kHeading : MatchUse::kVetoed;
+  }
+  // Not trusted, or vetoed: weighed at the odometry sample, which the particle keeps.
+  if (use_[i] == MatchUse::kOdometry || use_[i] == MatchUse::kVetoed)
+  {
+    const int evaluations = matches_[i].evaluations;
+    matches_[i] = matcher_.evaluate(maps_[i], predicted_[i], sensor, end_points_);
+    matches_[i].evaluations += evaluations;
+  }
+}
+
+void RbpfGridSlam::matchParticles(const Pose2& sensor, const StepSpread& spread, std::size_t used, double min_matched)
+{
+  const std::size_t n = particles_.size();
   // Proposal: each particle's odometry sample, scan-matched against its own map (independent per particle: read
   // only, so the matches may run on several threads).
   matches_.resize(n);
   use_.assign(n, MatchUse::kOdometry);
   const auto match_range = [&](std::size_t first, std::size_t stride) {
     for (std::size_t i = first; i < n; i += stride)
-    {
-      matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen);
-      if (used > 0 && static_cast<double>(matches_[i].matched) >= min_matched)
-        use_[i] = MatchUse::kMatch;
-      if (use_[i] == MatchUse::kMatch && config_.odometry_veto > 0.0 &&
-          odometry_distance(matches_[i].pose, means_[i]) > config_.odometry_veto)
-      {
-        // Vetoed: the odometry says the match cannot be where the particle went. The position falls back to the
-        // odometry sample's; the heading is matched from there (walls fix it even where they fix no position),
-        // unless that too is improbable.
-        const int evaluations = matches_[i].evaluations;
-        matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen, true);
-        matches_[i].evaluations += evaluations;
-        const bool turn_ok = static_cast<double>(matches_[i].matched) >= min_matched &&
-                             odometry_distance(matches_[i].pose, means_[i]) <= config_.odometry_veto;
-        use_[i] = turn_ok ? MatchUse::kHeading : MatchUse::kVetoed;
-      }
-      if (use_[i] == MatchUse::kOdometry || use_[i] == MatchUse::kVetoed)  // weighed at the odometry sample, which the particle keeps
-      {
-        const int evaluations = matches_[i].evaluations;
-        matches_[i] = matcher_.evaluate(maps_[i], predicted_[i], sensor, end_points_);
-        matches_[i].evaluations += evaluations;
-      }
-    }
+      matchParticle(i, sensor, spread, used, min_matched);
   };
   const std::size_t threads = std::min<std::size_t>(static_cast<std::size_t>(config_.threads), n);
   if (threads <= 1)
@@ -174,19 +196,24 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     for (auto& thread : pool)
       thread.join();
   }
-  for (std::size_t i = 0; i < n; ++i)
+}
+
+void RbpfGridSlam::takeProposals(const StepSpread& spread, std::vector<int>* matched, GridSlamStep* step)
+{
+  const double sigma_xy = spread.sigma_xy, sigma_theta = spread.sigma_theta;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
   {
     GridParticle& p = particles_[i];
     const ScanMatch& m = matches_[i];
-    step.matcher_evaluations += m.evaluations;
+    step->matcher_evaluations += m.evaluations;
     // The pose: a small Gaussian around a trusted match (the weight is the likelihood at the match, GMapping's
     // "best score" normaliser), else the odometry sample itself.
     Pose2 pose = predicted_[i];
-    step.matches_vetoed += use_[i] == MatchUse::kVetoed || use_[i] == MatchUse::kHeading ? 1 : 0;
+    step->matches_vetoed += use_[i] == MatchUse::kVetoed || use_[i] == MatchUse::kHeading ? 1 : 0;
     if (use_[i] == MatchUse::kMatch || use_[i] == MatchUse::kHeading)
     {
       pose = Pose2(m.pose.x + jitter_[i].x, m.pose.y + jitter_[i].y, wrapAngle(m.pose.theta + jitter_[i].theta));
-      ++step.matches_trusted;
+      ++step->matches_trusted;
     }
     double motion_log = 0.0;
     if (config_.proposal_motion_weight > 0.0)
@@ -194,31 +221,36 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
       const Pose2& mean = means_[i];
       const double dx = pose.x - mean.x, dy = pose.y - mean.y, dt = wrapAngle(pose.theta - mean.theta);
       motion_log = -config_.proposal_motion_weight *
-                   ((dx * dx + dy * dy) / (2.0 * sigma_xy * sigma_xy) +
-                    dt * dt / (2.0 * sigma_theta * sigma_theta));
+                   ((dx * dx + dy * dy) / (2.0 * sigma_xy * sigma_xy) + dt * dt / (2.0 * sigma_theta * sigma_theta));
     }
     p.pose = pose;
-    matched[i] = m.matched;
+    (*matched)[i] = m.matched;
     log_weights_[i] = p.log_weight + config_.likelihood_gain * m.log_likelihood + motion_log;
   }
+}
+
+void RbpfGridSlam::mapAndResample(const ScanData& scan, const Pose2& sensor, const std::vector<int>& matched,
+                                  GridSlamStep* step)
+{
+  const std::size_t n = particles_.size();
   // Every particle maps with its own pose (copy-on-write clones the shared tiles it writes), before resampling:
   // once per particle, not once per copy.
   const WeightingStep w = weighParticles([&](const WeightingStep& weighed) {
     best_index_ = weighed.best;
-    step.best = static_cast<int>(best_index_);
-    step.best_correlation = matched[best_index_];
+    step->best = static_cast<int>(best_index_);
+    step->best_correlation = matched[best_index_];
     mapping_pose_ = particles_[best_index_].pose;
     for (std::size_t i = 0; i < n; ++i)
     {
       const int b = maps_[i].insertScan(particles_[i].pose * sensor, scan, config_.limits);
       if (i == best_index_)
-        step.beams_mapped = b;
+        step->beams_mapped = b;
       if (config_.keep_trajectory)
         histories_[i] = std::make_shared<const TrajectoryNode>(particles_[i].pose, std::move(histories_[i]));
     }
   });
-  step.neff = w.neff;
-  step.resampled = w.resampled;
+  step->neff = w.neff;
+  step->resampled = w.resampled;
   if (w.resampled)
   {
     // The estimate stays the particle that was best, if it survived (it nearly always does).
@@ -229,6 +261,26 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
     if (survivor == w.keep.end())
       mapping_pose_ = particles_[0].pose;
   }
+}
+
+GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan, const Pose2& sensor)
+{
+  GridSlamStep step;
+  scanEndPoints(scan, config_.limits, 1, &end_points_);
+  const std::size_t n = particles_.size();
+  const std::size_t used = (end_points_.size() + static_cast<std::size_t>(config_.matcher.beam_step) - 1) /
+                           static_cast<std::size_t>(config_.matcher.beam_step);
+  const double min_matched = config_.min_matched_ratio * static_cast<double>(used);
+  log_weights_.resize(n);
+  std::vector<int> matched(n, 0);
+  const StepSpread spread = stepSpread();
+  step.widen = spread.widen;
+  const OdometryMotionNoise noise = scaledNoise(u, spread.spread);
+  carried_ = Carried();
+  drawSamples(u, noise);
+  matchParticles(sensor, spread, used, min_matched);
+  takeProposals(spread, &matched, &step);
+  mapAndResample(scan, sensor, matched, &step);
   return step;
 }
 

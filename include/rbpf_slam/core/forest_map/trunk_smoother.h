@@ -86,6 +86,23 @@ private:
   /** @brief Covariance of the odometry's increment from record @p a to @p b under the motion noise class. */
   Eigen::Matrix3d odometryCovariance(std::size_t a, std::size_t b) const;
 
+  /** @brief One solve's keyframes, parameter blocks, problem and identities (defined in the source). */
+  struct Graph;
+  /** @brief The keyframes of the records, their poses from @p path. */
+  void chooseKeyframes(const std::vector<Pose2>& path, Graph* g) const;
+  /** @brief The trees' indices by id and by cell, their parameter blocks. */
+  static void indexTrees(const std::vector<Landmark>& trees, Graph* g);
+  void addOdometryFactors(Graph* g) const;
+  void addObservationFactors(const std::vector<Pose2>& path, const std::vector<Landmark>& trees, Graph* g,
+                             SmoothedRun* out) const;
+  void addIdentityFactors(const std::vector<Landmark>& trees, const std::vector<std::pair<int, int>>& identities,
+                          Graph* g) const;
+  /** @brief The path at every update, from the keyframes' solved poses @p corrected. */
+  void storePath(const Graph& g, const std::vector<Pose2>& corrected, SmoothedRun* out) const;
+  /** @brief The trees, moved by the solve (or with their keyframe), each identity's two merged into one. */
+  void storeTrees(const Graph& g, const std::vector<Pose2>& corrected, const std::vector<Pose2>& path,
+                  const std::vector<Landmark>& trees, SmoothedRun* out) const;
+
   SmootherConfig config_;
   OdometryMotionNoise motion_;
   double motion_step_, motion_step_angle_;

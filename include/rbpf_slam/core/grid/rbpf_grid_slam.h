@@ -50,6 +50,22 @@ private:
   };
   Spread spreadOf(const OdometryIncrement& u) const;
 
+  /** @brief The odometry's spread over one step and what follows from it (defined in the source). */
+  struct StepSpread;
+  StepSpread stepSpread() const;
+  /** @brief The motion noise of the whole increment @p u scaled to the step's @p spread. */
+  OdometryMotionNoise scaledNoise(const OdometryIncrement& u, const Spread& spread) const;
+  /** @brief The step's random draws, in particle order: odometry samples and jitters; the odometry's means. */
+  void drawSamples(const OdometryIncrement& u, const OdometryMotionNoise& noise);
+  /** @brief Scan-matches every particle's odometry sample against its map (on config_.threads threads). */
+  void matchParticles(const Pose2& sensor, const StepSpread& spread, std::size_t used, double min_matched);
+  void matchParticle(std::size_t i, const Pose2& sensor, const StepSpread& spread, std::size_t used,
+                     double min_matched);
+  /** @brief Each particle's new pose and log-weight from its match; the end points each matched. */
+  void takeProposals(const StepSpread& spread, std::vector<int>* matched, GridSlamStep* step);
+  /** @brief Every particle maps the scan at its pose, then the weighting step resamples. */
+  void mapAndResample(const ScanData& scan, const Pose2& sensor, const std::vector<int>& matched, GridSlamStep* step);
+
   ScanMatcher matcher_;
   std::vector<OccupancyGrid> maps_;  ///< one per particle
   std::vector<std::shared_ptr<const TrajectoryNode>> histories_;
