@@ -6,8 +6,10 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace eval
 {
+using core::Pose2;
+
 std::vector<int> optimalAssignment(const std::vector<std::vector<double>>& cost, double forbidden)
 {
   // Kuhn-Munkres on a square matrix padded with "forbidden" entries (rows: left items, columns: right).
@@ -152,5 +154,5 @@ double absoluteTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vec
   return std::sqrt(sum / static_cast<double>(n));
 }
 
-}  // namespace core
+}  // namespace eval
 }  // namespace rbpf_slam

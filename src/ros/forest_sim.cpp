@@ -20,7 +20,7 @@ namespace rbpf_slam
 {
 ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh)
 {
-  core::SimulatorConfig config;
+  sim::SimulatorConfig config;
   std::string world_path, indoor_map;
   std::shared_ptr<const core::OccupancyImage> indoor_image;
   std::vector<std::string> lockstep_topics;
@@ -51,15 +51,15 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
       throw std::runtime_error("~real_time_factor must be >= 0 (0: as fast as possible)");
     if (indoor_map.empty())
     {
-      sim_.reset(new core::ForestSimulator(io::loadForestWorld(world_path), config));
+      sim_.reset(new sim::ForestSimulator(io::loadForestWorld(world_path), config));
     }
     else
     {
       indoor_image = std::make_shared<const core::OccupancyImage>(io::loadMapImage(indoor_map));
-      core::ForestWorld flat;
+      sim::ForestWorld flat;
       flat.ground.amplitude = 0.0;
       config.lidar3d.enabled = false;
-      sim_.reset(new core::ForestSimulator(flat, config, indoor_image));
+      sim_.reset(new sim::ForestSimulator(flat, config, indoor_image));
     }
   }
   catch (const std::exception& e)
@@ -94,7 +94,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
     ack_subs_.push_back(nh_.subscribe<AnyStamped>(
         lockstep_topics[i], 10, boost::bind(&ForestSim::onAck, this, boost::placeholders::_1, i)));
 
-  const core::SimulatorConfig& c = sim_->config();
+  const sim::SimulatorConfig& c = sim_->config();
   std::vector<geometry_msgs::TransformStamped> statics{ toStaticTf(c.lidar3d.mount, frames_.base, frames_.lidar3d, 0.0,
                                                                    time_base_),
                                                         toStaticTf(c.lidar2d.mount, frames_.base, frames_.lidar2d, 0.0,
@@ -106,7 +106,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   trees_pub_.publish(rbpf_slam::TrunkArray::ConstPtr(trees));
   tree_markers_pub_.publish(visualization_msgs::MarkerArray::ConstPtr(toTreeMarkers(*trees, "true_trees", 0.55f, 0.35f, 0.15f)));
   truth_path_.header.frame_id = frames_.map;
-  start_ground_z_ = core::Ground(sim_->world().ground).height(c.start.x, c.start.y);
+  start_ground_z_ = sim::Ground(sim_->world().ground).height(c.start.x, c.start.y);
 
   ROS_INFO("%s: %s, %zu trunks, start (%.2f, %.2f, %.1f deg), seed %llu, %s%s", pnh_.getNamespace().c_str(),
            indoor_map.empty() ? world_path.c_str() : indoor_map.c_str(), sim_->world().trunks.size(), c.start.x,
@@ -174,7 +174,7 @@ void ForestSim::waitLockstep(double sensor_stamp)
 
 void ForestSim::run()
 {
-  core::SimulatorOutput out;
+  sim::SimulatorOutput out;
   const auto wall_start = std::chrono::steady_clock::now();
   bool done = false;
   while (running_ && ros::ok())
@@ -201,7 +201,7 @@ void ForestSim::run()
     sim_->step(&out);
     if (!had_collided && sim_->collision())
     {
-      const core::Collision& c = *sim_->collision();
+      const sim::Collision& c = *sim_->collision();
       ROS_ERROR("%s: COLLISION at %.2f s: the robot touched %s at true pose (%.2f, %.2f, %.1f deg) in the world; it "
                 "stays there (the sensors go on)",
                 pnh_.getNamespace().c_str(), c.stamp, c.what(sim_->world()).c_str(), c.pose.x, c.pose.y,
@@ -233,7 +233,7 @@ void ForestSim::run()
   }
 }
 
-void ForestSim::publish(const core::SimulatorOutput& out)
+void ForestSim::publish(const sim::SimulatorOutput& out)
 {
   for (const auto& o : out.odometry)
   {

@@ -11,7 +11,7 @@ namespace rbpf_slam
 {
 NoiseRelay::NoiseRelay(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh)
 {
-  core::VelocityNoiseConfig config;
+  sim::VelocityNoiseConfig config;
   const RosParamSource params(pnh);
   readKey(params, "linear_sigma_abs", &config.linear_sigma_abs);
   readKey(params, "linear_sigma_rel", &config.linear_sigma_rel);
@@ -27,7 +27,7 @@ NoiseRelay::NoiseRelay(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh)
   std::string error;
   if (!config.validate(&error))
     throw std::runtime_error("invalid parameter: " + error);
-  model_.reset(new core::VelocityNoiseModel(config, seed));
+  model_.reset(new sim::VelocityNoiseModel(config, seed));
 
   if (stamped)
   {
@@ -57,7 +57,7 @@ bool NoiseRelay::perturb(const geometry_msgs::Twist& in, geometry_msgs::Twist* o
     }
   }
   *out = in;
-  const core::VelocityCommand noisy = model_->apply({ in.linear.x, in.angular.z });
+  const sim::VelocityCommand noisy = model_->apply({ in.linear.x, in.angular.z });
   out->linear.x = noisy.linear;
   out->angular.z = noisy.angular;
   return true;

@@ -18,7 +18,7 @@ namespace rbpf_slam
 {
 PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 {
-  core::PathFollowerConfig& config = config_;
+  sim::PathFollowerConfig& config = config_;
   std::string drive = "straight", frame = "odom";
   const RosParamSource params(pnh);
   readKey(params, "drive", &drive);
@@ -47,7 +47,7 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   requirePositive(pnh, "lookahead", config.lookahead);
   if (!config.validate(&error))
     throw invalidParameter(pnh, "avoid_obstacles", error);
-  follower_.reset(new core::PathFollower(path, config));
+  follower_.reset(new sim::PathFollower(path, config));
   cmd_pub_ = nh.advertise<geometry_msgs::Twist>("cmd_vel", 10);
   done_pub_ = pnh.advertise<std_msgs::Bool>("done", 1, true);
   path_pub_ = pnh.advertise<nav_msgs::Path>("path", 1, true);
@@ -125,7 +125,7 @@ void PathFollowerNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   points.reserve(cloud.points.size());
   for (const auto& p : cloud.points)
     points.push_back(m * p.cast<double>());
-  const std::vector<Eigen::Vector2d> obstacles = core::obstaclesFromCloud(points, config_);
+  const std::vector<Eigen::Vector2d> obstacles = sim::obstaclesFromCloud(points, config_);
   std::lock_guard<std::mutex> lock(mutex_);
   follower_->addObstacles(msg->header.stamp.toSec(), pose_, obstacles);
 }
@@ -137,7 +137,7 @@ void PathFollowerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     return;
   const Eigen::Vector3d x = m.linear().col(0);
   const core::Pose2 mount2(m.translation().x(), m.translation().y(), std::atan2(x.y(), x.x()));
-  const std::vector<Eigen::Vector2d> obstacles = core::obstaclesFromScan(
+  const std::vector<Eigen::Vector2d> obstacles = sim::obstaclesFromScan(
       msg->ranges, msg->angle_min, msg->angle_increment, msg->range_min, msg->range_max, mount2, config_);
   std::lock_guard<std::mutex> lock(mutex_);
   follower_->addObstacles(msg->header.stamp.toSec(), pose_, obstacles);
@@ -153,7 +153,7 @@ void PathFollowerNode::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
     cmd_pub_.publish(boost::make_shared<const geometry_msgs::Twist>());
     return;
   }
-  core::VelocityCommand cmd;
+  sim::VelocityCommand cmd;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     pose_ = core::Pose2(msg->pose.pose.position.x, msg->pose.pose.position.y, yaw);

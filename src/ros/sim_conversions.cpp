@@ -34,7 +34,7 @@ ros::Time toRosTime(double sim_seconds, double base)
   return ros::Time(base + sim_seconds);
 }
 
-sensor_msgs::PointCloud2::Ptr toPointCloud2(const core::LidarSweep& sweep, const std::string& frame, double base)
+sensor_msgs::PointCloud2::Ptr toPointCloud2(const sim::LidarSweep& sweep, const std::string& frame, double base)
 {
   auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
   msg->header.stamp = toRosTime(sweep.stamp, base);
@@ -52,7 +52,7 @@ sensor_msgs::PointCloud2::Ptr toPointCloud2(const core::LidarSweep& sweep, const
   msg->is_dense = true;
   msg->data.assign(static_cast<std::size_t>(msg->row_step), 0);
   std::uint8_t* out = msg->data.data();
-  for (const core::LidarPoint& p : sweep.points)
+  for (const sim::LidarPoint& p : sweep.points)
   {
     std::memcpy(out + 0, &p.x, 4);
     std::memcpy(out + 4, &p.y, 4);
@@ -65,7 +65,7 @@ sensor_msgs::PointCloud2::Ptr toPointCloud2(const core::LidarSweep& sweep, const
   return msg;
 }
 
-sensor_msgs::LaserScan::Ptr toLaserScan(const core::LaserScan2D& scan, const std::string& frame, double base)
+sensor_msgs::LaserScan::Ptr toLaserScan(const sim::LaserScan2D& scan, const std::string& frame, double base)
 {
   auto msg = boost::make_shared<sensor_msgs::LaserScan>();
   msg->header.stamp = toRosTime(scan.stamp, base);
@@ -81,7 +81,7 @@ sensor_msgs::LaserScan::Ptr toLaserScan(const core::LaserScan2D& scan, const std
   return msg;
 }
 
-nav_msgs::Odometry::Ptr toOdometry(const core::OdometrySample& odom, const SimFrames& frames, double base)
+nav_msgs::Odometry::Ptr toOdometry(const sim::OdometrySample& odom, const SimFrames& frames, double base)
 {
   auto msg = boost::make_shared<nav_msgs::Odometry>();
   msg->header.stamp = toRosTime(odom.stamp, base);
@@ -106,7 +106,7 @@ nav_msgs::Odometry::Ptr toOdometry(const core::OdometrySample& odom, const SimFr
   return msg;
 }
 
-geometry_msgs::TransformStamped toOdomTf(const core::OdometrySample& odom, const SimFrames& frames, double base)
+geometry_msgs::TransformStamped toOdomTf(const sim::OdometrySample& odom, const SimFrames& frames, double base)
 {
   geometry_msgs::TransformStamped tf;
   tf.header.stamp = toRosTime(odom.stamp, base);
@@ -118,7 +118,7 @@ geometry_msgs::TransformStamped toOdomTf(const core::OdometrySample& odom, const
   return tf;
 }
 
-sensor_msgs::Imu::Ptr toImu(const core::ImuSample& imu, const core::ImuConfig& config, const std::string& frame,
+sensor_msgs::Imu::Ptr toImu(const sim::ImuSample& imu, const sim::ImuConfig& config, const std::string& frame,
                             double base)
 {
   auto msg = boost::make_shared<sensor_msgs::Imu>();
@@ -152,8 +152,8 @@ Eigen::Isometry3d truthMapInWorld(const core::Pose2& start, double start_ground_
 }
 }  // namespace
 
-nav_msgs::Odometry::Ptr toTruthOdometry(const core::TruthSample& truth, const core::Pose2& start,
-                                        double start_ground_z, const SimFrames& frames, double base)
+nav_msgs::Odometry::Ptr toTruthOdometry(const sim::TruthSample& truth, const core::Pose2& start, double start_ground_z,
+                                        const SimFrames& frames, double base)
 {
   // The full 3D body pose (height, roll and pitch on the undulating ground), relative to the start.
   const Eigen::Isometry3d rel = truthMapInWorld(start, start_ground_z).inverse() * truth.body;
@@ -172,22 +172,22 @@ nav_msgs::Odometry::Ptr toTruthOdometry(const core::TruthSample& truth, const co
   return msg;
 }
 
-rbpf_slam::TrunkArray::Ptr toTruthTrees(const core::ForestWorld& world, const core::Pose2& start,
+rbpf_slam::TrunkArray::Ptr toTruthTrees(const sim::ForestWorld& world, const core::Pose2& start,
                                         const SimFrames& frames, double stamp, double base)
 {
   auto msg = boost::make_shared<rbpf_slam::TrunkArray>();
   msg->header.stamp = toRosTime(stamp, base);
   msg->header.frame_id = frames.map;
-  const core::Ground ground(world.ground);
+  const sim::Ground ground(world.ground);
   const Eigen::Isometry3d to_map = truthMapInWorld(start, ground.height(start.x, start.y)).inverse();
   for (std::size_t i = 0; i < world.trunks.size(); ++i)
   {
-    const core::TrunkSpec& t = world.trunks[i];
+    const sim::TrunkSpec& t = world.trunks[i];
     rbpf_slam::Trunk trunk;
     // The trunk's centre at breast height (1.3 m above the ground at its foot), where extraction
     // measures it; the axis is (lean_x, lean_y, 1) normalised, the radius shrinks by taper per metre.
     double radius = 0.0;
-    const Eigen::Vector3d c = to_map * core::trunkAxisAt(t, ground.height(t.x, t.y), 1.3, &radius);
+    const Eigen::Vector3d c = to_map * sim::trunkAxisAt(t, ground.height(t.x, t.y), 1.3, &radius);
     trunk.center.x = c.x();
     trunk.center.y = c.y();
     trunk.center.z = c.z();
@@ -250,8 +250,8 @@ visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& 
   return msg;
 }
 
-geometry_msgs::TransformStamped toStaticTf(const core::Mount& mount, const std::string& parent,
-                                           const std::string& child, double stamp, double base)
+geometry_msgs::TransformStamped toStaticTf(const sim::Mount& mount, const std::string& parent, const std::string& child,
+                                           double stamp, double base)
 {
   const Eigen::Isometry3d t = mount.transform();
   const Eigen::Quaterniond q(t.linear());

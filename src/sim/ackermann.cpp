@@ -5,8 +5,12 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::Pose2;
+using core::Random;
+using core::wrapAngle;
+
 namespace
 {
 constexpr double kMinSteeringSpeed = 0.05;  ///< [m/s] below this a command's yaw rate says nothing about steering
@@ -58,5 +62,5 @@ Pose2 AckermannRobot::readOdometry(double* linear_velocity, double* angular_velo
                            linear_velocity, angular_velocity);
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

@@ -7,8 +7,12 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::Pose2;
+using core::Random;
+using core::wrapAngle;
+
 bool OdometryConfig::validate(std::string* error) const
 {
   auto fail = [&](const std::string& what) {
@@ -130,5 +134,5 @@ Pose2 Robot::integrateOdometry(double ds, double dth, double dt, Pose2* odom, do
   return *odom;
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

@@ -9,8 +9,14 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::GnssConfig;
+using core::GnssReceiver;
+using core::interpolate;
+using core::OccupancyImage;
+using core::Pose2;
+
 namespace
 {
 std::int64_t ticksOf(double seconds, double physics_rate)
@@ -418,5 +424,5 @@ double ForestSimulator::canopyAt(double x, double y) const
   return std::min(1.0, covered / disc);
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

@@ -8,8 +8,10 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::Random;
+
 namespace
 {
 constexpr double kPi = 3.14159265358979323846;
@@ -503,5 +505,5 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
   });
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

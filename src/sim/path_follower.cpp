@@ -6,8 +6,10 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::Pose2;
+
 namespace
 {
 constexpr double kMemoryCell = 0.1;   // [m] the obstacle memory keeps one point per cell of the odom frame
@@ -326,5 +328,5 @@ std::vector<Eigen::Vector2d> loopDrive()
   return path;
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

@@ -5,8 +5,10 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::Random;
+
 namespace
 {
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -71,21 +73,27 @@ double intersectCapsule(const Eigen::Vector3d& a, const Eigen::Vector3d& b, doub
 ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
   : world_(world), ground_(world.ground), cell_(cell_size)
 {
-  double min_x = kInf, min_y = kInf, max_x = -kInf, max_y = -kInf;
-  auto grow = [&](double x0, double y0, double x1, double y1) {
-    min_x = std::min(min_x, x0);
-    min_y = std::min(min_y, y0);
-    max_x = std::max(max_x, x1);
-    max_y = std::max(max_y, y1);
-  };
-  struct Box
+  std::vector<ShapeBounds> boxes = placeShapes();
+  extent_min_x_ = world_.min_x - world_.ground.margin;
+  extent_min_y_ = world_.min_y - world_.ground.margin;
+  extent_max_x_ = world_.max_x + world_.ground.margin;
+  extent_max_y_ = world_.max_y + world_.ground.margin;
+  findTop();
+  sizeGrid(boxes);
+  for (ShapeBounds& b : boxes)
+    setHeightRange(&b);
+  for (const ShapeBounds& b : boxes)
   {
-    Shape shape;
-    double x0, y0, x1, y1;
-    double z0 = -kInf, z1 = kInf;  ///< height range
-  };
-  std::vector<Box> boxes;
+    shapes_.push_back(b.shape);
+    shape_z_.emplace_back(b.z0, b.z1);
+    insert(b.shape, b.x0, b.y0, b.x1, b.y1);
+  }
+  mailbox_.assign(shapes_.size(), 0);
+}
 
+std::vector<ForestRayCaster::ShapeBounds> ForestRayCaster::placeShapes()
+{
+  std::vector<ShapeBounds> boxes;
   for (std::size_t i = 0; i < world_.trunks.size(); ++i)
   {
     const TrunkSpec& t = world_.trunks[i];
@@ -135,10 +143,11 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
     const double r = 0.5 * std::hypot(b.length, b.width);  // the base's circumscribed circle
     boxes.push_back({ { HitKind::kBox, static_cast<int>(i) }, b.x - r, b.y - r, b.x + r, b.y + r });
   }
-  extent_min_x_ = world_.min_x - world_.ground.margin;
-  extent_min_y_ = world_.min_y - world_.ground.margin;
-  extent_max_x_ = world_.max_x + world_.ground.margin;
-  extent_max_y_ = world_.max_y + world_.ground.margin;
+  return boxes;
+}
+
+void ForestRayCaster::findTop()
+{
   for (std::size_t i = 0; i < world_.trunks.size(); ++i)
     top_z_ = std::max(top_z_, trunk_base_z_[i] + world_.trunks[i].height);
   for (std::size_t i = 0; i < world_.foliage.size(); ++i)
@@ -150,7 +159,18 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
   for (std::size_t i = 0; i < world_.boxes.size(); ++i)
     top_z_ = std::max(top_z_, box_base_z_[i] + world_.boxes[i].height);
   top_z_ += 1e-6;
-  for (const Box& b : boxes)
+}
+
+void ForestRayCaster::sizeGrid(const std::vector<ShapeBounds>& boxes)
+{
+  double min_x = kInf, min_y = kInf, max_x = -kInf, max_y = -kInf;
+  auto grow = [&](double x0, double y0, double x1, double y1) {
+    min_x = std::min(min_x, x0);
+    min_y = std::min(min_y, y0);
+    max_x = std::max(max_x, x1);
+    max_y = std::max(max_y, y1);
+  };
+  for (const ShapeBounds& b : boxes)
     grow(b.x0, b.y0, b.x1, b.y1);
   if (boxes.empty())
     grow(0.0, 0.0, cell_, cell_);
@@ -159,45 +179,39 @@ ForestRayCaster::ForestRayCaster(const ForestWorld& world, double cell_size)
   nx_ = std::max(1, static_cast<int>(std::ceil((max_x - min_x) / cell_)));
   ny_ = std::max(1, static_cast<int>(std::ceil((max_y - min_y) / cell_)));
   cells_.assign(static_cast<std::size_t>(nx_) * ny_, {});
-  // Height ranges: trunks from their buried base to the top of the axis, spheres and branches by their size.
-  for (Box& b : boxes)
+}
+
+void ForestRayCaster::setHeightRange(ShapeBounds* bounds) const
+{
+  ShapeBounds& b = *bounds;
+  const int i = b.shape.index;
+  switch (b.shape.kind)
   {
-    const int i = b.shape.index;
-    switch (b.shape.kind)
-    {
-      case HitKind::kTrunk:
-        b.z0 = trunk_base_z_[i] - kTrunkBuried;
-        b.z1 = trunk_base_z_[i] + world_.trunks[i].height;
-        break;
-      case HitKind::kFoliage:
-        b.z0 = foliage_center_[i].z() - world_.foliage[i].radius;
-        b.z1 = foliage_center_[i].z() + world_.foliage[i].radius;
-        break;
-      case HitKind::kRock:
-        b.z0 = rock_center_[i].z() - world_.rocks[i].radius;
-        b.z1 = rock_center_[i].z() + world_.rocks[i].radius;
-        break;
-      case HitKind::kBranch:
-        b.z0 = std::min(branch_a_[i].z(), branch_b_[i].z()) - world_.branches[i].radius;
-        b.z1 = std::max(branch_a_[i].z(), branch_b_[i].z()) + world_.branches[i].radius;
-        break;
-      case HitKind::kBox:
-        b.z0 = box_base_z_[i] - kTrunkBuried;
-        b.z1 = box_base_z_[i] + world_.boxes[i].height;
-        break;
-      default:
-        break;
-    }
-    b.z0 -= 1e-6;
-    b.z1 += 1e-6;
+    case HitKind::kTrunk:
+      b.z0 = trunk_base_z_[i] - kTrunkBuried;
+      b.z1 = trunk_base_z_[i] + world_.trunks[i].height;
+      break;
+    case HitKind::kFoliage:
+      b.z0 = foliage_center_[i].z() - world_.foliage[i].radius;
+      b.z1 = foliage_center_[i].z() + world_.foliage[i].radius;
+      break;
+    case HitKind::kRock:
+      b.z0 = rock_center_[i].z() - world_.rocks[i].radius;
+      b.z1 = rock_center_[i].z() + world_.rocks[i].radius;
+      break;
+    case HitKind::kBranch:
+      b.z0 = std::min(branch_a_[i].z(), branch_b_[i].z()) - world_.branches[i].radius;
+      b.z1 = std::max(branch_a_[i].z(), branch_b_[i].z()) + world_.branches[i].radius;
+      break;
+    case HitKind::kBox:
+      b.z0 = box_base_z_[i] - kTrunkBuried;
+      b.z1 = box_base_z_[i] + world_.boxes[i].height;
+      break;
+    default:
+      break;
   }
-  for (const Box& b : boxes)
-  {
-    shapes_.push_back(b.shape);
-    shape_z_.emplace_back(b.z0, b.z1);
-    insert(b.shape, b.x0, b.y0, b.x1, b.y1);
-  }
-  mailbox_.assign(shapes_.size(), 0);
+  b.z0 -= 1e-6;
+  b.z1 += 1e-6;
 }
 
 void ForestRayCaster::insert(const Shape&, double min_x, double min_y, double max_x, double max_y)
@@ -358,11 +372,9 @@ double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::V
   return kInf;
 }
 
-RayHit ForestRayCaster::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range, Random& random)
+double ForestRayCaster::clipToExtent(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range) const
 {
-  RayHit hit;
   double best = max_range;
-  // The world ends at the ground's extent (stand bounds + margin): clip the ray to that box in x, y.
   for (int axis = 0; axis < 2; ++axis)
   {
     const double lo = axis == 0 ? extent_min_x_ : extent_min_y_;
@@ -375,6 +387,120 @@ RayHit ForestRayCaster::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
     else if (p < lo || p > hi)
       best = -1.0;
   }
+  return best;
+}
+
+double ForestRayCaster::shapeReach(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double best) const
+{
+  double t_shapes = best;
+  if (d.z() > 1e-12)
+    t_shapes = std::min(t_shapes, std::max(0.0, (top_z_ - o.z()) / d.z()));
+  else if (o.z() > top_z_)
+    t_shapes = -1.0;
+  return t_shapes;
+}
+
+void ForestRayCaster::nextRayId()
+{
+  ++ray_id_;
+  if (ray_id_ == 0)
+  {
+    std::fill(mailbox_.begin(), mailbox_.end(), 0);
+    ray_id_ = 1;
+  }
+}
+
+void ForestRayCaster::testCell(int ci, int cj, double t_in, double t_out, RayState* ray)
+{
+  const Eigen::Vector3d& o = ray->origin;
+  const Eigen::Vector3d& d = ray->dir;
+  // Within a cell the ray's height runs between its values at the cell's entry and exit; a shape whose
+  // height range misses that span is skipped there (and may still be tested in a later cell).
+  const double z_a = o.z() + t_in * d.z(), z_b = o.z() + std::min(t_out, ray->best) * d.z();
+  const double z_lo = std::min(z_a, z_b), z_hi = std::max(z_a, z_b);
+  for (int id : cells_[static_cast<std::size_t>(cj) * nx_ + ci])
+  {
+    if (mailbox_[id] == ray_id_)
+      continue;
+    if (z_hi < shape_z_[id].first || z_lo > shape_z_[id].second)
+      continue;
+    mailbox_[id] = ray_id_;
+    const double t = intersectShape(shapes_[id], o, d, ray->best, ray->random);
+    if (t < ray->best)
+    {
+      ray->best = t;
+      ray->hit.kind = shapes_[id].kind;
+      ray->hit.index = shapes_[id].index;
+    }
+  }
+}
+
+void ForestRayCaster::traverseGrid(double t_shapes, RayState* ray)
+{
+  const Eigen::Vector3d& o = ray->origin;
+  const Eigen::Vector3d& d = ray->dir;
+  const double horiz = std::hypot(d.x(), d.y());
+  double gx = (o.x() - origin_x_) / cell_, gy = (o.y() - origin_y_) / cell_;
+  if (horiz < 1e-9)
+  {
+    const int ci = static_cast<int>(std::floor(gx)), cj = static_cast<int>(std::floor(gy));
+    if (ci >= 0 && cj >= 0 && ci < nx_ && cj < ny_)
+      testCell(ci, cj, 0.0, t_shapes, ray);
+    return;
+  }
+  // Parameterise by t (3D distance): the grid coordinate moves at d.xy / cell per unit t.
+  const double vx = d.x() / cell_, vy = d.y() / cell_;
+  // Clip the traversal to the grid's extent [0, nx] x [0, ny].
+  double t0 = 0.0, t1 = t_shapes;
+  auto clip = [&](double p, double v, double n) {
+    if (std::abs(v) < 1e-15)
+      return p >= 0.0 && p <= n;
+    double ta = (0.0 - p) / v, tb = (n - p) / v;
+    if (ta > tb)
+      std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    return t0 <= t1;
+  };
+  if (!clip(gx, vx, nx_) || !clip(gy, vy, ny_))
+    return;
+  gx += vx * t0;
+  gy += vy * t0;
+  int ci = std::min(nx_ - 1, std::max(0, static_cast<int>(std::floor(gx))));
+  int cj = std::min(ny_ - 1, std::max(0, static_cast<int>(std::floor(gy))));
+  const int step_i = vx > 0 ? 1 : -1, step_j = vy > 0 ? 1 : -1;
+  const double dt_x = std::abs(vx) > 1e-15 ? 1.0 / std::abs(vx) : kInf;
+  const double dt_y = std::abs(vy) > 1e-15 ? 1.0 / std::abs(vy) : kInf;
+  double next_x = std::abs(vx) > 1e-15 ? t0 + ((vx > 0 ? ci + 1 - gx : gx - ci) * dt_x) : kInf;
+  double next_y = std::abs(vy) > 1e-15 ? t0 + ((vy > 0 ? cj + 1 - gy : gy - cj) * dt_y) : kInf;
+  double t_in = t0;
+  while (true)
+  {
+    const double t_exit = std::min(next_x, next_y);
+    testCell(ci, cj, t_in, std::min(t_exit, t1), ray);
+    t_in = t_exit;
+    if (ray->best <= t_exit || t_exit > t1)
+      break;
+    if (next_x < next_y)
+    {
+      ci += step_i;
+      next_x += dt_x;
+    }
+    else
+    {
+      cj += step_j;
+      next_y += dt_y;
+    }
+    if (ci < 0 || cj < 0 || ci >= nx_ || cj >= ny_)
+      break;
+  }
+}
+
+RayHit ForestRayCaster::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range, Random& random)
+{
+  RayHit hit;
+  // The world ends at the ground's extent (stand bounds + margin): clip the ray to that box in x, y.
+  double best = clipToExtent(o, d, max_range);
   if (best <= 0.0)
     return hit;
   // Ground first: a downward ray's ground hit bounds the search among the shapes.
@@ -387,106 +513,17 @@ RayHit ForestRayCaster::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
     hit.range = best;
   }
   // Above the highest shape nothing is left to hit.
-  double t_shapes = best;
-  if (d.z() > 1e-12)
-    t_shapes = std::min(t_shapes, std::max(0.0, (top_z_ - o.z()) / d.z()));
-  else if (o.z() > top_z_)
-    t_shapes = -1.0;
+  const double t_shapes = shapeReach(o, d, best);
   if (t_shapes < 0.0 || shapes_.empty())
     return hit;
-  ++ray_id_;
-  if (ray_id_ == 0)
-  {
-    std::fill(mailbox_.begin(), mailbox_.end(), 0);
-    ray_id_ = 1;
-  }
-
-  // Within a cell the ray's height runs between its values at the cell's entry and exit; a shape whose
-  // height range misses that span is skipped there (and may still be tested in a later cell).
-  auto test_cell = [&](int ci, int cj, double t_in, double t_out) {
-    const double z_a = o.z() + t_in * d.z(), z_b = o.z() + std::min(t_out, best) * d.z();
-    const double z_lo = std::min(z_a, z_b), z_hi = std::max(z_a, z_b);
-    for (int id : cells_[static_cast<std::size_t>(cj) * nx_ + ci])
-    {
-      if (mailbox_[id] == ray_id_)
-        continue;
-      if (z_hi < shape_z_[id].first || z_lo > shape_z_[id].second)
-        continue;
-      mailbox_[id] = ray_id_;
-      const double t = intersectShape(shapes_[id], o, d, best, random);
-      if (t < best)
-      {
-        best = t;
-        hit.kind = shapes_[id].kind;
-        hit.index = shapes_[id].index;
-      }
-    }
-  };
-
+  nextRayId();
   // 2D grid traversal of the ray's horizontal projection.
-  const double horiz = std::hypot(d.x(), d.y());
-  double gx = (o.x() - origin_x_) / cell_, gy = (o.y() - origin_y_) / cell_;
-  if (horiz < 1e-9)
-  {
-    const int ci = static_cast<int>(std::floor(gx)), cj = static_cast<int>(std::floor(gy));
-    if (ci >= 0 && cj >= 0 && ci < nx_ && cj < ny_)
-      test_cell(ci, cj, 0.0, t_shapes);
-  }
-  else
-  {
-    // Parameterise by t (3D distance): the grid coordinate moves at d.xy / cell per unit t.
-    const double vx = d.x() / cell_, vy = d.y() / cell_;
-    // Clip the traversal to the grid's extent [0, nx] x [0, ny].
-    double t0 = 0.0, t1 = t_shapes;
-    auto clip = [&](double p, double v, double n) {
-      if (std::abs(v) < 1e-15)
-        return p >= 0.0 && p <= n;
-      double ta = (0.0 - p) / v, tb = (n - p) / v;
-      if (ta > tb)
-        std::swap(ta, tb);
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-      return t0 <= t1;
-    };
-    if (clip(gx, vx, nx_) && clip(gy, vy, ny_))
-    {
-      gx += vx * t0;
-      gy += vy * t0;
-      int ci = std::min(nx_ - 1, std::max(0, static_cast<int>(std::floor(gx))));
-      int cj = std::min(ny_ - 1, std::max(0, static_cast<int>(std::floor(gy))));
-      const int step_i = vx > 0 ? 1 : -1, step_j = vy > 0 ? 1 : -1;
-      const double dt_x = std::abs(vx) > 1e-15 ? 1.0 / std::abs(vx) : kInf;
-      const double dt_y = std::abs(vy) > 1e-15 ? 1.0 / std::abs(vy) : kInf;
-      double next_x = std::abs(vx) > 1e-15 ? t0 + ((vx > 0 ? ci + 1 - gx : gx - ci) * dt_x) : kInf;
-      double next_y = std::abs(vy) > 1e-15 ? t0 + ((vy > 0 ? cj + 1 - gy : gy - cj) * dt_y) : kInf;
-      double t_in = t0;
-      while (true)
-      {
-        const double t_exit = std::min(next_x, next_y);
-        test_cell(ci, cj, t_in, std::min(t_exit, t1));
-        t_in = t_exit;
-        if (best <= t_exit || t_exit > t1)
-          break;
-        if (next_x < next_y)
-        {
-          ci += step_i;
-          next_x += dt_x;
-        }
-        else
-        {
-          cj += step_j;
-          next_y += dt_y;
-        }
-        if (ci < 0 || cj < 0 || ci >= nx_ || cj >= ny_)
-          break;
-      }
-    }
-  }
-
-  if (hit.kind != HitKind::kNone)
-    hit.range = best;
-  return hit;
+  RayState ray{ o, d, random, best, hit };
+  traverseGrid(t_shapes, &ray);
+  if (ray.hit.kind != HitKind::kNone)
+    ray.hit.range = ray.best;
+  return ray.hit;
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

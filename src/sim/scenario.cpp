@@ -2,8 +2,12 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
+using core::between;
+using core::OccupancyImage;
+using core::Pose2;
+
 bool parseSteerOn(const std::string& name, SteerOn* steer_on)
 {
   if (name == "odometry")
@@ -70,5 +74,5 @@ bool Scenario::step(SimulatorOutput* out)
   return !timedOut();
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

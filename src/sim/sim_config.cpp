@@ -19,7 +19,7 @@ void readDegrees(const ParamSource& p, const std::string& key, double* radians)
     *radians = deg * kDeg;
 }
 
-void readMount(const ParamSource& p, const std::string& prefix, core::Mount* m)
+void readMount(const ParamSource& p, const std::string& prefix, sim::Mount* m)
 {
   p.get(prefix + "/x", &m->x);
   p.get(prefix + "/y", &m->y);
@@ -30,7 +30,7 @@ void readMount(const ParamSource& p, const std::string& prefix, core::Mount* m)
 }
 }  // namespace
 
-void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
+void readSimulatorConfig(const ParamSource& p, sim::SimulatorConfig* c)
 {
   p.getSeed("seed", &c->seed);
   p.get("physics_rate", &c->physics_rate);
@@ -40,7 +40,7 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
   readDegrees(p, "start/yaw_deg", &c->start.theta);
 
   std::string model;
-  if (p.get("robot/model", &model) && !core::parseRobotModel(model, &c->robot.model))
+  if (p.get("robot/model", &model) && !sim::parseRobotModel(model, &c->robot.model))
     throw std::runtime_error("invalid simulator parameter: robot/model must be diff_drive or ackermann, got '" +
                              model + "'");
   p.get("robot/track_width", &c->robot.track_width);
@@ -67,7 +67,7 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
   p.get("odometry/rate", &c->odometry.rate);
   p.get("odometry/latency", &c->odometry.latency);
 
-  core::Lidar3DConfig& l3 = c->lidar3d;
+  sim::Lidar3DConfig& l3 = c->lidar3d;
   p.get("lidar3d/enabled", &l3.enabled);
   p.get("lidar3d/rings", &l3.rings);
   readDegrees(p, "lidar3d/min_elevation_deg", &l3.min_elevation);
@@ -79,7 +79,7 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
   p.get("lidar3d/range_sigma", &l3.range_sigma);
   readMount(p, "lidar3d/mount", &l3.mount);
 
-  core::Lidar2DConfig& l2 = c->lidar2d;
+  sim::Lidar2DConfig& l2 = c->lidar2d;
   p.get("lidar2d/enabled", &l2.enabled);
   readDegrees(p, "lidar2d/angle_min_deg", &l2.angle_min);
   readDegrees(p, "lidar2d/angle_max_deg", &l2.angle_max);
@@ -123,14 +123,14 @@ void readSimulatorConfig(const ParamSource& p, core::SimulatorConfig* c)
     throw std::runtime_error("invalid simulator parameter: " + error);
 }
 
-void readScenarioConfig(const ParamSource& p, core::ScenarioConfig* c)
+void readScenarioConfig(const ParamSource& p, sim::ScenarioConfig* c)
 {
   readSimulatorConfig(p, &c->sim);
   p.get("follower/speed", &c->follower.speed);
   p.get("follower/lookahead", &c->follower.lookahead);
   p.get("follower/max_angular", &c->follower.max_angular);
   p.get("follower/goal_tolerance", &c->follower.goal_tolerance);
-  core::PathFollowerConfig& f = c->follower;
+  sim::PathFollowerConfig& f = c->follower;
   p.get("follower/avoid_obstacles", &f.avoid_obstacles);
   p.get("follower/robot_radius", &f.robot_radius);
   p.get("follower/clearance", &f.clearance);
@@ -142,7 +142,7 @@ void readScenarioConfig(const ParamSource& p, core::ScenarioConfig* c)
   p.get("follower/obstacle_max_height", &f.obstacle_max_height);
   p.get("follower/obstacle_min_extent", &f.obstacle_min_extent);
   std::string steer_on;
-  if (p.get("follower/steer_on", &steer_on) && !core::parseSteerOn(steer_on, &c->steer_on))
+  if (p.get("follower/steer_on", &steer_on) && !sim::parseSteerOn(steer_on, &c->steer_on))
     throw std::runtime_error("invalid follower parameter: steer_on must be odometry or truth, got '" + steer_on + "'");
   p.get("relay/linear_sigma_abs", &c->relay.linear_sigma_abs);
   p.get("relay/linear_sigma_rel", &c->relay.linear_sigma_rel);

@@ -5,7 +5,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 namespace
 {
@@ -67,5 +67,5 @@ VelocityCommand VelocityNoiseModel::apply(const VelocityCommand& command)
   return noisy;
 }
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam

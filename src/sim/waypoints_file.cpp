@@ -40,9 +40,9 @@ std::vector<Eigen::Vector2d> readWaypoints(const std::string& path)
 std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* error)
 {
   if (name == "straight")
-    return core::straightDrive();
+    return sim::straightDrive();
   if (name == "loop")
-    return core::loopDrive();
+    return sim::loopDrive();
   if (!std::ifstream(name))
   {
     if (error)

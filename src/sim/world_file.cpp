@@ -97,7 +97,7 @@ bool endsWithNoCase(const std::string& text, const std::string& suffix)
 /** A trunk from a tree list, and whether its line gave a height (else the world's default applies). */
 struct TreeRow
 {
-  core::TrunkSpec trunk;
+  sim::TrunkSpec trunk;
   bool has_height = false;
 };
 
@@ -198,9 +198,9 @@ std::string checkBox(const std::vector<double>& values)
   return std::string();
 }
 
-core::BoxSpec makeBox(const std::vector<double>& values)
+sim::BoxSpec makeBox(const std::vector<double>& values)
 {
-  core::BoxSpec box;
+  sim::BoxSpec box;
   box.x = values[0];
   box.y = values[1];
   box.yaw = values[2] * kPi / 180.0;
@@ -403,7 +403,7 @@ std::vector<TreeRow> readTrees(const YamlReader& reader, const YAML::Node& node)
   return rows;
 }
 
-std::vector<core::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node& node)
+std::vector<sim::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node& node)
 {
   if (node.IsScalar())
   {
@@ -415,7 +415,7 @@ std::vector<core::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node&
   if (!node.IsSequence())
     reader.fail(node, "'boxes' must name a box list file or be a list of [x, y, yaw_deg] / "
                       "[x, y, yaw_deg, length, width, height]");
-  std::vector<core::BoxSpec> boxes;
+  std::vector<sim::BoxSpec> boxes;
   for (std::size_t i = 0; i < node.size(); ++i)
   {
     const std::string key = "boxes[" + std::to_string(i) + "]";
@@ -451,9 +451,9 @@ TreeDefaults readTreeDefaults(const YamlReader& reader, const YAML::Node& node)
   return d;
 }
 
-core::GroundSpec readGround(const YamlReader& reader, const YAML::Node& node)
+sim::GroundSpec readGround(const YamlReader& reader, const YAML::Node& node)
 {
-  core::GroundSpec g;
+  sim::GroundSpec g;
   for (const auto& entry : reader.entries(node, "ground", { "amplitude", "wavelength", "seed", "margin" }))
   {
     const std::string key = YamlReader::qualified("ground", entry.first);
@@ -469,9 +469,9 @@ core::GroundSpec readGround(const YamlReader& reader, const YAML::Node& node)
   return g;
 }
 
-core::ClutterSpec readClutter(const YamlReader& reader, const YAML::Node& node)
+sim::ClutterSpec readClutter(const YamlReader& reader, const YAML::Node& node)
 {
-  core::ClutterSpec c;
+  sim::ClutterSpec c;
   const std::vector<std::string> keys = { "seed", "bushes", "rocks", "branches", "crowns", "crown_base", "clearance" };
   for (const auto& entry : reader.entries(node, "clutter", keys))
   {
@@ -495,12 +495,12 @@ core::ClutterSpec readClutter(const YamlReader& reader, const YAML::Node& node)
 }
 
 /** Bounds of the trunk centres plus a margin; false when there are no trunks. */
-bool treeExtent(const std::vector<core::TrunkSpec>& trunks, core::ForestWorld* world)
+bool treeExtent(const std::vector<sim::TrunkSpec>& trunks, sim::ForestWorld* world)
 {
   if (trunks.empty())
     return false;
   double min_x = trunks[0].x, max_x = trunks[0].x, min_y = trunks[0].y, max_y = trunks[0].y;
-  for (const core::TrunkSpec& t : trunks)
+  for (const sim::TrunkSpec& t : trunks)
   {
     min_x = std::min(min_x, t.x);
     max_x = std::max(max_x, t.x);
@@ -514,7 +514,7 @@ bool treeExtent(const std::vector<core::TrunkSpec>& trunks, core::ForestWorld* w
   return true;
 }
 
-core::ForestWorld loadYamlWorld(const std::string& path)
+sim::ForestWorld loadYamlWorld(const std::string& path)
 {
   const YamlReader reader(path);
   YAML::Node root;
@@ -562,20 +562,19 @@ core::ForestWorld loadYamlWorld(const std::string& path)
     reader.fail("'trees' is required (a tree list file or a list of trees)");
 
   const std::vector<TreeRow> rows = readTrees(reader, trees_node);
-  const std::vector<core::BoxSpec> boxes = boxes_node.IsDefined() && !boxes_node.IsNull() ?
-                                               readBoxes(reader, boxes_node) :
-                                               std::vector<core::BoxSpec>();
+  const std::vector<sim::BoxSpec> boxes =
+      boxes_node.IsDefined() && !boxes_node.IsNull() ? readBoxes(reader, boxes_node) : std::vector<sim::BoxSpec>();
   const TreeDefaults tree = readTreeDefaults(reader, tree_node);
-  core::ForestWorld world;
+  sim::ForestWorld world;
   world.boxes = boxes;
   world.ground = readGround(reader, ground_node);
-  const core::ClutterSpec clutter = readClutter(reader, clutter_node);
+  const sim::ClutterSpec clutter = readClutter(reader, clutter_node);
 
   core::Random random(tree.seed);
   const double lean_sigma = std::tan(tree.lean_sigma_deg * kPi / 180.0);
   for (const TreeRow& row : rows)
   {
-    core::TrunkSpec trunk = row.trunk;
+    sim::TrunkSpec trunk = row.trunk;
     if (!row.has_height)
       trunk.height = tree.height;
     trunk.lean_x = random.gaussian(lean_sigma);
@@ -603,7 +602,7 @@ core::ForestWorld loadYamlWorld(const std::string& path)
 
   try
   {
-    core::addClutter(clutter, &world);
+    sim::addClutter(clutter, &world);
   }
   catch (const std::invalid_argument& e)  // the checks above should have caught it; name the file anyway
   {
@@ -613,23 +612,23 @@ core::ForestWorld loadYamlWorld(const std::string& path)
 }
 }  // namespace
 
-std::vector<core::BoxSpec> loadBoxList(const std::string& path)
+std::vector<sim::BoxSpec> loadBoxList(const std::string& path)
 {
-  std::vector<core::BoxSpec> boxes;
+  std::vector<sim::BoxSpec> boxes;
   for (const std::vector<double>& values : readNumberRows(path, "box list", kBoxLineFormat, checkBox))
     boxes.push_back(makeBox(values));
   return boxes;
 }
 
-std::vector<core::TrunkSpec> loadTreeList(const std::string& path)
+std::vector<sim::TrunkSpec> loadTreeList(const std::string& path)
 {
-  std::vector<core::TrunkSpec> trunks;
+  std::vector<sim::TrunkSpec> trunks;
   for (const TreeRow& row : readTreeRows(path))
     trunks.push_back(row.trunk);
   return trunks;
 }
 
-core::ForestWorld loadForestWorld(const std::string& path)
+sim::ForestWorld loadForestWorld(const std::string& path)
 {
   if (endsWithNoCase(path, ".yaml") || endsWithNoCase(path, ".yml"))
   {
@@ -642,7 +641,7 @@ core::ForestWorld loadForestWorld(const std::string& path)
       throw std::runtime_error(path + ": " + e.what());
     }
   }
-  core::ForestWorld world;
+  sim::ForestWorld world;
   world.trunks = loadTreeList(path);
   world.ground.amplitude = 0.0;  // a bare tree list is the idealised stand: flat, no clutter
   if (!treeExtent(world.trunks, &world))

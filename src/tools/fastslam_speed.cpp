@@ -221,16 +221,16 @@ int main(int argc, char** argv)
       for (const char* name : { "paper_forest", "dense_forest" })
         for (const char* method : { "circle", "centroid" })
         {
-          const core::ForestWorld world =
+          const sim::ForestWorld world =
               io::loadForestWorld(tools::packageFile(std::string("config/worlds/") + name + ".yaml"));
-          core::ForestSlamRunConfig cfg;
-          cfg.scenario.drive = core::straightDrive();
+          eval::ForestSlamRunConfig cfg;
+          cfg.scenario.drive = sim::straightDrive();
           core::parseTrunkMethod(method, &cfg.detector.method);
           cfg.filter.particles = 100;
           cfg.filter.proposal = proposal;
           cfg.filter.mixture_fraction = mixture;
           cfg.scenario.sim.seed = cfg.filter.seed = cfg.detector.seed = 1;
-          const core::ForestSlamRunResult r = core::runForestSlam(world, cfg);
+          const eval::ForestSlamRunResult r = eval::runForestSlam(world, cfg);
           const double n = std::max(1, r.sweeps);
           const double ext = 1000.0 * r.seconds_extraction / n, fil = 1000.0 * r.seconds_filter / n;
           std::printf("%20s %8s %8d %14.3f %11.3f %12.3f %9.0f %9.3f %8.3f\n", name, method, r.sweeps, ext, fil,

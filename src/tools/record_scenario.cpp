@@ -65,237 +65,340 @@ void progress(double done, double total, bool final)
                total, final ? "\n" : "");
   std::fflush(stderr);
 }
-}  // namespace
-
-int main(int argc, char** argv)
+/** Command-line options. */
+struct Options
 {
   std::string world_path, indoor_map, drive = "straight", config_path, out;
   int seed = 0;
   bool start_given = false;
   core::Pose2 start;
   bool points = true, quiet = !isatty(STDERR_FILENO);
+};
+
+/** The value of option @p a at argv[*i + 1] (advancing *i); exits with the usage status when there is none. */
+void optionValue(int argc, char** argv, const std::string& a, int* i, std::string* v)
+{
+  if (*i + 1 >= argc)
+  {
+    std::fprintf(stderr, "record_scenario: %s needs a value\n%s", a.c_str(), kUsage);
+    std::exit(2);
+  }
+  *v = argv[++*i];
+}
+
+/** --start X Y YAW_DEG; false (after saying why) for a value that is not a number. */
+bool parseStart(int argc, char** argv, const std::string& a, int* i, Options* opt)
+{
+  std::string v;
+  double* fields[3] = { &opt->start.x, &opt->start.y, &opt->start.theta };
+  for (double* f : fields)
+  {
+    optionValue(argc, argv, a, i, &v);
+    char* end = nullptr;
+    *f = std::strtod(v.c_str(), &end);
+    if (end == v.c_str() || *end != '\0' || !std::isfinite(*f))
+    {
+      std::fprintf(stderr, "record_scenario: --start takes three numbers X Y YAW_DEG, got '%s'\n", v.c_str());
+      return false;
+    }
+  }
+  opt->start.theta *= M_PI / 180.0;
+  opt->start_given = true;
+  return true;
+}
+
+/**
+ * Reads the options. False when the program is to end at once with *status: 0 after --help, 2 after a usage error
+ * (already reported).
+ */
+bool parseOptions(int argc, char** argv, Options* opt, int* status)
+{
+  *status = 2;
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
-    auto value = [&](std::string* v) {
-      if (i + 1 >= argc)
-      {
-        std::fprintf(stderr, "record_scenario: %s needs a value\n%s", a.c_str(), kUsage);
-        std::exit(2);
-      }
-      *v = argv[++i];
-    };
     std::string v;
     if (a == "--world")
-      value(&world_path);
+      optionValue(argc, argv, a, &i, &opt->world_path);
     else if (a == "--indoor-map")
-      value(&indoor_map);
+      optionValue(argc, argv, a, &i, &opt->indoor_map);
     else if (a == "--drive")
-      value(&drive);
+      optionValue(argc, argv, a, &i, &opt->drive);
     else if (a == "--config")
-      value(&config_path);
+      optionValue(argc, argv, a, &i, &opt->config_path);
     else if (a == "--out")
-      value(&out);
+      optionValue(argc, argv, a, &i, &opt->out);
     else if (a == "--seed")
     {
-      value(&v);
+      optionValue(argc, argv, a, &i, &v);
       char* end = nullptr;
-      seed = static_cast<int>(std::strtol(v.c_str(), &end, 10));
+      opt->seed = static_cast<int>(std::strtol(v.c_str(), &end, 10));
       if (*end != '\0')
       {
         std::fprintf(stderr, "record_scenario: --seed takes an integer, got '%s'\n", v.c_str());
-        return 2;
+        return false;
       }
     }
     else if (a == "--start")
     {
-      double* fields[3] = { &start.x, &start.y, &start.theta };
-      for (double* f : fields)
-      {
-        value(&v);
-        char* end = nullptr;
-        *f = std::strtod(v.c_str(), &end);
-        if (end == v.c_str() || *end != '\0' || !std::isfinite(*f))
-        {
-          std::fprintf(stderr, "record_scenario: --start takes three numbers X Y YAW_DEG, got '%s'\n", v.c_str());
-          return 2;
-        }
-      }
-      start.theta *= M_PI / 180.0;
-      start_given = true;
+      if (!parseStart(argc, argv, a, &i, opt))
+        return false;
     }
     else if (a == "--no-points")
-      points = false;
+      opt->points = false;
     else if (a == "--quiet")
-      quiet = true;
+      opt->quiet = true;
     else if (a == "-h" || a == "--help")
     {
       std::printf("%s", kUsage);
-      return 0;
+      *status = 0;
+      return false;
     }
     else
     {
       std::fprintf(stderr, "record_scenario: unknown argument '%s'\n%s", a.c_str(), kUsage);
-      return 2;
+      return false;
     }
   }
-  if ((world_path.empty() == indoor_map.empty()) || out.empty())
+  if ((opt->world_path.empty() == opt->indoor_map.empty()) || opt->out.empty())
   {
     std::fprintf(stderr, "record_scenario: give exactly one of --world/--indoor-map, and --out\n%s", kUsage);
-    return 2;
+    return false;
   }
+  return true;
+}
+
+/** The scenario of --config over the defaults, with the seed, the start and the drive of the options. */
+sim::ScenarioConfig readScenario(const Options& opt)
+{
+  sim::ScenarioConfig config;
+  if (!opt.config_path.empty())
+  {
+    io::YamlParamSource params(opt.config_path);
+    io::readScenarioConfig(params, &config);
+    for (const auto& k : params.unusedKeys())
+      std::fprintf(stderr, "record_scenario: warning: %s: unknown key '%s' ignored\n", opt.config_path.c_str(),
+                   k.c_str());
+  }
+  config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(opt.seed));
+  if (opt.start_given)
+    config.sim.start = opt.start;
+  std::string error;
+  config.drive = io::namedDrive(opt.drive, &error);
+  if (config.drive.empty())
+    throw std::runtime_error(error);
+  return config;
+}
+
+/** The forest world, or the indoor map in @p image (with flat ground and the 2D lidar only). */
+sim::ForestWorld loadWorld(const Options& opt, sim::ScenarioConfig* config,
+                           std::shared_ptr<const core::OccupancyImage>* image)
+{
+  sim::ForestWorld world;
+  if (!opt.indoor_map.empty())
+  {
+    *image = std::make_shared<const core::OccupancyImage>(io::loadMapImage(opt.indoor_map));
+    world.ground.amplitude = 0.0;
+    config->sim.lidar3d.enabled = false;
+    config->sim.lidar2d.enabled = true;
+  }
+  else
+  {
+    world = io::loadForestWorld(opt.world_path);
+  }
+  if (!opt.points)
+    config->sim.lidar3d.enabled = false;
+  return world;
+}
+
+/** What is written once at the start: the sensors' static transforms and the truth (trees, indoor map). */
+void writeStatics(const sim::ScenarioConfig& config, const sim::ForestWorld& world, const core::OccupancyImage* image,
+                  const SimFrames& frames, double base, rosbag::Bag* bag)
+{
+  tf2_msgs::TFMessage statics;
+  statics.transforms = { toStaticTf(config.sim.lidar3d.mount, frames.base, frames.lidar3d, 0.0, base),
+                         toStaticTf(config.sim.lidar2d.mount, frames.base, frames.lidar2d, 0.0, base) };
+  if (config.sim.gnss.enabled)
+    statics.transforms.push_back(toStaticTf(gpsMount(config.sim.gnss), frames.base, frames.gps, 0.0, base));
+  const ros::Time t0 = toRosTime(0.0, base);
+  bag->write("/tf_static", t0, statics);
+  const auto trees = toTruthTrees(world, config.sim.start, frames, 0.0, base);
+  bag->write("/ground_truth/trees", t0, *trees);
+  bag->write("/ground_truth/tree_markers", t0, *toTreeMarkers(*trees, "true_trees", 0.55f, 0.35f, 0.15f));
+  if (image)
+    bag->write("/ground_truth/map", t0, *toTruthMap(*image, config.sim.start, frames, 0.0, base));
+}
+
+/** Writes each step's messages to the bag, counting them, and gathers the true path. */
+class StepWriter
+{
+public:
+  StepWriter(const sim::ScenarioConfig& config, const SimFrames& frames, double base, double start_ground_z,
+             rosbag::Bag* bag)
+      : config_(config), frames_(frames), base_(base), start_ground_z_(start_ground_z), bag_(*bag)
+  {
+    truth_path.header.frame_id = frames.map;
+  }
+
+  void write(const sim::SimulatorOutput& step_out, const ros::Time& now)
+  {
+    for (const auto& o : step_out.odometry)
+    {
+      bag_.write("/odom", now, *toOdometry(o, frames_, base_));
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(toOdomTf(o, frames_, base_));
+      bag_.write("/tf", now, tf);
+      ++n_odom;
+    }
+    for (const auto& s : step_out.imu)
+    {
+      bag_.write("/imu/data", now, *toImu(s, config_.sim.imu, frames_.base, base_));
+      ++n_imu;
+    }
+    for (const auto& s : step_out.sweeps)
+    {
+      bag_.write("/points", now, *toPointCloud2(s, frames_.lidar3d, base_));
+      ++n_points;
+    }
+    for (const auto& s : step_out.scans)
+    {
+      bag_.write("/scan", now, *toLaserScan(s, frames_.lidar2d, base_));
+      ++n_scans;
+    }
+    for (const auto& g : step_out.gnss)
+    {
+      const ros::Time stamp = toRosTime(g.fix.stamp, base_);
+      const double vertical = config_.sim.gnss.vertical_factor;
+      bag_.write("/gps/fix", now, *toNavSatFix(g.fix, frames_.gps, stamp, vertical));
+      bag_.write("/ground_truth/fix", now, *toNavSatFix(g.truth, frames_.gps, stamp, vertical));
+      ++n_gps;
+    }
+    for (const auto& t : step_out.truth)
+    {
+      const auto msg = toTruthOdometry(t, config_.sim.start, start_ground_z_, frames_, base_);
+      bag_.write("/ground_truth/odom", now, *msg);
+      geometry_msgs::PoseStamped pose;
+      pose.header = msg->header;
+      pose.pose = msg->pose.pose;
+      truth_path.poses.push_back(pose);
+      ++n_truth;
+    }
+  }
+
+  nav_msgs::Path truth_path;
+  std::size_t n_odom = 0, n_points = 0, n_scans = 0, n_imu = 0, n_truth = 0, n_gps = 0;
+
+private:
+  const sim::ScenarioConfig& config_;
+  const SimFrames& frames_;
+  double base_;
+  double start_ground_z_;
+  rosbag::Bag& bag_;
+};
+
+/** Runs the scenario to its end, writing each step; throws when interrupted. */
+void runScenario(const Options& opt, double expected, double base, sim::Scenario* scenario, StepWriter* writer)
+{
+  sim::SimulatorOutput step_out;
+  double last_report = -1.0;
+  bool running = true;
+  while (running)
+  {
+    if (g_interrupted)
+      throw std::runtime_error("interrupted");
+    step_out.clear();
+    running = scenario->step(&step_out);
+    const ros::Time now = toRosTime(scenario->simulator().time(), base);
+    writer->write(step_out, now);
+    const double t = scenario->simulator().time();
+    if (!opt.quiet && t - last_report >= 0.5)
+    {
+      progress(t, expected, false);
+      last_report = t;
+    }
+  }
+}
+
+/** What was written and where the robot ended. */
+void printSummary(const Options& opt, const sim::ScenarioConfig& config, sim::Scenario* scenario,
+                  const StepWriter& writer)
+{
+  const core::Pose2 truth = core::between(config.sim.start, scenario->simulator().robot().pose());
+  std::printf("record_scenario: wrote %s: %.1f s simulated, drive '%s' %s, seed %d\n", opt.out.c_str(),
+              scenario->simulator().time(), opt.drive.c_str(),
+              scenario->timedOut() ? "TIMED OUT before its end" : "completed", opt.seed);
+  std::printf(
+      "  /points %zu  /scan %zu  /odom %zu  /imu/data %zu  /gps/fix %zu  /ground_truth/odom %zu  (+ /tf, "
+      "/tf_static, /ground_truth/trees, /ground_truth/tree_markers, /ground_truth/path%s)\n",
+      writer.n_points, writer.n_scans, writer.n_odom, writer.n_imu, writer.n_gps, writer.n_truth,
+      writer.n_gps > 0 ? ", /ground_truth/fix" : "");
+  std::printf("  final true pose in the start frame: (%.2f, %.2f, %.1f deg)\n", truth.x, truth.y,
+              truth.theta * 180.0 / M_PI);
+}
+
+/**
+ * Records the scenario to the bag: 0 when the drive completed, 1 when it timed out, 3 (and no bag) when the robot
+ * collided.
+ */
+int record(const Options& opt, const sim::ScenarioConfig& config, const core::OccupancyImage* image,
+           sim::Scenario* scenario)
+{
+  const double start_ground_z =
+      sim::Ground(scenario->simulator().world().ground).height(config.sim.start.x, config.sim.start.y);
+  const sim::PathFollower probe(config.drive, config.follower);
+  const double expected = probe.length() / config.follower.speed + config.settle;
+
+  const SimFrames frames;
+  const double base = 1000.0;
+  io::AtomicFile output(opt.out);  // removed again if the recording does not complete
+  rosbag::Bag bag(output.temporary(), rosbag::bagmode::Write);
+  bag.setCompression(rosbag::compression::LZ4);
+  writeStatics(config, scenario->simulator().world(), image, frames, base, &bag);
+
+  StepWriter writer(config, frames, base, start_ground_z, &bag);
+  runScenario(opt, expected, base, scenario, &writer);
+  if (const sim::Collision* c = scenario->simulator().collision())
+  {
+    if (!opt.quiet)
+      std::fprintf(stderr, "\n");
+    std::fprintf(stderr,
+                 "record_scenario: COLLISION at %.2f s: the robot's footprint touched %s at true pose (%.2f, %.2f, "
+                 "%.1f deg) in the world; the run ended there; no bag written\n",
+                 c->stamp, c->what(scenario->simulator().world()).c_str(), c->pose.x, c->pose.y,
+                 c->pose.theta * 180.0 / M_PI);
+    return 3;  // the bag and the temporary file are removed as they go out of scope
+  }
+  writer.truth_path.header.stamp = toRosTime(scenario->simulator().time(), base);
+  bag.write("/ground_truth/path", writer.truth_path.header.stamp, writer.truth_path);
+  bag.close();
+  output.commit();
+  if (!opt.quiet)
+    progress(scenario->simulator().time(), expected, true);
+  printSummary(opt, config, scenario, writer);
+  return scenario->timedOut() ? 1 : 0;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  Options opt;
+  int status = 0;
+  if (!parseOptions(argc, argv, &opt, &status))
+    return status;
 
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   try
   {
-    core::ScenarioConfig config;
-    if (!config_path.empty())
-    {
-      io::YamlParamSource params(config_path);
-      io::readScenarioConfig(params, &config);
-      for (const auto& k : params.unusedKeys())
-        std::fprintf(stderr, "record_scenario: warning: %s: unknown key '%s' ignored\n", config_path.c_str(),
-                     k.c_str());
-    }
-    config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(seed));
-    if (start_given)
-      config.sim.start = start;
-    std::string error;
-    config.drive = io::namedDrive(drive, &error);
-    if (config.drive.empty())
-      throw std::runtime_error(error);
+    sim::ScenarioConfig config = readScenario(opt);
     std::shared_ptr<const core::OccupancyImage> image;
-    core::ForestWorld world;
-    if (!indoor_map.empty())
-    {
-      image = std::make_shared<const core::OccupancyImage>(io::loadMapImage(indoor_map));
-      world.ground.amplitude = 0.0;
-      config.sim.lidar3d.enabled = false;
-      config.sim.lidar2d.enabled = true;
-    }
-    else
-    {
-      world = io::loadForestWorld(world_path);
-    }
-    if (!points)
-      config.sim.lidar3d.enabled = false;
-    core::Scenario scenario(world, config, image);
-    const double start_ground_z = core::Ground(scenario.simulator().world().ground).height(config.sim.start.x, config.sim.start.y);
-    const core::PathFollower probe(config.drive, config.follower);
-    const double expected = probe.length() / config.follower.speed + config.settle;
-
-    const SimFrames frames;
-    const double base = 1000.0;
-    io::AtomicFile output(out);  // removed again if the recording does not complete
-    rosbag::Bag bag(output.temporary(), rosbag::bagmode::Write);
-    bag.setCompression(rosbag::compression::LZ4);
-    tf2_msgs::TFMessage statics;
-    statics.transforms = { toStaticTf(config.sim.lidar3d.mount, frames.base, frames.lidar3d, 0.0, base),
-                           toStaticTf(config.sim.lidar2d.mount, frames.base, frames.lidar2d, 0.0, base) };
-    if (config.sim.gnss.enabled)
-      statics.transforms.push_back(toStaticTf(gpsMount(config.sim.gnss), frames.base, frames.gps, 0.0, base));
-    const ros::Time t0 = toRosTime(0.0, base);
-    bag.write("/tf_static", t0, statics);
-    const auto trees = toTruthTrees(scenario.simulator().world(), config.sim.start, frames, 0.0, base);
-    bag.write("/ground_truth/trees", t0, *trees);
-    bag.write("/ground_truth/tree_markers", t0, *toTreeMarkers(*trees, "true_trees", 0.55f, 0.35f, 0.15f));
-    if (image)
-      bag.write("/ground_truth/map", t0, *toTruthMap(*image, config.sim.start, frames, 0.0, base));
-
-    nav_msgs::Path truth_path;
-    truth_path.header.frame_id = frames.map;
-    std::size_t n_odom = 0, n_points = 0, n_scans = 0, n_imu = 0, n_truth = 0, n_gps = 0;
-    core::SimulatorOutput step_out;
-    double last_report = -1.0;
-    bool running = true;
-    while (running)
-    {
-      if (g_interrupted)
-        throw std::runtime_error("interrupted");
-      step_out.clear();
-      running = scenario.step(&step_out);
-      const ros::Time now = toRosTime(scenario.simulator().time(), base);
-      for (const auto& o : step_out.odometry)
-      {
-        bag.write("/odom", now, *toOdometry(o, frames, base));
-        tf2_msgs::TFMessage tf;
-        tf.transforms.push_back(toOdomTf(o, frames, base));
-        bag.write("/tf", now, tf);
-        ++n_odom;
-      }
-      for (const auto& s : step_out.imu)
-      {
-        bag.write("/imu/data", now, *toImu(s, config.sim.imu, frames.base, base));
-        ++n_imu;
-      }
-      for (const auto& s : step_out.sweeps)
-      {
-        bag.write("/points", now, *toPointCloud2(s, frames.lidar3d, base));
-        ++n_points;
-      }
-      for (const auto& s : step_out.scans)
-      {
-        bag.write("/scan", now, *toLaserScan(s, frames.lidar2d, base));
-        ++n_scans;
-      }
-      for (const auto& g : step_out.gnss)
-      {
-        const ros::Time stamp = toRosTime(g.fix.stamp, base);
-        const double vertical = config.sim.gnss.vertical_factor;
-        bag.write("/gps/fix", now, *toNavSatFix(g.fix, frames.gps, stamp, vertical));
-        bag.write("/ground_truth/fix", now, *toNavSatFix(g.truth, frames.gps, stamp, vertical));
-        ++n_gps;
-      }
-      for (const auto& t : step_out.truth)
-      {
-        const auto msg = toTruthOdometry(t, config.sim.start, start_ground_z, frames, base);
-        bag.write("/ground_truth/odom", now, *msg);
-        geometry_msgs::PoseStamped pose;
-        pose.header = msg->header;
-        pose.pose = msg->pose.pose;
-        truth_path.poses.push_back(pose);
-        ++n_truth;
-      }
-      const double t = scenario.simulator().time();
-      if (!quiet && t - last_report >= 0.5)
-      {
-        progress(t, expected, false);
-        last_report = t;
-      }
-    }
-    if (const core::Collision* c = scenario.simulator().collision())
-    {
-      if (!quiet)
-        std::fprintf(stderr, "\n");
-      std::fprintf(stderr,
-                   "record_scenario: COLLISION at %.2f s: the robot's footprint touched %s at true pose (%.2f, %.2f, "
-                   "%.1f deg) in the world; the run ended there; no bag written\n",
-                   c->stamp, c->what(scenario.simulator().world()).c_str(), c->pose.x, c->pose.y,
-                   c->pose.theta * 180.0 / M_PI);
-      return 3;  // the bag and the temporary file are removed as they go out of scope
-    }
-    truth_path.header.stamp = toRosTime(scenario.simulator().time(), base);
-    bag.write("/ground_truth/path", truth_path.header.stamp, truth_path);
-    bag.close();
-    output.commit();
-    if (!quiet)
-      progress(scenario.simulator().time(), expected, true);
-
-    const core::Pose2 truth = core::between(config.sim.start, scenario.simulator().robot().pose());
-    std::printf("record_scenario: wrote %s: %.1f s simulated, drive '%s' %s, seed %d\n", out.c_str(),
-                scenario.simulator().time(), drive.c_str(),
-                scenario.timedOut() ? "TIMED OUT before its end" : "completed", seed);
-    std::printf("  /points %zu  /scan %zu  /odom %zu  /imu/data %zu  /gps/fix %zu  /ground_truth/odom %zu  (+ /tf, "
-                "/tf_static, /ground_truth/trees, /ground_truth/tree_markers, /ground_truth/path%s)\n",
-                n_points, n_scans, n_odom, n_imu, n_gps, n_truth, n_gps > 0 ? ", /ground_truth/fix" : "");
-    std::printf("  final true pose in the start frame: (%.2f, %.2f, %.1f deg)\n", truth.x, truth.y,
-                truth.theta * 180.0 / M_PI);
-    return scenario.timedOut() ? 1 : 0;
+    const sim::ForestWorld world = loadWorld(opt, &config, &image);
+    sim::Scenario scenario(world, config, image);
+    return record(opt, config, image.get(), &scenario);
   }
   catch (const std::exception& e)
   {
-    if (!quiet)
+    if (!opt.quiet)
       std::fprintf(stderr, "\n");
     std::fprintf(stderr, "record_scenario: %s; no bag written\n", e.what());
     return g_interrupted ? 130 : 1;

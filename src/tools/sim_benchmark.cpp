@@ -28,13 +28,13 @@ double median(std::vector<double> v)
 }
 
 /** @brief A stand of @p n trunks on 30 x 30 m, >= 1.2 m apart, like the paper world's clutter. */
-core::ForestWorld generatedStand(int n, std::uint64_t seed)
+sim::ForestWorld generatedStand(int n, std::uint64_t seed)
 {
-  core::ForestWorld world;
+  sim::ForestWorld world;
   core::Random random(seed);
   for (int attempts = 0; static_cast<int>(world.trunks.size()) < n && attempts < 100000; ++attempts)
   {
-    core::TrunkSpec t;
+    sim::TrunkSpec t;
     t.x = random.uniform(0.0, 30.0);
     t.y = random.uniform(0.0, 30.0);
     t.radius = random.uniform(0.1, 0.3);
@@ -45,20 +45,20 @@ core::ForestWorld generatedStand(int n, std::uint64_t seed)
       world.trunks.push_back(t);
   }
   world.ground.amplitude = 0.3;
-  core::ClutterSpec clutter;
+  sim::ClutterSpec clutter;
   clutter.bushes = 12;
   clutter.rocks = 6;
   clutter.branches = 10;
-  core::addClutter(clutter, &world);
+  sim::addClutter(clutter, &world);
   return world;
 }
 
-void benchmarkCast(const std::string& name, const core::ForestWorld& world, int sweeps)
+void benchmarkCast(const std::string& name, const sim::ForestWorld& world, int sweeps)
 {
-  core::SimulatorConfig config;
+  sim::SimulatorConfig config;
   config.start = core::Pose2(15.0, 15.0, 0.3);
-  core::ForestSimulator sim(world, config);
-  core::LidarSweep sweep;
+  sim::ForestSimulator sim(world, config);
+  sim::LidarSweep sweep;
   std::vector<double> ms;
   std::size_t points = 0;
   for (int i = 0; i < sweeps; ++i)
@@ -74,18 +74,18 @@ void benchmarkCast(const std::string& name, const core::ForestWorld& world, int 
               rays, median(ms), *std::max_element(ms.begin(), ms.end()), points / std::max(1, sweeps));
 }
 
-void benchmarkDrift(const std::string& name, const core::ForestWorld& world, const std::vector<Eigen::Vector2d>& drive,
+void benchmarkDrift(const std::string& name, const sim::ForestWorld& world, const std::vector<Eigen::Vector2d>& drive,
                     int seeds)
 {
   std::vector<double> final_error, sideways, along;
   for (int seed = 0; seed < seeds; ++seed)
   {
-    core::ScenarioConfig config;
+    sim::ScenarioConfig config;
     config.sim.seed = static_cast<std::uint64_t>(seed);
     config.sim.lidar3d.enabled = false;
     config.drive = drive;
-    core::Scenario scenario(world, config);
-    core::SimulatorOutput out;
+    sim::Scenario scenario(world, config);
+    sim::SimulatorOutput out;
     core::Pose2 odom;
     while (true)
     {
@@ -139,7 +139,7 @@ int main(int argc, char** argv)
   try
   {
     std::printf("== Cast time of one VLP-16 sweep (16 rings x 1800 columns, one core)\n");
-    std::vector<std::pair<std::string, core::ForestWorld>> loaded;
+    std::vector<std::pair<std::string, sim::ForestWorld>> loaded;
     for (const auto& path : worlds)
       loaded.emplace_back(path.substr(path.find_last_of('/') + 1), io::loadForestWorld(path));
     for (const auto& w : loaded)
@@ -151,8 +151,8 @@ int main(int argc, char** argv)
     {
       if (default_worlds && &w != &loaded.front())
         break;  // the reference drift is the paper world's
-      benchmarkDrift(w.first + " straight", w.second, core::straightDrive(), seeds);
-      benchmarkDrift(w.first + " loop", w.second, core::loopDrive(), seeds);
+      benchmarkDrift(w.first + " straight", w.second, sim::straightDrive(), seeds);
+      benchmarkDrift(w.first + " loop", w.second, sim::loopDrive(), seeds);
     }
   }
   catch (const std::exception& e)

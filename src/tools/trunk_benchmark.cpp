@@ -95,16 +95,19 @@ void add(BandStats* b, bool visible, bool matched, double err, double rad_err)
 bool g_level = true;
 bool g_true_level = false;  // level with the true sensor attitude (what a good IMU or TF gives)
 
-void run(const std::string& name, const core::ForestWorld& world, double step)
+std::vector<TrueTrunk> trueTrunks(const sim::ForestWorld& world)
 {
-  core::SimulatorConfig sim_config;
   std::vector<TrueTrunk> trunks;
-  const core::Ground ground(world.ground);
+  const sim::Ground ground(world.ground);
   for (const auto& t : world.trunks)
     trunks.push_back({ Eigen::Vector3d(t.x, t.y, ground.height(t.x, t.y)),
                        Eigen::Vector3d(t.lean_x, t.lean_y, 1.0).normalized(), t.radius, t.taper });
+  return trunks;
+}
 
-  // Sensor poses on a grid over the stand, headings drawn from a seeded generator, clear of trunks.
+/** Sensor poses on a grid over the stand, headings drawn from a seeded generator, clear of trunks. */
+std::vector<core::Pose2> sensorPoses(const sim::ForestWorld& world, double step)
+{
   std::vector<core::Pose2> poses;
   core::Random random(11);
   for (double x = world.min_x + 1.0; x <= world.max_x - 1.0 + 1e-9; x += step)
@@ -117,144 +120,175 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
       if (clear)
         poses.emplace_back(x, y, heading);
     }
+  return poses;
+}
 
-  Result res[2];
-  const core::TrunkMethod methods[2] = { core::TrunkMethod::kCircle, core::TrunkMethod::kCentroid };
-  int sweeps = 0;
-  std::size_t points_total = 0;
-  for (const auto& pose : poses)
+/**
+ * One simulated sweep and the evaluation frame: the sensor's origin, z up, the sensor's heading (what the detector's
+ * levelled output approximates).
+ */
+struct SweepView
+{
+  sim::LidarSweep sweep;
+  std::vector<Eigen::Vector3f> pts;
+  Eigen::Isometry3d sensor;
+  double yaw = 0.0;
+  Eigen::Rotation2Dd to_eval;
+
+  /** The true trunk @p k at a detection's height (sensor-relative z): its axis point in the frame, its radius. */
+  std::pair<Eigen::Vector2d, double> truthAt(const std::vector<TrueTrunk>& trunks, std::size_t k, double height) const
   {
-    sim_config.start = pose;
-    core::ForestSimulator sim(world, sim_config);
-    core::LidarSweep sweep;
-    sim.castSweep(0.0, &sweep);
-    const Eigen::Isometry3d sensor = sim.bodyPose(pose) * sim_config.lidar3d.mount.transform();
-    // The evaluation frame: the sensor's origin, z up, the sensor's heading (what the detector's
-    // levelled output approximates).
-    const Eigen::Vector3d fwd = sensor.linear().col(0);
-    const double yaw = std::atan2(fwd.y(), fwd.x());
-    const Eigen::Rotation2Dd to_eval(-yaw);
-    std::vector<Eigen::Vector3f> pts;
-    pts.reserve(sweep.points.size());
-    for (const auto& p : sweep.points)
-      pts.emplace_back(p.x, p.y, p.z);
-    points_total += pts.size();
-    ++sweeps;
+    // Axis point at the detection's height (sensor-relative z).
+    const double z_world = sensor.translation().z() + height;
+    const double s = (z_world - trunks[k].base.z()) / trunks[k].axis.z();
+    const Eigen::Vector3d c = trunks[k].base + s * trunks[k].axis;
+    const Eigen::Vector2d rel =
+        to_eval * Eigen::Vector2d(c.x() - sensor.translation().x(), c.y() - sensor.translation().y());
+    return std::make_pair(rel, trunks[k].radius0 - trunks[k].taper * s);
+  }
+};
 
-    // Visibility: points of the sweep within 5 cm of a trunk's surface at 0.5-2.0 m above its foot.
-    std::vector<int> hits(trunks.size(), 0);
-    for (const auto& p : sweep.points)
+SweepView simulateSweep(const sim::ForestWorld& world, const core::Pose2& pose, sim::SimulatorConfig* sim_config)
+{
+  sim_config->start = pose;
+  sim::ForestSimulator sim(world, *sim_config);
+  SweepView view;
+  sim.castSweep(0.0, &view.sweep);
+  view.sensor = sim.bodyPose(pose) * sim_config->lidar3d.mount.transform();
+  const Eigen::Vector3d fwd = view.sensor.linear().col(0);
+  view.yaw = std::atan2(fwd.y(), fwd.x());
+  view.to_eval = Eigen::Rotation2Dd(-view.yaw);
+  view.pts.reserve(view.sweep.points.size());
+  for (const auto& p : view.sweep.points)
+    view.pts.emplace_back(p.x, p.y, p.z);
+  return view;
+}
+
+/** Visibility: points of the sweep within 5 cm of a trunk's surface at 0.5-2.0 m above its foot, per trunk. */
+std::vector<int> trunkHits(const SweepView& view, const std::vector<TrueTrunk>& trunks)
+{
+  std::vector<int> hits(trunks.size(), 0);
+  for (const auto& p : view.sweep.points)
+  {
+    const Eigen::Vector3d w = view.sensor * Eigen::Vector3d(p.x, p.y, p.z);
+    for (std::size_t k = 0; k < trunks.size(); ++k)
     {
-      const Eigen::Vector3d w = sensor * Eigen::Vector3d(p.x, p.y, p.z);
-      for (std::size_t k = 0; k < trunks.size(); ++k)
-      {
-        const Eigen::Vector3d rel = w - trunks[k].base;
-        if (std::abs(rel.x()) > 1.0 || std::abs(rel.y()) > 1.0)
-          continue;
-        const double s = rel.dot(trunks[k].axis);
-        if (s < 0.5 || s > 2.0)
-          continue;
-        const double d = (rel - s * trunks[k].axis).norm();
-        if (std::abs(d - (trunks[k].radius0 - trunks[k].taper * s)) < 0.05)
-          ++hits[k];
-      }
-    }
-
-    for (int m = 0; m < 2; ++m)
-    {
-      core::TrunkDetectorConfig cfg;
-      cfg.method = methods[m];
-      cfg.sensor_height = sim_config.lidar3d.mount.z;  // from TF on a robot
-      cfg.level_by_trunks = g_level;
-      core::TrunkDetector detector(cfg);
-      const double t0 = threadCpuMs();
-      core::TrunkDetectorStats stats;
-      Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
-      if (g_true_level)
-        level = Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * sensor.linear();
-      const auto obs = detector.detect(pts, level, &stats);
-      res[m].stage_ms[0] += stats.ms_band;
-      res[m].stage_ms[1] += stats.ms_cluster;
-      res[m].stage_ms[2] += stats.ms_tilt;
-      res[m].stage_ms[3] += stats.ms_fit;
-      res[m].split_clusters += stats.split_clusters;
-      res[m].times_ms.push_back(threadCpuMs() - t0);
-
-      // Truth in the evaluation frame at each detection's height: greedy one-to-one by distance, 0.5 m gate.
-      std::vector<bool> used(trunks.size(), false);
-      std::vector<int> match(obs.size(), -1);
-      std::vector<std::pair<double, std::pair<int, int>>> pairs;
-      const auto truthAt = [&](std::size_t k, double height) {
-        // Axis point at the detection's height (sensor-relative z).
-        const double z_world = sensor.translation().z() + height;
-        const double s = (z_world - trunks[k].base.z()) / trunks[k].axis.z();
-        const Eigen::Vector3d c = trunks[k].base + s * trunks[k].axis;
-        const Eigen::Vector2d rel = to_eval * Eigen::Vector2d(c.x() - sensor.translation().x(), c.y() - sensor.translation().y());
-        return std::make_pair(rel, trunks[k].radius0 - trunks[k].taper * s);
-      };
-      for (std::size_t i = 0; i < obs.size(); ++i)
-        for (std::size_t k = 0; k < trunks.size(); ++k)
-        {
-          const double d = (truthAt(k, obs[i].height).first - obs[i].center).norm();
-          if (d < 0.5)
-            pairs.push_back({ d, { static_cast<int>(i), static_cast<int>(k) } });
-        }
-      std::sort(pairs.begin(), pairs.end());
-      for (const auto& p : pairs)
-        if (match[static_cast<std::size_t>(p.second.first)] < 0 && !used[static_cast<std::size_t>(p.second.second)])
-        {
-          match[static_cast<std::size_t>(p.second.first)] = p.second.second;
-          used[static_cast<std::size_t>(p.second.second)] = true;
-        }
-      // Per true trunk (recall) and per detection (precision, errors).
-      for (std::size_t k = 0; k < trunks.size(); ++k)
-      {
-        const auto t = truthAt(k, 0.0);
-        const double range = t.first.norm();
-        const bool visible = hits[k] >= 10;
-        const int b = bandOf(range);
-        int det = -1;
-        for (std::size_t i = 0; i < obs.size(); ++i)
-          if (match[i] == static_cast<int>(k))
-            det = static_cast<int>(i);
-        double err = 0.0, rad_err = 0.0;
-        if (det >= 0)
-        {
-          const auto tt = truthAt(k, obs[static_cast<std::size_t>(det)].height);
-          err = (tt.first - obs[static_cast<std::size_t>(det)].center).norm();
-          rad_err = obs[static_cast<std::size_t>(det)].radius - tt.second;
-        }
-        // A detection of a trunk that is not "visible" by the count still counts as matched (not spurious),
-        // but recall is over visible trunks only.
-        const bool counted_match = det >= 0 && visible;
-        if (b >= 0)
-          add(&res[m].band[b], visible, counted_match, err, rad_err);
-        if (range >= 1.0 && range < 10.0)
-          add(&res[m].within10, visible, counted_match, err, rad_err);
-      }
-      for (std::size_t i = 0; i < obs.size(); ++i)
-      {
-        const int b = bandOf(obs[i].range);
-        if (b >= 0)
-        {
-          ++res[m].band[b].detections;
-          if (match[i] >= 0)
-            ++res[m].band[b].detections_matched;
-        }
-        if (obs[i].range >= 1.0 && obs[i].range < 10.0)
-        {
-          ++res[m].within10.detections;
-          if (match[i] >= 0)
-            ++res[m].within10.detections_matched;
-          if (match[i] < 0)
-            ++res[m].spurious_within10;
-        }
-      }
+      const Eigen::Vector3d rel = w - trunks[k].base;
+      if (std::abs(rel.x()) > 1.0 || std::abs(rel.y()) > 1.0)
+        continue;
+      const double s = rel.dot(trunks[k].axis);
+      if (s < 0.5 || s > 2.0)
+        continue;
+      const double d = (rel - s * trunks[k].axis).norm();
+      if (std::abs(d - (trunks[k].radius0 - trunks[k].taper * s)) < 0.05)
+        ++hits[k];
     }
   }
+  return hits;
+}
 
+/** Runs the detector of @p method on the sweep, timing it. */
+std::vector<core::TrunkObservation> detect(core::TrunkMethod method, const sim::SimulatorConfig& sim_config,
+                                           const SweepView& view, Result* res)
+{
+  core::TrunkDetectorConfig cfg;
+  cfg.method = method;
+  cfg.sensor_height = sim_config.lidar3d.mount.z;  // from TF on a robot
+  cfg.level_by_trunks = g_level;
+  core::TrunkDetector detector(cfg);
+  const double t0 = threadCpuMs();
+  core::TrunkDetectorStats stats;
+  Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
+  if (g_true_level)
+    level = Eigen::AngleAxisd(-view.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * view.sensor.linear();
+  const auto obs = detector.detect(view.pts, level, &stats);
+  res->stage_ms[0] += stats.ms_band;
+  res->stage_ms[1] += stats.ms_cluster;
+  res->stage_ms[2] += stats.ms_tilt;
+  res->stage_ms[3] += stats.ms_fit;
+  res->split_clusters += stats.split_clusters;
+  res->times_ms.push_back(threadCpuMs() - t0);
+  return obs;
+}
+
+/** Greedy one-to-one matching by distance, 0.5 m gate: the true trunk of each detection, -1 for none. */
+std::vector<int> matchTrunks(const std::vector<core::TrunkObservation>& obs, const SweepView& view,
+                             const std::vector<TrueTrunk>& trunks)
+{
+  std::vector<bool> used(trunks.size(), false);
+  std::vector<int> match(obs.size(), -1);
+  std::vector<std::pair<double, std::pair<int, int>>> pairs;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    for (std::size_t k = 0; k < trunks.size(); ++k)
+    {
+      const double d = (view.truthAt(trunks, k, obs[i].height).first - obs[i].center).norm();
+      if (d < 0.5)
+        pairs.push_back({ d, { static_cast<int>(i), static_cast<int>(k) } });
+    }
+  std::sort(pairs.begin(), pairs.end());
+  for (const auto& p : pairs)
+    if (match[static_cast<std::size_t>(p.second.first)] < 0 && !used[static_cast<std::size_t>(p.second.second)])
+    {
+      match[static_cast<std::size_t>(p.second.first)] = p.second.second;
+      used[static_cast<std::size_t>(p.second.second)] = true;
+    }
+  return match;
+}
+
+/** Per true trunk (recall) and per detection (precision, errors). */
+void score(const std::vector<core::TrunkObservation>& obs, const std::vector<int>& match, const SweepView& view,
+           const std::vector<TrueTrunk>& trunks, const std::vector<int>& hits, Result* res)
+{
+  for (std::size_t k = 0; k < trunks.size(); ++k)
+  {
+    const auto t = view.truthAt(trunks, k, 0.0);
+    const double range = t.first.norm();
+    const bool visible = hits[k] >= 10;
+    const int b = bandOf(range);
+    int det = -1;
+    for (std::size_t i = 0; i < obs.size(); ++i)
+      if (match[i] == static_cast<int>(k))
+        det = static_cast<int>(i);
+    double err = 0.0, rad_err = 0.0;
+    if (det >= 0)
+    {
+      const auto tt = view.truthAt(trunks, k, obs[static_cast<std::size_t>(det)].height);
+      err = (tt.first - obs[static_cast<std::size_t>(det)].center).norm();
+      rad_err = obs[static_cast<std::size_t>(det)].radius - tt.second;
+    }
+    // A detection of a trunk that is not "visible" by the count still counts as matched (not spurious),
+    // but recall is over visible trunks only.
+    const bool counted_match = det >= 0 && visible;
+    if (b >= 0)
+      add(&res->band[b], visible, counted_match, err, rad_err);
+    if (range >= 1.0 && range < 10.0)
+      add(&res->within10, visible, counted_match, err, rad_err);
+  }
+  for (std::size_t i = 0; i < obs.size(); ++i)
+  {
+    const int b = bandOf(obs[i].range);
+    if (b >= 0)
+    {
+      ++res->band[b].detections;
+      if (match[i] >= 0)
+        ++res->band[b].detections_matched;
+    }
+    if (obs[i].range >= 1.0 && obs[i].range < 10.0)
+    {
+      ++res->within10.detections;
+      if (match[i] >= 0)
+        ++res->within10.detections_matched;
+      if (match[i] < 0)
+        ++res->spurious_within10;
+    }
+  }
+}
+
+void printResults(const std::string& name, int sweeps, std::size_t points_total, std::size_t trunks,
+                  const core::TrunkMethod* methods, const Result* res)
+{
   std::printf("\n== %s: %d sweeps (%.0f points each), %zu trunks\n", name.c_str(), sweeps,
-              sweeps ? static_cast<double>(points_total) / sweeps : 0.0, trunks.size());
+              sweeps ? static_cast<double>(points_total) / sweeps : 0.0, trunks);
   std::printf("%-9s %-10s %9s %9s %9s %9s %8s %10s %9s\n", "method", "band [m]", "centre", "centre", "radius",
               "radius", "recall", "precision", "visible");
   std::printf("%-9s %-10s %9s %9s %9s %9s %8s %10s %9s\n", "", "", "mean [cm]", "RMS [cm]", "bias [cm]", "RMS [cm]",
@@ -287,6 +321,33 @@ void run(const std::string& name, const core::ForestWorld& world, double step)
                 core::trunkMethodName(methods[m]), res[m].stage_ms[0] / n, res[m].stage_ms[1] / n, res[m].stage_ms[2] / n,
                 res[m].stage_ms[3] / n, res[m].split_clusters);
   }
+}
+
+void run(const std::string& name, const sim::ForestWorld& world, double step)
+{
+  sim::SimulatorConfig sim_config;
+  const std::vector<TrueTrunk> trunks = trueTrunks(world);
+  const std::vector<core::Pose2> poses = sensorPoses(world, step);
+
+  Result res[2];
+  const core::TrunkMethod methods[2] = { core::TrunkMethod::kCircle, core::TrunkMethod::kCentroid };
+  int sweeps = 0;
+  std::size_t points_total = 0;
+  for (const auto& pose : poses)
+  {
+    const SweepView view = simulateSweep(world, pose, &sim_config);
+    points_total += view.pts.size();
+    ++sweeps;
+    const std::vector<int> hits = trunkHits(view, trunks);
+    for (int m = 0; m < 2; ++m)
+    {
+      const std::vector<core::TrunkObservation> obs = detect(methods[m], sim_config, view, &res[m]);
+      // Truth in the evaluation frame at each detection's height.
+      const std::vector<int> match = matchTrunks(obs, view, trunks);
+      score(obs, match, view, trunks, hits, &res[m]);
+    }
+  }
+  printResults(name, sweeps, points_total, trunks.size(), methods, res);
 }
 }  // namespace
 

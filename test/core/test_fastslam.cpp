@@ -16,6 +16,7 @@
 #include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 
 using namespace rbpf_slam::core;
+using namespace rbpf_slam::eval;
 using rbpf_slam::test::observe;
 using rbpf_slam::test::quietConfig;
 

@@ -7,15 +7,15 @@
 
 #include "rbpf_slam/sim/forest_world.h"
 
-using rbpf_slam::core::addClutter;
-using rbpf_slam::core::BranchSpec;
-using rbpf_slam::core::ClutterSpec;
-using rbpf_slam::core::FoliageSpec;
-using rbpf_slam::core::ForestWorld;
-using rbpf_slam::core::Ground;
-using rbpf_slam::core::GroundSpec;
-using rbpf_slam::core::RockSpec;
-using rbpf_slam::core::TrunkSpec;
+using rbpf_slam::sim::addClutter;
+using rbpf_slam::sim::BranchSpec;
+using rbpf_slam::sim::ClutterSpec;
+using rbpf_slam::sim::FoliageSpec;
+using rbpf_slam::sim::ForestWorld;
+using rbpf_slam::sim::Ground;
+using rbpf_slam::sim::GroundSpec;
+using rbpf_slam::sim::RockSpec;
+using rbpf_slam::sim::TrunkSpec;
 
 namespace
 {

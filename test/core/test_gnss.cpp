@@ -137,19 +137,19 @@ TEST(Gnss, OutagesComeUnderCanopyOnly)
 
 TEST(Gnss, SimulatorGivesFixesAtItsRateWithTheirTruth)
 {
-  ForestWorld world;
-  world.trunks.push_back(TrunkSpec());
+  sim::ForestWorld world;
+  world.trunks.push_back(sim::TrunkSpec());
   world.trunks.back().x = 3.0;
   world.trunks.back().y = 15.0;
-  SimulatorConfig c;
+  sim::SimulatorConfig c;
   c.lidar3d.enabled = false;
   c.gnss.enabled = true;
   c.gnss.rate = 2.0;
   c.gnss.antenna = Eigen::Vector3d::Zero();  // at base_link: the body's tilt on the slope moves it not
-  ForestSimulator sim(world, c);
+  sim::ForestSimulator sim(world, c);
   EXPECT_GT(sim.canopyAt(3.0, 15.0), 0.0);
   EXPECT_EQ(sim.canopyAt(100.0, 100.0), 0.0);
-  SimulatorOutput out;
+  sim::SimulatorOutput out;
   int fixes = 0;
   for (int i = 0; i < 2000; ++i)  // 10 s
   {

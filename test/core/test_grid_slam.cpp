@@ -16,6 +16,7 @@
 #include "grid_test_world.h"
 
 using namespace rbpf_slam::core;
+using namespace rbpf_slam::eval;
 using namespace grid_test_world;
 
 TEST(GridSlam, ScanScorePeaksAtTheTruePose)

@@ -11,7 +11,7 @@
 
 namespace
 {
-using rbpf_slam::core::MapPoint;
+using rbpf_slam::eval::MapPoint;
 
 struct Case
 {
@@ -57,8 +57,8 @@ TEST(MapScore, TheCppScorerGivesTheNumbersOfThePythonScorer)
   for (std::size_t k = 0; k < cases.size(); ++k)
   {
     const Case& c = cases[k];
-    const rbpf_slam::core::MapScore s =
-        rbpf_slam::core::scoreMap(c.trees, std::vector<bool>(c.trees.size(), true), c.features, 0.5, 1.0);
+    const rbpf_slam::eval::MapScore s =
+        rbpf_slam::eval::scoreMap(c.trees, std::vector<bool>(c.trees.size(), true), c.features, 0.5, 1.0);
     SCOPED_TRACE("case " + std::to_string(k));
     EXPECT_EQ(s.trees_seen, static_cast<int>(c.trees.size()));
     EXPECT_EQ(s.matched, c.matched);

@@ -8,6 +8,7 @@
 #include "rbpf_slam/sim/ray_caster.h"
 
 using namespace rbpf_slam::core;
+using namespace rbpf_slam::sim;
 
 namespace
 {

@@ -12,6 +12,8 @@
 #include "rbpf_slam/sim/scenario.h"
 
 using namespace rbpf_slam::core;
+using namespace rbpf_slam::sim;
+using namespace rbpf_slam::eval;
 
 namespace
 {

@@ -8,6 +8,7 @@
 #include "rbpf_slam/sim/scenario.h"
 
 using namespace rbpf_slam::core;
+using namespace rbpf_slam::sim;
 
 namespace
 {
@@ -277,13 +278,13 @@ TEST(Scenario, StraightDriveFollowsOdometryToItsEnd)
 namespace
 {
 /** Drives @p follower with a perfect unicycle from its start until it is done (or @p max_steps). */
-int driveToEnd(rbpf_slam::core::PathFollower* follower, int max_steps)
+int driveToEnd(rbpf_slam::sim::PathFollower* follower, int max_steps)
 {
   rbpf_slam::core::Pose2 pose;
   const double dt = 0.05;
   for (int step = 0; step < max_steps; ++step)
   {
-    const rbpf_slam::core::VelocityCommand cmd = follower->command(pose);
+    const rbpf_slam::sim::VelocityCommand cmd = follower->command(pose);
     if (follower->done())
       return step;
     pose.theta = rbpf_slam::core::wrapAngle(pose.theta + cmd.angular * dt);
@@ -296,11 +297,11 @@ int driveToEnd(rbpf_slam::core::PathFollower* follower, int max_steps)
 
 TEST(PathFollower, ClosedLoopIsDrivenToItsEndNotStoppedAtItsStart)
 {
-  using rbpf_slam::core::PathFollower;
+  using rbpf_slam::sim::PathFollower;
   // A 40 m square that ends where it starts, driven twice.
   const std::vector<Eigen::Vector2d> square{ { 0, 0 }, { 10, 0 }, { 10, 10 }, { 0, 10 }, { 0, 0 },
                                              { 10, 0 }, { 10, 10 }, { 0, 10 }, { 0, 0 } };
-  PathFollower follower(square, rbpf_slam::core::PathFollowerConfig());
+  PathFollower follower(square, rbpf_slam::sim::PathFollowerConfig());
   const int steps = driveToEnd(&follower, 100000);
   EXPECT_TRUE(follower.done());
   EXPECT_GT(follower.progress(), 75.0);

@@ -5,9 +5,9 @@
 
 #include "rbpf_slam/sim/velocity_noise.h"
 
-using rbpf_slam::core::VelocityCommand;
-using rbpf_slam::core::VelocityNoiseConfig;
-using rbpf_slam::core::VelocityNoiseModel;
+using rbpf_slam::sim::VelocityCommand;
+using rbpf_slam::sim::VelocityNoiseConfig;
+using rbpf_slam::sim::VelocityNoiseModel;
 
 namespace
 {

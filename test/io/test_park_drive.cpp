@@ -26,7 +26,7 @@ double segmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const
 
 TEST(ParkDrive, TheParkHasItsTreesPolesAndCars)
 {
-  const core::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
+  const sim::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
   EXPECT_EQ(world.max_x - world.min_x, 250.0);
   EXPECT_EQ(world.max_y - world.min_y, 250.0);
   EXPECT_EQ(world.ground.amplitude, 0.0);
@@ -51,10 +51,10 @@ TEST(ParkDrive, TheParkHasItsTreesPolesAndCars)
 TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
 {
   io::YamlParamSource params(kSourceDir + "/config/sim/park_drive.yaml");
-  core::ScenarioConfig c;
+  sim::ScenarioConfig c;
   io::readScenarioConfig(params, &c);
   EXPECT_TRUE(params.unusedKeys().empty());
-  EXPECT_EQ(c.sim.robot.model, core::RobotModel::kAckermann);
+  EXPECT_EQ(c.sim.robot.model, sim::RobotModel::kAckermann);
   EXPECT_EQ(c.sim.robot.wheelbase, 2.8);
   EXPECT_EQ(c.sim.odometry.speed_scale, 1.02);
   EXPECT_NEAR(c.sim.odometry.steer_bias, 0.5 * M_PI / 180.0, 1e-12);
@@ -67,7 +67,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
   EXPECT_EQ(c.sim.lidar2d.max_range, 80.0);
   EXPECT_EQ(c.sim.lidar2d.range_sigma, 0.02);
   EXPECT_EQ(c.sim.lidar2d.mount.z, 0.5);
-  EXPECT_EQ(c.steer_on, core::SteerOn::kTruth);
+  EXPECT_EQ(c.steer_on, sim::SteerOn::kTruth);
   EXPECT_GE(c.follower.speed, 2.0);
   EXPECT_LE(c.follower.speed, 6.0);
 
@@ -81,7 +81,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
   EXPECT_LT(length / c.follower.speed, c.timeout);
 
   // The road keeps >= 3 m from every trunk's surface and every car (world frame = start pose * start frame).
-  const core::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
+  const sim::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
   std::vector<Eigen::Vector2d> road;
   for (const auto& p : drive)
   {
@@ -95,7 +95,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
     for (const auto& t : world.trunks)
       nearest_trunk = std::min(nearest_trunk, segmentDistance(Eigen::Vector2d(t.x, t.y), road[i - 1], road[i]) - t.radius);
     for (const auto& b : world.boxes)
-      nearest_box = std::min(nearest_box, core::boxSegmentDistance(b, road[i - 1], road[i]));
+      nearest_box = std::min(nearest_box, sim::boxSegmentDistance(b, road[i - 1], road[i]));
   }
   EXPECT_GE(nearest_trunk, 3.0);
   EXPECT_GE(nearest_box, 3.0);

@@ -23,7 +23,7 @@ TEST(SimConfig, ShippedConfigMatchesTheBuiltInDefaults)
 {
   // config/forest_sim.yaml documents the defaults; reading it must change nothing.
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
-  core::ScenarioConfig read, defaults;
+  sim::ScenarioConfig read, defaults;
   io::readScenarioConfig(params, &read);
   EXPECT_EQ(read.sim.odometry.left_scale, defaults.sim.odometry.left_scale);
   EXPECT_EQ(read.sim.odometry.right_scale, defaults.sim.odometry.right_scale);
@@ -57,7 +57,7 @@ TEST(SimConfig, ValuesAreReadInTheirUnits)
                                                         "          mount: {z: 2.5, pitch_deg: 10}}\n"
                                                         "odometry: {latency: 0.05}\n");
   io::YamlParamSource params(path);
-  core::SimulatorConfig c;
+  sim::SimulatorConfig c;
   io::readSimulatorConfig(params, &c);
   EXPECT_EQ(c.seed, 7u);
   EXPECT_NEAR(c.start.theta, M_PI / 2, 1e-12);
@@ -73,7 +73,7 @@ TEST(SimConfig, WrongTypeAndInvalidValueNameTheKey)
 {
   const std::string typed = writeTemp("sim_typed.yaml", "lidar3d:\n  rings: many\n");
   io::YamlParamSource params(typed);
-  core::SimulatorConfig c;
+  sim::SimulatorConfig c;
   try
   {
     io::readSimulatorConfig(params, &c);
@@ -103,7 +103,7 @@ TEST(SimConfig, UnknownKeysAreReported)
 {
   const std::string path = writeTemp("sim_typo.yaml", "odometry: {latncy: 0.05}\n");
   io::YamlParamSource params(path);
-  core::SimulatorConfig c;
+  sim::SimulatorConfig c;
   io::readSimulatorConfig(params, &c);
   ASSERT_EQ(params.unusedKeys().size(), 1u);
   EXPECT_EQ(params.unusedKeys()[0], "odometry/latncy");
@@ -113,7 +113,7 @@ TEST(SimConfig, UnknownKeysAreReported)
 TEST(SimConfig, ShippedConfigDocumentsTheCarAndTheFollowerInput)
 {
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
-  core::ScenarioConfig read, defaults;
+  sim::ScenarioConfig read, defaults;
   io::readScenarioConfig(params, &read);
   EXPECT_EQ(read.sim.robot.model, defaults.sim.robot.model);
   EXPECT_EQ(read.sim.robot.footprint_radius, defaults.sim.robot.footprint_radius);
@@ -139,14 +139,14 @@ TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
                                                       "odometry: {speed_scale: 1.05, steer_bias_deg: -1.0}\n"
                                                       "follower: {steer_on: truth}\n");
   io::YamlParamSource params(path);
-  core::ScenarioConfig c;
+  sim::ScenarioConfig c;
   io::readScenarioConfig(params, &c);
-  EXPECT_EQ(c.sim.robot.model, core::RobotModel::kAckermann);
+  EXPECT_EQ(c.sim.robot.model, sim::RobotModel::kAckermann);
   EXPECT_EQ(c.sim.robot.wheelbase, 3.0);
   EXPECT_NEAR(c.sim.robot.max_steer, 30.0 * M_PI / 180.0, 1e-12);
   EXPECT_EQ(c.sim.odometry.speed_scale, 1.05);
   EXPECT_NEAR(c.sim.odometry.steer_bias, -M_PI / 180.0, 1e-12);
-  EXPECT_EQ(c.steer_on, core::SteerOn::kTruth);
+  EXPECT_EQ(c.steer_on, sim::SteerOn::kTruth);
   std::remove(path.c_str());
 
   for (const char* bad : { "robot: {model: tank}\n", "follower: {steer_on: gps}\n", "robot: {wheelbase: 0}\n",
@@ -154,7 +154,7 @@ TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
   {
     const std::string p = writeTemp("sim_bad_car.yaml", bad);
     io::YamlParamSource ps(p);
-    core::ScenarioConfig s;
+    sim::ScenarioConfig s;
     EXPECT_THROW(io::readScenarioConfig(ps, &s), std::runtime_error) << bad;
     std::remove(p.c_str());
   }

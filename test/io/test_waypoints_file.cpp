@@ -62,8 +62,8 @@ TEST(WaypointsFile, ErrorsNameTheFileAndLine)
 TEST(WaypointsFile, NamedDrives)
 {
   std::string error;
-  EXPECT_EQ(io::namedDrive("straight", &error), rbpf_slam::core::straightDrive());
-  EXPECT_EQ(io::namedDrive("loop", &error), rbpf_slam::core::loopDrive());
+  EXPECT_EQ(io::namedDrive("straight", &error), rbpf_slam::sim::straightDrive());
+  EXPECT_EQ(io::namedDrive("loop", &error), rbpf_slam::sim::loopDrive());
   EXPECT_TRUE(error.empty()) << error;
   const std::string path = writeTemp("drive.txt", "0 0\n12 0\n");
   EXPECT_EQ(io::namedDrive(path, &error).size(), 2u);

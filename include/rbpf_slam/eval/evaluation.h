@@ -9,7 +9,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace eval
 {
 /** @brief Optimal one-to-one assignment (Hungarian) minimising the sum of costs; -1 = unassigned. */
 std::vector<int> optimalAssignment(const std::vector<std::vector<double>>& cost, double forbidden);
@@ -47,9 +47,9 @@ MapScore scoreMap(const std::vector<MapPoint>& trees, const std::vector<bool>& t
  * the in-process simulator runs. Runs on bags are scored by the package's one evaluator, rbpf_slam.evaluate
  * (evaluate_bag_run, trajectory_eval: ATE after a rigid fit, RPE).
  */
-double absoluteTrajectoryRmse(const std::vector<Pose2>& estimate, const std::vector<Pose2>& truth);
+double absoluteTrajectoryRmse(const std::vector<core::Pose2>& estimate, const std::vector<core::Pose2>& truth);
 
-}  // namespace core
+}  // namespace eval
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_EVAL_EVALUATION_H

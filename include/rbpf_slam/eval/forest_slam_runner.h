@@ -13,7 +13,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace eval
 {
 /// [m] The visibility scope of the simulated runs where a filter's configuration leaves it to the sensor: trees
 /// 1-12 m from the sensor (and, for a 2D scanner, inside its field of view) count as seen (for the recall). A
@@ -21,26 +21,26 @@ namespace core
 constexpr double kForestRunMinRange = 1.0, kForestRunMaxRange = 12.0;
 
 /** @brief A simulated 2D scan as the trunk detector takes it (ranges as they are: the detector applies REP-117). */
-PlanarScan toPlanarScan(const LaserScan2D& scan);
+core::PlanarScan toPlanarScan(const sim::LaserScan2D& scan);
 
 struct ForestSlamRunConfig
 {
-  ScenarioConfig scenario;
-  TrunkDetectorConfig detector;
-  FastSlamConfig filter;
+  sim::ScenarioConfig scenario;
+  core::TrunkDetectorConfig detector;
+  core::FastSlamConfig filter;
 };
 
 /** @brief What one run produced, and its score against the truth (the truth is read only here). */
 struct ForestSlamRunResult
 {
-  std::vector<double> stamps;          ///< [s] of each filter update (the middle of each sweep)
-  std::vector<Pose2> estimate;         ///< the filter's online estimate, start frame (= map frame)
-  std::vector<Pose2> odometry;         ///< dead reckoning at the same stamps
-  std::vector<Pose2> truth;            ///< true pose at the same stamps, start frame
-  std::vector<Landmark> landmarks;     ///< best particle's map at the end
-  std::vector<MapPoint> trees;         ///< true trees (breast-height centre and radius), start frame
-  std::vector<bool> tree_seen;         ///< came inside the visibility scope of the true sensor (and, for a 2D
-                                       ///< scanner, inside its field of view)
+  std::vector<double> stamps;             ///< [s] of each filter update (the middle of each sweep)
+  std::vector<core::Pose2> estimate;      ///< the filter's online estimate, start frame (= map frame)
+  std::vector<core::Pose2> odometry;      ///< dead reckoning at the same stamps
+  std::vector<core::Pose2> truth;         ///< true pose at the same stamps, start frame
+  std::vector<core::Landmark> landmarks;  ///< best particle's map at the end
+  std::vector<MapPoint> trees;            ///< true trees (breast-height centre and radius), start frame
+  std::vector<bool> tree_seen;            ///< came inside the visibility scope of the true sensor (and, for a 2D
+                                          ///< scanner, inside its field of view)
   MapScore map;
   double final_error = 0.0;        ///< [m] position of the best particle at the end
   double final_error_odometry = 0.0;
@@ -52,9 +52,9 @@ struct ForestSlamRunResult
   double distance = 0.0;           ///< [m] driven (true path, at the updates)
   double simulated_seconds = 0.0;  ///< [s] simulated time of the run
   bool collided = false;           ///< the robot touched a trunk or a box; the run ended there
-  Collision collision;             ///< where and what (valid when collided)
+  sim::Collision collision;        ///< where and what (valid when collided)
   std::string collision_what;      ///< what was hit, in words (Collision::what)
-  std::vector<FastSlamUpdateStats> update_stats;  ///< of each filter update
+  std::vector<core::FastSlamUpdateStats> update_stats;  ///< of each filter update
   int health_warnings = 0;         ///< updates whose health warned that the map was being rebuilt
   /// Share of the filter's updates in which the true position lay inside the particle cloud's 95 % region
   /// (insideRegion95; NaN without an update): about 0.95 for a filter whose stated uncertainty covers its error.
@@ -68,9 +68,9 @@ struct ForestSlamRunResult
   bool smoothed = false;
   double final_error_smoothed = NAN, ate_smoothed = NAN;
   MapScore map_smoothed;
-  std::vector<Landmark> landmarks_smoothed;
+  std::vector<core::Landmark> landmarks_smoothed;
   std::vector<double> stamps_smoothed;
-  std::vector<Pose2> estimate_smoothed;
+  std::vector<core::Pose2> estimate_smoothed;
 };
 
 /**
@@ -85,14 +85,14 @@ struct ForestSlamRunResult
  * is seen at its own instant of the sweep (its column); its position is carried to the sweep's middle by the
  * odometry between the two instants, and the filter updates at the middle.
  */
-ForestSlamRunResult runForestSlam(const ForestWorld& world, const ForestSlamRunConfig& config);
+ForestSlamRunResult runForestSlam(const sim::ForestWorld& world, const ForestSlamRunConfig& config);
 /// @p match_gate [m]: a feature within this of a true tree can be that tree (scoreMap's gate).
 
 /** @brief One extraction + filter configuration among several run on the same simulated data. */
 struct ForestSlamVariant
 {
-  TrunkDetectorConfig detector;
-  FastSlamConfig filter;
+  core::TrunkDetectorConfig detector;
+  core::FastSlamConfig filter;
 };
 
 /**
@@ -102,11 +102,12 @@ struct ForestSlamVariant
  * Each result equals that of runForestSlam() with the variant's configuration; comparisons between variants
  * are paired (same data), and the simulation, which costs most, is done once.
  */
-std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world, const ScenarioConfig& scenario,
+std::vector<ForestSlamRunResult> runForestSlamVariants(const sim::ForestWorld& world,
+                                                       const sim::ScenarioConfig& scenario,
                                                        const std::vector<ForestSlamVariant>& variants,
                                                        double match_gate = 0.5);
 
-}  // namespace core
+}  // namespace eval
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_EVAL_FOREST_SLAM_RUNNER_H

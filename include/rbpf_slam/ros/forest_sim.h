@@ -36,13 +36,13 @@ public:
 
 private:
   void run();
-  void publish(const core::SimulatorOutput& out);
+  void publish(const sim::SimulatorOutput& out);
   void waitLockstep(double sensor_stamp);
   void onCommand(const geometry_msgs::Twist::ConstPtr& msg);
   void onAck(const boost::shared_ptr<const AnyStamped>& msg, std::size_t index);
 
   ros::NodeHandle nh_, pnh_;
-  std::unique_ptr<core::ForestSimulator> sim_;
+  std::unique_ptr<sim::ForestSimulator> sim_;
   SimFrames frames_;
   double start_ground_z_ = 0.0;  ///< ground height under the start pose (origin of the truth map frame)
   double time_base_ = 1000.0;
@@ -62,7 +62,7 @@ private:
 
   std::mutex mutex_;
   std::condition_variable cv_;
-  core::VelocityCommand command_;
+  sim::VelocityCommand command_;
   std::uint64_t commands_received_ = 0;
   std::uint64_t odometry_published_ = 0;
   std::vector<ros::Time> ack_stamps_;

@@ -36,7 +36,7 @@ private:
   ros::NodeHandle nh_;
   ros::Subscriber sub_;
   ros::Publisher pub_;
-  std::unique_ptr<core::VelocityNoiseModel> model_;
+  std::unique_ptr<sim::VelocityNoiseModel> model_;
 };
 
 }  // namespace rbpf_slam

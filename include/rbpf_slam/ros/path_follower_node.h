@@ -37,7 +37,7 @@ private:
   bool mount(const std::string& frame, Eigen::Isometry3d* transform);
 
   std::mutex mutex_;  ///< the follower, between the odometry and the sensor callbacks
-  core::PathFollowerConfig config_;
+  sim::PathFollowerConfig config_;
   std::string base_frame_ = "base_link";
   core::Pose2 pose_;  ///< the latest odometry pose
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
@@ -45,7 +45,7 @@ private:
   std::map<std::string, Eigen::Isometry3d> mounts_;
   ros::Subscriber odom_sub_, cloud_sub_, scan_sub_;
   ros::Publisher cmd_pub_, done_pub_, path_pub_;
-  std::unique_ptr<core::PathFollower> follower_;
+  std::unique_ptr<sim::PathFollower> follower_;
   bool announced_done_ = false;
 };
 

@@ -37,23 +37,22 @@ struct SimFrames
  * @brief A sweep as PointCloud2 with fields x, y, z, intensity (float32), ring (uint16) and time
  * (float32, seconds after header.stamp), unorganised (height 1), 24 bytes a point.
  */
-sensor_msgs::PointCloud2::Ptr toPointCloud2(const core::LidarSweep& sweep, const std::string& frame, double base);
-sensor_msgs::LaserScan::Ptr toLaserScan(const core::LaserScan2D& scan, const std::string& frame, double base);
+sensor_msgs::PointCloud2::Ptr toPointCloud2(const sim::LidarSweep& sweep, const std::string& frame, double base);
+sensor_msgs::LaserScan::Ptr toLaserScan(const sim::LaserScan2D& scan, const std::string& frame, double base);
 /** @brief Wheel odometry with a covariance from the stated accuracy (sigma per metre travelled). */
-nav_msgs::Odometry::Ptr toOdometry(const core::OdometrySample& odom, const SimFrames& frames, double base);
-geometry_msgs::TransformStamped toOdomTf(const core::OdometrySample& odom, const SimFrames& frames, double base);
-sensor_msgs::Imu::Ptr toImu(const core::ImuSample& imu, const core::ImuConfig& config, const std::string& frame,
+nav_msgs::Odometry::Ptr toOdometry(const sim::OdometrySample& odom, const SimFrames& frames, double base);
+geometry_msgs::TransformStamped toOdomTf(const sim::OdometrySample& odom, const SimFrames& frames, double base);
+sensor_msgs::Imu::Ptr toImu(const sim::ImuSample& imu, const sim::ImuConfig& config, const std::string& frame,
                             double base);
 /**
  * @brief Truth relative to the start pose (frame map, where a SLAM map starts), child truth_base: the full
  * 3D body pose (height, roll, pitch on the ground); the map frame sits at the start pose on the ground
  * (height @p start_ground_z in the world), level.
  */
-nav_msgs::Odometry::Ptr toTruthOdometry(const core::TruthSample& truth, const core::Pose2& start,
-                                        double start_ground_z,
+nav_msgs::Odometry::Ptr toTruthOdometry(const sim::TruthSample& truth, const core::Pose2& start, double start_ground_z,
                                         const SimFrames& frames, double base);
 /** @brief The true trunks at breast height (1.3 m above their foot) in that map frame; id = index in the world. */
-rbpf_slam::TrunkArray::Ptr toTruthTrees(const core::ForestWorld& world, const core::Pose2& start,
+rbpf_slam::TrunkArray::Ptr toTruthTrees(const sim::ForestWorld& world, const core::Pose2& start,
                                         const SimFrames& frames, double stamp, double base);
 /** @brief An indoor world's occupancy image in that map frame (relative to the start pose), for rviz. */
 nav_msgs::OccupancyGrid::Ptr toTruthMap(const core::OccupancyImage& image, const core::Pose2& start,
@@ -61,17 +60,17 @@ nav_msgs::OccupancyGrid::Ptr toTruthMap(const core::OccupancyImage& image, const
 visualization_msgs::MarkerArray::Ptr toTreeMarkers(const rbpf_slam::TrunkArray& trees, const std::string& ns,
                                                    float r, float g, float b);
 /** @brief The receiver's antenna on base_link as a mount (no rotation). */
-inline core::Mount gpsMount(const core::GnssConfig& gnss)
+inline sim::Mount gpsMount(const core::GnssConfig& gnss)
 {
-  core::Mount m;
+  sim::Mount m;
   m.x = gnss.antenna.x();
   m.y = gnss.antenna.y();
   m.z = gnss.antenna.z();
   return m;
 }
 
-geometry_msgs::TransformStamped toStaticTf(const core::Mount& mount, const std::string& parent,
-                                           const std::string& child, double stamp, double base);
+geometry_msgs::TransformStamped toStaticTf(const sim::Mount& mount, const std::string& parent, const std::string& child,
+                                           double stamp, double base);
 
 }  // namespace rbpf_slam
 

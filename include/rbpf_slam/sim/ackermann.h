@@ -5,7 +5,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /**
  * @brief A car: front-wheel steering, the kinematic bicycle model at the rear axle (base_link is the rear axle's
@@ -23,13 +23,14 @@ namespace core
 class AckermannRobot : public Robot
 {
 public:
-  AckermannRobot(const RobotConfig& robot, const OdometryConfig& odometry, const Pose2& start, Random* random);
+  AckermannRobot(const RobotConfig& robot, const OdometryConfig& odometry, const core::Pose2& start,
+                 core::Random* random);
 
   void step(const VelocityCommand& command, double dt) override;
-  const Pose2& pose() const override { return pose_; }
+  const core::Pose2& pose() const override { return pose_; }
   const VelocityCommand& velocity() const override { return velocity_; }
   void halt() override;
-  Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) override;
+  core::Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) override;
 
   /** @brief True steering angle [rad] (positive turns left). */
   double steering() const { return steer_; }
@@ -37,17 +38,17 @@ public:
 private:
   RobotConfig robot_;
   OdometryConfig odometry_;
-  Random* random_;
-  Pose2 pose_;
+  core::Random* random_;
+  core::Pose2 pose_;
   VelocityCommand velocity_;
   double speed_ = 0.0;        ///< [m/s] rear axle
   double steer_ = 0.0;        ///< [rad]
   double steer_target_ = 0.0; ///< [rad] the last command's angle (kept while the command's speed is about 0)
   double travel_ = 0.0;       ///< true rear-axle travel since the last odometry read [m]
-  Pose2 odom_pose_;
+  core::Pose2 odom_pose_;
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_ACKERMANN_H

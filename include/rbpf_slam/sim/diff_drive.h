@@ -11,7 +11,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /** @brief Which kinematics the simulated robot has. */
 enum class RobotModel
@@ -82,7 +82,7 @@ public:
   /** @brief Advances by @p dt towards @p command (acceleration-limited); integrates what the encoders see. */
   virtual void step(const VelocityCommand& command, double dt) = 0;
   /** @brief True pose in the world. */
-  virtual const Pose2& pose() const = 0;
+  virtual const core::Pose2& pose() const = 0;
   /** @brief True body velocity (linear, angular). */
   virtual const VelocityCommand& velocity() const = 0;
   /** @brief Halts at once (a collision): zero velocity, the pose stays. */
@@ -91,45 +91,46 @@ public:
    * @brief Reads the encoders: integrates the measured travel since the last read into the odometry pose
    * (frame odom, starting at identity) and returns it.
    */
-  virtual Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) = 0;
+  virtual core::Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) = 0;
 
 protected:
   /**
    * @brief What every odometry read ends with: moves @p odom by the measured arc (@p ds along the heading halfway
    * through the turn @p dth), sets the velocities over @p dt (0 for dt <= 0) and returns the new pose.
    */
-  static Pose2 integrateOdometry(double ds, double dth, double dt, Pose2* odom, double* linear_velocity,
-                                 double* angular_velocity);
+  static core::Pose2 integrateOdometry(double ds, double dth, double dt, core::Pose2* odom, double* linear_velocity,
+                                       double* angular_velocity);
 };
 
 /** @brief The robot of @p robot.model. @p random must outlive it. */
-std::unique_ptr<Robot> makeRobot(const RobotConfig& robot, const OdometryConfig& odometry, const Pose2& start,
-                                 Random* random);
+std::unique_ptr<Robot> makeRobot(const RobotConfig& robot, const OdometryConfig& odometry, const core::Pose2& start,
+                                 core::Random* random);
 
 /** @brief A diff-drive / skid-steer robot and its wheel odometry. */
 class DiffDriveRobot : public Robot
 {
 public:
-  DiffDriveRobot(const RobotConfig& robot, const OdometryConfig& odometry, const Pose2& start, Random* random);
+  DiffDriveRobot(const RobotConfig& robot, const OdometryConfig& odometry, const core::Pose2& start,
+                 core::Random* random);
 
   void step(const VelocityCommand& command, double dt) override;
-  const Pose2& pose() const override { return pose_; }
+  const core::Pose2& pose() const override { return pose_; }
   const VelocityCommand& velocity() const override { return velocity_; }
   void halt() override { velocity_ = VelocityCommand(); }
-  Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) override;
+  core::Pose2 readOdometry(double* linear_velocity, double* angular_velocity, double dt_since_last) override;
 
 private:
   RobotConfig robot_;
   OdometryConfig odometry_;
-  Random* random_;
-  Pose2 pose_;
+  core::Random* random_;
+  core::Pose2 pose_;
   VelocityCommand velocity_;
   double left_travel_ = 0.0;   ///< true travel since the last odometry read [m]
   double right_travel_ = 0.0;
-  Pose2 odom_pose_;
+  core::Pose2 odom_pose_;
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_DIFF_DRIVE_H

@@ -21,7 +21,10 @@ namespace rbpf_slam
 namespace core
 {
 class OccupancyImage;
+}  // namespace core
 
+namespace sim
+{
 /** @brief Mounting of a sensor on base_link (x forward, z up, REP-103). */
 struct Mount
 {
@@ -103,7 +106,7 @@ struct ImuSample
 struct OdometrySample
 {
   double stamp = 0.0;    ///< measurement time (delivered latency later)
-  Pose2 pose;            ///< odom -> base_link
+  core::Pose2 pose;      ///< odom -> base_link
   double linear = 0.0;   ///< [m/s]
   double angular = 0.0;  ///< [rad/s]
 };
@@ -111,7 +114,7 @@ struct OdometrySample
 struct TruthSample
 {
   double stamp = 0.0;
-  Pose2 pose;              ///< world (stand) frame
+  core::Pose2 pose;        ///< world (stand) frame
   Eigen::Isometry3d body;  ///< world -> base_link in 3D (on the ground)
 };
 
@@ -119,7 +122,7 @@ struct TruthSample
 struct Collision
 {
   double stamp = 0.0;             ///< [s] simulated time
-  Pose2 pose;                     ///< true pose of base_link in the world when it touched
+  core::Pose2 pose;               ///< true pose of base_link in the world when it touched
   HitKind kind = HitKind::kNone;  ///< kTrunk (at the ground) or kBox
   int index = -1;                 ///< into the world's trunks or boxes
   /** @brief E.g. "trunk 12 (r 0.25 m at 10.00, 3.00)". */
@@ -130,14 +133,14 @@ struct SimulatorConfig
 {
   double physics_rate = 200.0;  ///< [Hz]; sensor rates and the latency are rounded to its ticks
   double truth_rate = 50.0;     ///< [Hz]
-  Pose2 start{ 0.0, 15.0, 0.0 };
+  core::Pose2 start{ 0.0, 15.0, 0.0 };
   std::uint64_t seed = 0;
   RobotConfig robot;
   OdometryConfig odometry;
   Lidar3DConfig lidar3d;
   Lidar2DConfig lidar2d;
   ImuConfig imu;
-  GnssConfig gnss;  ///< the satellite receiver (off by default)
+  core::GnssConfig gnss;  ///< the satellite receiver (off by default)
 
   bool validate(std::string* error) const;
 };
@@ -150,7 +153,7 @@ struct SimulatorOutput
   std::vector<LaserScan2D> scans;
   std::vector<ImuSample> imu;
   std::vector<TruthSample> truth;
-  std::vector<GnssSample> gnss;  ///< the receiver's fixes with their truth
+  std::vector<core::GnssSample> gnss;  ///< the receiver's fixes with their truth
 
   void clear();
   bool empty() const;
@@ -171,7 +174,8 @@ class ForestSimulator
 public:
   ForestSimulator(const ForestWorld& world, const SimulatorConfig& config);
   /** @brief Indoor variant: the 2D lidar casts on @p image (flat ground, 3D lidar off). */
-  ForestSimulator(const ForestWorld& world, const SimulatorConfig& config, std::shared_ptr<const OccupancyImage> image);
+  ForestSimulator(const ForestWorld& world, const SimulatorConfig& config,
+                  std::shared_ptr<const core::OccupancyImage> image);
   ~ForestSimulator();
 
   void setCommand(const VelocityCommand& command) { command_ = command; }
@@ -184,14 +188,14 @@ public:
   /** @brief The collision that stopped the robot, or nullptr. */
   const Collision* collision() const { return collided_ ? &collision_ : nullptr; }
   /** @brief What the robot touches at @p pose (kind kNone: nothing); stamp left 0. Public for tests. */
-  Collision touching(const Pose2& pose) const;
+  Collision touching(const core::Pose2& pose) const;
   const SimulatorConfig& config() const { return config_; }
   const ForestWorld& world() const { return caster_.world(); }
 
   /** @brief The robot's 3D pose for a planar pose: on the ground, tilted with its slope. */
-  Eigen::Isometry3d bodyPose(const Pose2& pose) const;
+  Eigen::Isometry3d bodyPose(const core::Pose2& pose) const;
   /** @brief True planar pose at time @p t (interpolated; within the last second). */
-  Pose2 poseAt(double t) const;
+  core::Pose2 poseAt(double t) const;
 
   /** @brief The canopy cover over @p x, @p y (GnssConfig: crowns in the circle of canopy_radius), 0..1. */
   double canopyAt(double x, double y) const;
@@ -204,16 +208,17 @@ private:
   void init();
 
   SimulatorConfig config_;
-  Random random_;        ///< robot, odometry, IMU
-  Random sensor_random_; ///< lidar noise and foliage (independent stream: enabling a sensor leaves the path alone)
+  core::Random random_;  ///< robot, odometry, IMU
+  /// lidar noise and foliage (independent stream: enabling a sensor leaves the path alone)
+  core::Random sensor_random_;
   ForestRayCaster caster_;
-  std::shared_ptr<const OccupancyImage> image_;
+  std::shared_ptr<const core::OccupancyImage> image_;
   std::unique_ptr<Robot> robot_;
   bool collided_ = false;
   Collision collision_;
   VelocityCommand command_;
   std::int64_t tick_ = 0;
-  std::deque<std::pair<std::int64_t, Pose2>> history_;
+  std::deque<std::pair<std::int64_t, core::Pose2>> history_;
   std::deque<std::pair<std::int64_t, OdometrySample>> pending_odometry_;  ///< (delivery tick, sample)
   std::int64_t odom_period_ = 1, latency_ticks_ = 0, sweep_period_ = 1, scan_period_ = 1, imu_period_ = 1,
                truth_period_ = 1;
@@ -223,11 +228,11 @@ private:
   Eigen::Isometry3d last_imu_body_ = Eigen::Isometry3d::Identity();
   Eigen::Vector3d last_imu_velocity_ = Eigen::Vector3d::Zero();
   std::vector<double> ring_sin_, ring_cos_;
-  std::unique_ptr<GnssReceiver> gnss_;
+  std::unique_ptr<core::GnssReceiver> gnss_;
   std::int64_t gnss_period_ = 1;
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_FOREST_SIMULATOR_H

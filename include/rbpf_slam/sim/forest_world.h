@@ -11,7 +11,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /** @brief A tree trunk: a (possibly leaning, tapering) solid cone frustum standing on the ground. */
 struct TrunkSpec
@@ -146,7 +146,7 @@ private:
   double phase_[3] = { 0.0, 0.0, 0.0 };
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_FOREST_WORLD_H

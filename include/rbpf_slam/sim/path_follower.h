@@ -13,7 +13,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 struct PathFollowerConfig
 {
@@ -53,7 +53,7 @@ std::vector<Eigen::Vector2d> obstaclesFromCloud(const std::vector<Eigen::Vector3
  */
 std::vector<Eigen::Vector2d> obstaclesFromScan(const std::vector<float>& ranges, double angle_min,
                                                double angle_increment, double range_min, double range_max,
-                                               const Pose2& mount, const PathFollowerConfig& config);
+                                               const core::Pose2& mount, const PathFollowerConfig& config);
 
 /**
  * @brief Pure pursuit along a polyline, steering on the robot's own odometry (as a robot without
@@ -73,13 +73,13 @@ public:
   PathFollower(std::vector<Eigen::Vector2d> path, const PathFollowerConfig& config);
 
   /** @brief The command for odometry pose @p pose; zero once done. */
-  VelocityCommand command(const Pose2& pose);
+  VelocityCommand command(const core::Pose2& pose);
   /**
    * @brief Remembers obstacle points @p points (x, y in base_link) seen at time @p stamp [s] from odometry pose
    * @p pose; forgets those older than obstacle_memory or farther than obstacle_range. Nothing without
    * avoid_obstacles.
    */
-  void addObstacles(double stamp, const Pose2& pose, const std::vector<Eigen::Vector2d>& points);
+  void addObstacles(double stamp, const core::Pose2& pose, const std::vector<Eigen::Vector2d>& points);
   /** @brief The remembered obstacle points, in the odom frame. */
   std::vector<Eigen::Vector2d> obstacles() const;
   /** @brief Whether the last command was the planner's rather than pure pursuit's. */
@@ -92,7 +92,7 @@ public:
 private:
   Eigen::Vector2d pointAt(double s) const;
   /** @brief The planner's command, given pure pursuit's @p pursuit at @p pose. */
-  VelocityCommand avoid(const Pose2& pose, const VelocityCommand& pursuit);
+  VelocityCommand avoid(const core::Pose2& pose, const VelocityCommand& pursuit);
 
   struct Remembered
   {
@@ -121,7 +121,7 @@ std::vector<Eigen::Vector2d> straightDrive(double length = 30.0);
  */
 std::vector<Eigen::Vector2d> loopDrive();
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_PATH_FOLLOWER_H

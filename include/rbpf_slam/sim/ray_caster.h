@@ -13,7 +13,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /** @brief What a ray hit. */
 enum class HitKind : std::uint8_t
@@ -53,7 +53,7 @@ public:
    * @param dir unit direction (world frame)
    * @param random draws the free paths in foliage
    */
-  RayHit cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range, Random& random);
+  RayHit cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range, core::Random& random);
 
   const Ground& ground() const& { return ground_; }
   const ForestWorld& world() const& { return world_; }
@@ -72,9 +72,49 @@ private:
     int index;
   };
 
+  /** @brief A shape's horizontal bounding box and height range while the grid is built. */
+  struct ShapeBounds
+  {
+    Shape shape;
+    double x0, y0, x1, y1;
+    double z0 = -std::numeric_limits<double>::infinity(), z1 = std::numeric_limits<double>::infinity();
+  };
+
+  /** @brief One ray while it is cast: the nearest hit so far and the range that bounds the search. */
+  struct RayState
+  {
+    const Eigen::Vector3d& origin;
+    const Eigen::Vector3d& dir;
+    core::Random& random;
+    double best;
+    RayHit hit;
+  };
+
+  /**
+   * @brief Stores each object's placement on the ground (the per-kind caches) and returns the objects' horizontal
+   * bounds, trunks first, then foliage, rocks, branches and boxes (the order of shapes_).
+   */
+  std::vector<ShapeBounds> placeShapes();
+  /** @brief Sets top_z_ from the placed objects. */
+  void findTop();
+  /** @brief Sizes the grid to hold every bound (one cell at the origin when there are none). */
+  void sizeGrid(const std::vector<ShapeBounds>& boxes);
+  /** @brief The height range of a placed shape: trunks from their buried base, the others by their size. */
+  void setHeightRange(ShapeBounds* bounds) const;
   void insert(const Shape& shape, double min_x, double min_y, double max_x, double max_y);
+
+  /** @brief The range at which the ray leaves the ground's extent (at most @p max_range); <= 0 if it starts outside. */
+  double clipToExtent(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range) const;
+  /** @brief Within @p best, the range up to which the ray can meet a shape (below top_z_); negative for none. */
+  double shapeReach(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double best) const;
+  /** @brief A new mailbox stamp for the next ray (clearing the mailbox when the stamp wraps). */
+  void nextRayId();
+  /** @brief Walks the grid cells under the ray's horizontal projection up to @p t_shapes (Amanatides-Woo). */
+  void traverseGrid(double t_shapes, RayState* ray);
+  /** @brief Tests the shapes of cell (ci, cj) not yet tested by this ray, for the ray's stretch t_in..t_out. */
+  void testCell(int ci, int cj, double t_in, double t_out, RayState* ray);
   double intersectShape(const Shape& shape, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_max,
-                        Random& random) const;
+                        core::Random& random) const;
   double intersectGround(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_max) const;
 
   ForestWorld world_;
@@ -98,7 +138,7 @@ private:
   std::uint32_t ray_id_ = 0;
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_RAY_CASTER_H

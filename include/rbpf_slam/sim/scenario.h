@@ -13,7 +13,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /**
  * @brief What the path follower steers on: the robot's odometry (a robot without SLAM), or the true pose (a human
@@ -49,7 +49,7 @@ class Scenario
 {
 public:
   Scenario(const ForestWorld& world, const ScenarioConfig& config,
-           std::shared_ptr<const OccupancyImage> image = nullptr);
+           std::shared_ptr<const core::OccupancyImage> image = nullptr);
 
   /** @brief One physics tick; false once the drive is finished (or timed out) and settled, or the robot collided
    * (simulator().collision()). */
@@ -68,11 +68,11 @@ private:
   VelocityNoiseModel relay_;
   PathFollower follower_;
   double done_time_ = -1.0;
-  Pose2 steer_pose_;                   ///< the pose the follower last steered on (start frame)
+  core::Pose2 steer_pose_;              ///< the pose the follower last steered on (start frame)
   std::vector<Eigen::Vector3d> cloud_;  ///< a sweep in base_link (reused)
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_SCENARIO_H

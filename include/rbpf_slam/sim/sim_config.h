@@ -13,9 +13,9 @@ namespace io
  * @p config. Angles are in degrees in the file, radians in the struct.
  * @throws std::runtime_error naming the key for a wrong type or an invalid value.
  */
-void readSimulatorConfig(const ParamSource& params, core::SimulatorConfig* config);
+void readSimulatorConfig(const ParamSource& params, sim::SimulatorConfig* config);
 /** @brief The follower's keys (`follower/...`) and the relay's (`relay/...`, as noise_relay.yaml). */
-void readScenarioConfig(const ParamSource& params, core::ScenarioConfig* config);
+void readScenarioConfig(const ParamSource& params, sim::ScenarioConfig* config);
 
 }  // namespace io
 }  // namespace rbpf_slam

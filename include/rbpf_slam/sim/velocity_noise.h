@@ -8,7 +8,7 @@
 
 namespace rbpf_slam
 {
-namespace core
+namespace sim
 {
 /**
  * @brief Parameters of the velocity-command noise (motor noise between a controller and a robot).
@@ -51,10 +51,10 @@ public:
 
 private:
   VelocityNoiseConfig config_;
-  Random random_;
+  core::Random random_;
 };
 
-}  // namespace core
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_VELOCITY_NOISE_H

@@ -20,7 +20,7 @@ std::vector<Eigen::Vector2d> readWaypoints(const std::string& path);
 
 /**
  * @brief A drive by name, as the recorder, the benchmarks and the path follower node take it: "straight"
- * (core::straightDrive), "loop" (core::loopDrive) or a waypoint file (readWaypoints). Empty, with the reason
+ * (sim::straightDrive), "loop" (sim::loopDrive) or a waypoint file (readWaypoints). Empty, with the reason
  * in @p error, when the name is neither and the file cannot be read or parsed.
  */
 std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* error);

@@ -20,16 +20,16 @@ namespace io
  *         reason) for a line that is not 3 or 4 finite numbers with radius > 0 and height > 0, and
  *         "FILE: cannot open ..." for a file that cannot be read.
  */
-std::vector<core::TrunkSpec> loadTreeList(const std::string& path);
+std::vector<sim::TrunkSpec> loadTreeList(const std::string& path);
 
 /**
  * @brief Reads a box list: plain text, one box a line `x y yaw_deg [length width height]` (metres, degrees), standing
- * on the ground; without the size a box is a car, 4.5 x 1.8 x 1.5 m (core::BoxSpec's defaults). Comments and blank
+ * on the ground; without the size a box is a car, 4.5 x 1.8 x 1.5 m (sim::BoxSpec's defaults). Comments and blank
  * lines as in a tree list.
  * @throws std::runtime_error "FILE:LINE: expected 'x y yaw_deg [length width height]', got '...'" (with the reason)
  *         for a line that is not 3 or 6 finite numbers with positive sizes, "FILE: cannot open ..." otherwise.
  */
-std::vector<core::BoxSpec> loadBoxList(const std::string& path);
+std::vector<sim::BoxSpec> loadBoxList(const std::string& path);
 
 /**
  * @brief Loads a world: a YAML world file when @p path ends in .yaml or .yml, otherwise a tree list.
@@ -49,15 +49,15 @@ std::vector<core::BoxSpec> loadBoxList(const std::string& path);
  * Only `trees` is required; the values shown are the defaults. tree.height is given to trunks without
  * their own height; each trunk leans by lean_x, lean_y ~ N(0, tan(lean_sigma_deg)) drawn from tree.seed
  * and gets tree.taper (a thin trunk whose radius reaches 0 below its height ends in a point there). The
- * tree list's radius is the radius at the ground, as in core::TrunkSpec. Clutter is added with
- * core::addClutter, which keeps the clutter clear of the boxes as of the trunks.
+ * tree list's radius is the radius at the ground, as in sim::TrunkSpec. Clutter is added with
+ * sim::addClutter, which keeps the clutter clear of the boxes as of the trunks.
  *
  * @throws std::runtime_error naming the file (and the line where known) for a file that cannot be read
  *         or parsed, an unknown or duplicate key, a value of the wrong type (naming the key, e.g.
  *         'ground.amplitude') or out of range (amplitude, wavelength, radius, height, counts, clearance,
  *         lean < 0 or not finite; bounds with min >= max; no trees and no bounds).
  */
-core::ForestWorld loadForestWorld(const std::string& path);
+sim::ForestWorld loadForestWorld(const std::string& path);
 
 }  // namespace io
 }  // namespace rbpf_slam
