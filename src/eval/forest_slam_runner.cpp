@@ -9,7 +9,7 @@ namespace rbpf_slam
 namespace eval
 {
 using core::between;
-using core::FastSlamConfig;
+using core::TrunkSlamConfig;
 using core::HealthLevel;
 using core::insideRegion95;
 using core::Landmark;
@@ -305,7 +305,7 @@ std::vector<ForestSlamRunResult> runForestSlamVariants(const ForestWorld& world,
   for (const auto& v : variants)
   {
     // The filter takes the scope its sensor states (as the node and slam_bag do); the 1-12 m ring only counts trees.
-    const FastSlamConfig& f = v.filter;
+    const TrunkSlamConfig& f = v.filter;
     feed.pipelines.emplace_back(new TrunkSlamPipeline(v.detector, f));  // sensor height from the mount
   }
 

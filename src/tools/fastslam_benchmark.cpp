@@ -223,7 +223,7 @@ void warnUnused(const io::YamlParamSource& params, const std::string& path)
  * Reads the configuration files into the scenario, the filter and the extraction; the filter's and the extraction's
  * settings become the defaults of the options not given.
  */
-void readConfigs(Options* opt, sim::ScenarioConfig* scenario, core::FastSlamConfig* base_filter,
+void readConfigs(Options* opt, sim::ScenarioConfig* scenario, core::TrunkSlamConfig* base_filter,
                  core::TrunkDetectorConfig* base_detector)
 {
   if (!opt->sim_config_path.empty())
@@ -279,7 +279,7 @@ void setDriveAndOdometry(const Options& opt, sim::ScenarioConfig* scenario)
 
 /** Every combination of the listed loop settings, proposals, methods and particle counts, with its series. */
 void makeVariants(const Options& opt, const core::TrunkDetectorConfig& base_detector,
-                  const core::FastSlamConfig& base_filter, std::vector<eval::ForestSlamVariant>* variants,
+                  const core::TrunkSlamConfig& base_filter, std::vector<eval::ForestSlamVariant>* variants,
                   std::vector<Series>* series)
 {
   std::vector<std::string> loop_settings{ "" };
@@ -536,7 +536,7 @@ int main(int argc, char** argv)
       opt.world_path = tools::packageFile("config/worlds/paper_forest.yaml");
     const sim::ForestWorld world = io::loadForestWorld(opt.world_path);
     sim::ScenarioConfig scenario;
-    core::FastSlamConfig base_filter;
+    core::TrunkSlamConfig base_filter;
     core::TrunkDetectorConfig base_detector;
     readConfigs(&opt, &scenario, &base_filter, &base_detector);
     setDriveAndOdometry(opt, &scenario);

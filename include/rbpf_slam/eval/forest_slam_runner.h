@@ -27,7 +27,7 @@ struct ForestSlamRunConfig
 {
   sim::ScenarioConfig scenario;
   core::TrunkDetectorConfig detector;
-  core::FastSlamConfig filter;
+  core::TrunkSlamConfig filter;
 };
 
 /** @brief What one run produced, and its score against the truth (the truth is read only here). */
@@ -59,7 +59,7 @@ struct ForestSlamRunResult
   /// Share of the filter's updates in which the true position lay inside the particle cloud's 95 % region
   /// (insideRegion95; NaN without an update): about 0.95 for a filter whose stated uncertainty covers its error.
   double coverage = NAN;
-  /// Loop closure (FastSlamConfig::loop_closure): loops closed and refused; closed loops that were false (the robot
+  /// Loop closure (TrunkSlamConfig::loop_closure): loops closed and refused; closed loops that were false (the robot
   /// ended more than 1 m from the truth, and further than before the loop); the longest solve.
   int loops_closed = 0, loops_rejected = 0, false_loops = 0;
   double max_loop_seconds = 0.0;
@@ -92,7 +92,7 @@ ForestSlamRunResult runForestSlam(const sim::ForestWorld& world, const ForestSla
 struct ForestSlamVariant
 {
   core::TrunkDetectorConfig detector;
-  core::FastSlamConfig filter;
+  core::TrunkSlamConfig filter;
 };
 
 /**
