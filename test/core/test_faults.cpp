@@ -17,8 +17,8 @@
 #include "rbpf_slam/core/filter/stamp_gate.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
-#include "fastslam_test_util.h"
-#include "grid_test_world.h"
+#include "core/fastslam/fastslam_test_util.h"
+#include "core/grid/grid_test_world.h"
 
 using namespace rbpf_slam::core;
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "rbpf_slam/io/files.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 using rbpf_slam::io::AtomicFile;
 using rbpf_slam::io::writeFileAtomic;

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "rbpf_slam/io/forest_map_file.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 namespace io = rbpf_slam::io;
 using rbpf_slam::core::Landmark;

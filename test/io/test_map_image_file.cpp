@@ -12,7 +12,7 @@
 #include <unistd.h>
 
 #include "rbpf_slam/io/map_image_file.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 using rbpf_slam::core::MapOrigin;
 using rbpf_slam::core::OccupancyImage;

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "rbpf_slam/io/run_output.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 using rbpf_slam::core::Landmark;
 using rbpf_slam::core::Pose2;

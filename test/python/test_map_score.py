@@ -1,6 +1,6 @@
 """The package's two map scorers give the same numbers: rbpf_slam.evaluate.score_map (bags) and eval::scoreMap
 (the C++ benchmarks) are both checked against the cases of test/data/map_score_cases.txt, whose expected lines
-test/core/test_map_score.cpp asserts for the C++ scorer."""
+test/eval/test_map_score.cpp asserts for the C++ scorer."""
 import os
 
 import numpy as np

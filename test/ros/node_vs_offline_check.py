@@ -130,8 +130,12 @@ class NodeVsOffline(unittest.TestCase):
         rospy.wait_for_service('fastslam/save_run', timeout=10.0)
         reply = rospy.ServiceProxy('fastslam/save_run', Trigger)()
         self.assertTrue(reply.success, reply.message)
-        for name in ('estimate.tum', 'odometry.tum', 'estimate_best_history.tum', 'updates.csv', 'map.csv'):
+        for name in ('estimate.tum', 'odometry.tum', 'estimate_best_history.tum', 'updates.csv', 'map.csv',
+                     'timing.json', 'health.txt', 'loops.csv'):
             self.assertTrue(os.path.isfile(os.path.join(folder, name)), name)
+        # One writer: the same files as slam_bag's folder, the smoothed run's among them when it has one.
+        offline_folder = os.path.join(self.dir, os.path.basename(bag) + '.out')
+        self.assertEqual(sorted(os.listdir(folder)), sorted(os.listdir(offline_folder)))
         self.compare('fastslam run folder', read_tum(os.path.join(folder, 'estimate.tum')), offline)
         # ~save_map writes the map slam_bag --save-map writes: the same trees and the same viewpoints.
         node_map = os.path.join(self.dir, 'node_map.csv')

@@ -9,7 +9,7 @@
 #include <Eigen/Dense>
 
 #include "rbpf_slam/eval/evaluation.h"
-#include "fastslam_test_util.h"
+#include "core/fastslam/fastslam_test_util.h"
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/fastslam/landmark_map.h"
 #include "rbpf_slam/core/filter/particle_filter.h"

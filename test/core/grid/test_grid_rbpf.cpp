@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "grid_test_world.h"
+#include "core/grid/grid_test_world.h"
 #include <memory>
 
 #include "rbpf_slam/core/grid/grid_slam.h"

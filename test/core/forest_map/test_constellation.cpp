@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "stand_test_util.h"
+#include "core/forest_map/stand_test_util.h"
 
 #include "rbpf_slam/core/forest_map/constellation.h"
 

@@ -13,7 +13,7 @@
 #include "rbpf_slam/core/filter/particle_filter.h"
 #include "rbpf_slam/core/filter/random.h"
 #include "rbpf_slam/core/filter/skid_steer_odometry.h"
-#include "grid_test_world.h"
+#include "core/grid/grid_test_world.h"
 
 using namespace rbpf_slam::core;
 using namespace rbpf_slam::eval;

@@ -7,7 +7,7 @@
 
 #include "rbpf_slam/sim/path_follower.h"
 #include "rbpf_slam/sim/waypoints_file.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 namespace io = rbpf_slam::io;
 

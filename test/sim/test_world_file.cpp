@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "rbpf_slam/sim/world_file.h"
-#include "temp_files.h"
+#include "io/temp_files.h"
 
 using rbpf_slam::io::loadForestWorld;
 using rbpf_slam::io::loadTreeList;

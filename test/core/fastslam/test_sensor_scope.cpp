@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include "fastslam_test_util.h"
+#include "core/fastslam/fastslam_test_util.h"
 #include "rbpf_slam/core/fastslam/fastslam.h"
 #include "rbpf_slam/core/extraction/trunk_clustering.h"
 #include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
