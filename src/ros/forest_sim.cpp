@@ -27,7 +27,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
   try
   {
     const RosParamSource params(pnh_);
-    io::readSimulatorConfig(params, &config);
+    sim::readSimulatorConfig(params, &config);
     params.get("world", &world_path);
     params.get("indoor_map", &indoor_map);
     params.get("real_time_factor", &real_time_factor_);
@@ -51,7 +51,7 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
       throw std::runtime_error("~real_time_factor must be >= 0 (0: as fast as possible)");
     if (indoor_map.empty())
     {
-      sim_.reset(new sim::ForestSimulator(io::loadForestWorld(world_path), config));
+      sim_.reset(new sim::ForestSimulator(sim::loadForestWorld(world_path), config));
     }
     else
     {

@@ -40,7 +40,7 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   readKey(params, "base_frame", &base_frame_);
   warnUnknownKeys(params);
   std::string error;
-  std::vector<Eigen::Vector2d> path = io::namedDrive(drive, &error);
+  std::vector<Eigen::Vector2d> path = sim::namedDrive(drive, &error);
   if (path.empty())
     throw invalidParameter(pnh, "drive", error);
   requirePositive(pnh, "speed", config.speed);

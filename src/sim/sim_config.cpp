@@ -6,20 +6,20 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-void readDegrees(const ParamSource& p, const std::string& key, double* radians)
+void readDegrees(const io::ParamSource& p, const std::string& key, double* radians)
 {
   double deg = *radians / kDeg;
   if (p.get(key, &deg))
     *radians = deg * kDeg;
 }
 
-void readMount(const ParamSource& p, const std::string& prefix, sim::Mount* m)
+void readMount(const io::ParamSource& p, const std::string& prefix, sim::Mount* m)
 {
   p.get(prefix + "/x", &m->x);
   p.get(prefix + "/y", &m->y);
@@ -30,7 +30,7 @@ void readMount(const ParamSource& p, const std::string& prefix, sim::Mount* m)
 }
 }  // namespace
 
-void readSimulatorConfig(const ParamSource& p, sim::SimulatorConfig* c)
+void readSimulatorConfig(const io::ParamSource& p, sim::SimulatorConfig* c)
 {
   p.getSeed("seed", &c->seed);
   p.get("physics_rate", &c->physics_rate);
@@ -123,7 +123,7 @@ void readSimulatorConfig(const ParamSource& p, sim::SimulatorConfig* c)
     throw std::runtime_error("invalid simulator parameter: " + error);
 }
 
-void readScenarioConfig(const ParamSource& p, sim::ScenarioConfig* c)
+void readScenarioConfig(const io::ParamSource& p, sim::ScenarioConfig* c)
 {
   readSimulatorConfig(p, &c->sim);
   p.get("follower/speed", &c->follower.speed);
@@ -161,5 +161,5 @@ void readScenarioConfig(const ParamSource& p, sim::ScenarioConfig* c)
     throw std::runtime_error("invalid follower parameter: " + follower_error);
 }
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam

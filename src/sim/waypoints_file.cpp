@@ -9,7 +9,7 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 std::vector<Eigen::Vector2d> readWaypoints(const std::string& path)
 {
@@ -61,5 +61,5 @@ std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* er
   }
 }
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam

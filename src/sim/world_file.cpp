@@ -15,7 +15,7 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 namespace
 {
@@ -649,5 +649,5 @@ sim::ForestWorld loadForestWorld(const std::string& path)
   return world;
 }
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam

@@ -229,7 +229,7 @@ void readConfigs(Options* opt, sim::ScenarioConfig* scenario, core::TrunkSlamCon
   if (!opt->sim_config_path.empty())
   {
     io::YamlParamSource params(opt->sim_config_path);
-    io::readScenarioConfig(params, scenario);
+    sim::readScenarioConfig(params, scenario);
     warnUnused(params, opt->sim_config_path);
   }
   if (opt->start_given)
@@ -260,7 +260,7 @@ void readConfigs(Options* opt, sim::ScenarioConfig* scenario, core::TrunkSlamCon
 void setDriveAndOdometry(const Options& opt, sim::ScenarioConfig* scenario)
 {
   std::string error;
-  scenario->drive = io::namedDrive(opt.drive, &error);
+  scenario->drive = sim::namedDrive(opt.drive, &error);
   if (!error.empty())
     throw std::runtime_error(error);
   if (opt.ideal)
@@ -534,7 +534,7 @@ int main(int argc, char** argv)
       throw std::runtime_error("--gate must be > 0 and --fail-ate >= 0");
     if (opt.world_path.empty())
       opt.world_path = tools::packageFile("config/worlds/paper_forest.yaml");
-    const sim::ForestWorld world = io::loadForestWorld(opt.world_path);
+    const sim::ForestWorld world = sim::loadForestWorld(opt.world_path);
     sim::ScenarioConfig scenario;
     core::TrunkSlamConfig base_filter;
     core::TrunkDetectorConfig base_detector;

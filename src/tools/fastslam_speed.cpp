@@ -222,7 +222,7 @@ int main(int argc, char** argv)
         for (const char* method : { "circle", "centroid" })
         {
           const sim::ForestWorld world =
-              io::loadForestWorld(tools::packageFile(std::string("config/worlds/") + name + ".yaml"));
+              sim::loadForestWorld(tools::packageFile(std::string("config/worlds/") + name + ".yaml"));
           eval::ForestSlamRunConfig cfg;
           cfg.scenario.drive = sim::straightDrive();
           core::parseTrunkMethod(method, &cfg.detector.method);

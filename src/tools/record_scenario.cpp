@@ -175,7 +175,7 @@ sim::ScenarioConfig readScenario(const Options& opt)
   if (!opt.config_path.empty())
   {
     io::YamlParamSource params(opt.config_path);
-    io::readScenarioConfig(params, &config);
+    sim::readScenarioConfig(params, &config);
     for (const auto& k : params.unusedKeys())
       std::fprintf(stderr, "record_scenario: warning: %s: unknown key '%s' ignored\n", opt.config_path.c_str(),
                    k.c_str());
@@ -184,7 +184,7 @@ sim::ScenarioConfig readScenario(const Options& opt)
   if (opt.start_given)
     config.sim.start = opt.start;
   std::string error;
-  config.drive = io::namedDrive(opt.drive, &error);
+  config.drive = sim::namedDrive(opt.drive, &error);
   if (config.drive.empty())
     throw std::runtime_error(error);
   return config;
@@ -204,7 +204,7 @@ sim::ForestWorld loadWorld(const Options& opt, sim::ScenarioConfig* config,
   }
   else
   {
-    world = io::loadForestWorld(opt.world_path);
+    world = sim::loadForestWorld(opt.world_path);
   }
   if (!opt.points)
     config->sim.lidar3d.enabled = false;

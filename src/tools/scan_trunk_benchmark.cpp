@@ -316,10 +316,10 @@ int main(int argc, char** argv)
       opt.world_path = tools::packageFile("config/worlds/park.yaml");
     if (opt.cars_path.empty())
       opt.cars_path = tools::packageFile("config/worlds/park.cars.txt");
-    const sim::ForestWorld world = io::loadForestWorld(opt.world_path);
+    const sim::ForestWorld world = sim::loadForestWorld(opt.world_path);
     // Parked cars: boxes of the default size (4.5 x 1.8 x 1.5 m).
     const std::vector<sim::BoxSpec> cars =
-        opt.cars_path == "none" ? std::vector<sim::BoxSpec>() : io::loadBoxList(opt.cars_path);
+        opt.cars_path == "none" ? std::vector<sim::BoxSpec>() : sim::loadBoxList(opt.cars_path);
 
     sim::SimulatorConfig sim_config = scannerConfig();
     core::TrunkDetector detector(detectorConfig(sim_config.lidar2d, opt));

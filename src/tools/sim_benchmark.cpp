@@ -141,7 +141,7 @@ int main(int argc, char** argv)
     std::printf("== Cast time of one VLP-16 sweep (16 rings x 1800 columns, one core)\n");
     std::vector<std::pair<std::string, sim::ForestWorld>> loaded;
     for (const auto& path : worlds)
-      loaded.emplace_back(path.substr(path.find_last_of('/') + 1), io::loadForestWorld(path));
+      loaded.emplace_back(path.substr(path.find_last_of('/') + 1), sim::loadForestWorld(path));
     for (const auto& w : loaded)
       benchmarkCast(w.first, w.second, sweeps);
     benchmarkCast("generated 150 trees", generatedStand(150, 7), sweeps);

@@ -385,7 +385,7 @@ int main(int argc, char** argv)
                 "Precision within a band counts detections there; 'spurious' = matched to no true trunk.\n",
                 step);
     for (const auto& path : worlds)
-      run(path.substr(path.find_last_of('/') + 1), io::loadForestWorld(path), step);
+      run(path.substr(path.find_last_of('/') + 1), sim::loadForestWorld(path), step);
   }
   catch (const std::exception& e)
   {

@@ -26,7 +26,7 @@ double segmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const
 
 TEST(ParkDrive, TheParkHasItsTreesPolesAndCars)
 {
-  const sim::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
+  const sim::ForestWorld world = sim::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
   EXPECT_EQ(world.max_x - world.min_x, 250.0);
   EXPECT_EQ(world.max_y - world.min_y, 250.0);
   EXPECT_EQ(world.ground.amplitude, 0.0);
@@ -52,7 +52,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
 {
   io::YamlParamSource params(kSourceDir + "/config/sim/park_drive.yaml");
   sim::ScenarioConfig c;
-  io::readScenarioConfig(params, &c);
+  sim::readScenarioConfig(params, &c);
   EXPECT_TRUE(params.unusedKeys().empty());
   EXPECT_EQ(c.sim.robot.model, sim::RobotModel::kAckermann);
   EXPECT_EQ(c.sim.robot.wheelbase, 2.8);
@@ -72,7 +72,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
   EXPECT_LE(c.follower.speed, 6.0);
 
   std::string error;
-  const std::vector<Eigen::Vector2d> drive = io::namedDrive(kSourceDir + "/config/sim/park_drive.txt", &error);
+  const std::vector<Eigen::Vector2d> drive = sim::namedDrive(kSourceDir + "/config/sim/park_drive.txt", &error);
   ASSERT_GT(drive.size(), 10u) << error;
   double length = 0.0;
   for (std::size_t i = 1; i < drive.size(); ++i)
@@ -81,7 +81,7 @@ TEST(ParkDrive, TheCarItsScannerAndTheDriveAreTheScenarios)
   EXPECT_LT(length / c.follower.speed, c.timeout);
 
   // The road keeps >= 3 m from every trunk's surface and every car (world frame = start pose * start frame).
-  const sim::ForestWorld world = io::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
+  const sim::ForestWorld world = sim::loadForestWorld(kSourceDir + "/config/worlds/park_drive.yaml");
   std::vector<Eigen::Vector2d> road;
   for (const auto& p : drive)
   {

@@ -24,7 +24,7 @@ TEST(SimConfig, ShippedConfigMatchesTheBuiltInDefaults)
   // config/forest_sim.yaml documents the defaults; reading it must change nothing.
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
   sim::ScenarioConfig read, defaults;
-  io::readScenarioConfig(params, &read);
+  sim::readScenarioConfig(params, &read);
   EXPECT_EQ(read.sim.odometry.left_scale, defaults.sim.odometry.left_scale);
   EXPECT_EQ(read.sim.odometry.right_scale, defaults.sim.odometry.right_scale);
   EXPECT_EQ(read.sim.odometry.wheel_sigma, defaults.sim.odometry.wheel_sigma);
@@ -58,7 +58,7 @@ TEST(SimConfig, ValuesAreReadInTheirUnits)
                                                         "odometry: {latency: 0.05}\n");
   io::YamlParamSource params(path);
   sim::SimulatorConfig c;
-  io::readSimulatorConfig(params, &c);
+  sim::readSimulatorConfig(params, &c);
   EXPECT_EQ(c.seed, 7u);
   EXPECT_NEAR(c.start.theta, M_PI / 2, 1e-12);
   EXPECT_EQ(c.lidar3d.rings, 32);
@@ -76,7 +76,7 @@ TEST(SimConfig, WrongTypeAndInvalidValueNameTheKey)
   sim::SimulatorConfig c;
   try
   {
-    io::readSimulatorConfig(params, &c);
+    sim::readSimulatorConfig(params, &c);
     FAIL() << "no error for a non-integer ring count";
   }
   catch (const std::runtime_error& e)
@@ -88,7 +88,7 @@ TEST(SimConfig, WrongTypeAndInvalidValueNameTheKey)
   io::YamlParamSource bad(invalid);
   try
   {
-    io::readSimulatorConfig(bad, &c);
+    sim::readSimulatorConfig(bad, &c);
     FAIL() << "no error for a negative rate";
   }
   catch (const std::runtime_error& e)
@@ -104,7 +104,7 @@ TEST(SimConfig, UnknownKeysAreReported)
   const std::string path = writeTemp("sim_typo.yaml", "odometry: {latncy: 0.05}\n");
   io::YamlParamSource params(path);
   sim::SimulatorConfig c;
-  io::readSimulatorConfig(params, &c);
+  sim::readSimulatorConfig(params, &c);
   ASSERT_EQ(params.unusedKeys().size(), 1u);
   EXPECT_EQ(params.unusedKeys()[0], "odometry/latncy");
   std::remove(path.c_str());
@@ -114,7 +114,7 @@ TEST(SimConfig, ShippedConfigDocumentsTheCarAndTheFollowerInput)
 {
   io::YamlParamSource params(std::string(RBPF_SLAM_SOURCE_DIR) + "/config/forest_sim.yaml");
   sim::ScenarioConfig read, defaults;
-  io::readScenarioConfig(params, &read);
+  sim::readScenarioConfig(params, &read);
   EXPECT_EQ(read.sim.robot.model, defaults.sim.robot.model);
   EXPECT_EQ(read.sim.robot.footprint_radius, defaults.sim.robot.footprint_radius);
   EXPECT_EQ(read.sim.robot.wheelbase, defaults.sim.robot.wheelbase);
@@ -140,7 +140,7 @@ TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
                                                       "follower: {steer_on: truth}\n");
   io::YamlParamSource params(path);
   sim::ScenarioConfig c;
-  io::readScenarioConfig(params, &c);
+  sim::readScenarioConfig(params, &c);
   EXPECT_EQ(c.sim.robot.model, sim::RobotModel::kAckermann);
   EXPECT_EQ(c.sim.robot.wheelbase, 3.0);
   EXPECT_NEAR(c.sim.robot.max_steer, 30.0 * M_PI / 180.0, 1e-12);
@@ -155,7 +155,7 @@ TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
     const std::string p = writeTemp("sim_bad_car.yaml", bad);
     io::YamlParamSource ps(p);
     sim::ScenarioConfig s;
-    EXPECT_THROW(io::readScenarioConfig(ps, &s), std::runtime_error) << bad;
+    EXPECT_THROW(sim::readScenarioConfig(ps, &s), std::runtime_error) << bad;
     std::remove(p.c_str());
   }
 }

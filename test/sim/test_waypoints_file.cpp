@@ -1,4 +1,4 @@
-// Drive files: waypoints `x y` per line, and drives by name (io::readWaypoints, io::namedDrive).
+// Drive files: waypoints `x y` per line, and drives by name (sim::readWaypoints, sim::namedDrive).
 #include <gtest/gtest.h>
 
 #include <stdexcept>
@@ -9,7 +9,7 @@
 #include "rbpf_slam/sim/waypoints_file.h"
 #include "io/temp_files.h"
 
-namespace io = rbpf_slam::io;
+namespace sim = rbpf_slam::sim;
 
 namespace
 {
@@ -22,7 +22,7 @@ std::string errorOf(const std::string& path)
 {
   try
   {
-    io::readWaypoints(path);
+    sim::readWaypoints(path);
   }
   catch (const std::runtime_error& e)
   {
@@ -35,7 +35,7 @@ std::string errorOf(const std::string& path)
 TEST(WaypointsFile, ReadsPointsSkippingCommentsAndBlankLines)
 {
   const std::string path = writeTemp("loop.txt", "# corridor loop\n4 0\n\n  8 0.5   # the door\r\n12.9 -4.6\n");
-  const std::vector<Eigen::Vector2d> w = io::readWaypoints(path);
+  const std::vector<Eigen::Vector2d> w = sim::readWaypoints(path);
   ASSERT_EQ(w.size(), 3u);
   EXPECT_EQ(w[0], Eigen::Vector2d(4.0, 0.0));
   EXPECT_EQ(w[1], Eigen::Vector2d(8.0, 0.5));
@@ -62,14 +62,14 @@ TEST(WaypointsFile, ErrorsNameTheFileAndLine)
 TEST(WaypointsFile, NamedDrives)
 {
   std::string error;
-  EXPECT_EQ(io::namedDrive("straight", &error), rbpf_slam::sim::straightDrive());
-  EXPECT_EQ(io::namedDrive("loop", &error), rbpf_slam::sim::loopDrive());
+  EXPECT_EQ(sim::namedDrive("straight", &error), rbpf_slam::sim::straightDrive());
+  EXPECT_EQ(sim::namedDrive("loop", &error), rbpf_slam::sim::loopDrive());
   EXPECT_TRUE(error.empty()) << error;
   const std::string path = writeTemp("drive.txt", "0 0\n12 0\n");
-  EXPECT_EQ(io::namedDrive(path, &error).size(), 2u);
-  EXPECT_TRUE(io::namedDrive("circle", &error).empty());
+  EXPECT_EQ(sim::namedDrive(path, &error).size(), 2u);
+  EXPECT_TRUE(sim::namedDrive("circle", &error).empty());
   EXPECT_EQ(error, "drive 'circle' is neither 'straight', 'loop' nor a readable waypoint file");
   const std::string bad = writeTemp("bad.txt", "0 0\nx y\n");
-  EXPECT_TRUE(io::namedDrive(bad, &error).empty());
+  EXPECT_TRUE(sim::namedDrive(bad, &error).empty());
   EXPECT_EQ(error, bad + ":2: expected 'x y', got 'x y'");
 }

@@ -14,8 +14,8 @@
 #include "rbpf_slam/sim/world_file.h"
 #include "io/temp_files.h"
 
-using rbpf_slam::io::loadForestWorld;
-using rbpf_slam::io::loadTreeList;
+using rbpf_slam::sim::loadForestWorld;
+using rbpf_slam::sim::loadTreeList;
 using rbpf_slam::sim::ForestWorld;
 using rbpf_slam::sim::TrunkSpec;
 
@@ -444,7 +444,7 @@ TEST_F(WorldFileTest, ABadBoxNamesFileLineAndReason)
 
 TEST(ShippedWorlds, ParkCarsAreABoxList)
 {
-  const std::vector<rbpf_slam::sim::BoxSpec> cars = rbpf_slam::io::loadBoxList(kWorldDir + "park.cars.txt");
+  const std::vector<rbpf_slam::sim::BoxSpec> cars = rbpf_slam::sim::loadBoxList(kWorldDir + "park.cars.txt");
   ASSERT_FALSE(cars.empty());
   EXPECT_EQ(cars[0].x, 77.331);
   EXPECT_EQ(cars[0].length, 4.5);

@@ -6,18 +6,18 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 /**
  * @brief Reads the simulator's configuration (keys of config/forest_sim.yaml) over the defaults in
  * @p config. Angles are in degrees in the file, radians in the struct.
  * @throws std::runtime_error naming the key for a wrong type or an invalid value.
  */
-void readSimulatorConfig(const ParamSource& params, sim::SimulatorConfig* config);
+void readSimulatorConfig(const io::ParamSource& params, sim::SimulatorConfig* config);
 /** @brief The follower's keys (`follower/...`) and the relay's (`relay/...`, as noise_relay.yaml). */
-void readScenarioConfig(const ParamSource& params, sim::ScenarioConfig* config);
+void readScenarioConfig(const io::ParamSource& params, sim::ScenarioConfig* config);
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_SIM_CONFIG_H

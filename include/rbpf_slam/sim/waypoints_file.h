@@ -8,7 +8,7 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 /**
  * @brief The waypoints of a drive file: `x y` per line [m, start frame], in driving order; '#' starts a
@@ -25,7 +25,7 @@ std::vector<Eigen::Vector2d> readWaypoints(const std::string& path);
  */
 std::vector<Eigen::Vector2d> namedDrive(const std::string& name, std::string* error);
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_WAYPOINTS_FILE_H

@@ -8,7 +8,7 @@
 
 namespace rbpf_slam
 {
-namespace io
+namespace sim
 {
 /**
  * @brief Reads a tree list: plain text, one trunk a line `x y radius [height]` in metres.
@@ -59,7 +59,7 @@ std::vector<sim::BoxSpec> loadBoxList(const std::string& path);
  */
 sim::ForestWorld loadForestWorld(const std::string& path);
 
-}  // namespace io
+}  // namespace sim
 }  // namespace rbpf_slam
 
 #endif  // RBPF_SLAM_SIM_WORLD_FILE_H
