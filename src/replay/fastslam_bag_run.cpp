@@ -215,7 +215,8 @@ void printFastSlamSummary(const SlamBagOptions& o, const core::TrunkSlamConfig& 
   std::printf("  final estimate (%s; map frame = %s): %.3f %.3f %.1f deg; "
               "%zu landmarks in the best particle's map\n",
               core::toString(fc.estimate),
-              session.fromSavedMap() ? "the frame of the map it started from" : "the odometry frame at the first update",
+              session.fromSavedMap() ? "the frame of the map it started from" :
+                                       "the odometry frame at the first update",
               estimate.x, estimate.y, estimate.theta * 180.0 / M_PI, pipeline.filter().best().map.size());
   std::printf("  %s\n", record.healthSummary().c_str());
   if (n.map_full > 0)

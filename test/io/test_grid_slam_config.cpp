@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "io/split_config.h"
+
 #include "rbpf_slam/io/grid_slam_config.h"
 
 using namespace rbpf_slam;
@@ -20,29 +22,6 @@ const std::string kConfigDir = std::string(RBPF_SLAM_SOURCE_DIR) + "/config/";
 const std::string kAdvancedFile = kConfigDir + "grid_slam_advanced.yaml";
 const std::string kUserFile = kConfigDir + "grid_slam.yaml";
 
-/** @brief A source that has no key and records every key asked of it: the keys a reader knows. */
-class AskedKeys : public io::ParamSource
-{
-public:
-  bool get(const std::string& key, double*) const override { return ask(key); }
-  bool get(const std::string& key, int*) const override { return ask(key); }
-  bool get(const std::string& key, bool*) const override { return ask(key); }
-  bool get(const std::string& key, std::string*) const override { return ask(key); }
-  mutable std::set<std::string> keys;
-
-private:
-  bool ask(const std::string& key) const
-  {
-    keys.insert(key);
-    return false;
-  }
-};
-
-bool isNodeOnlyKey(const std::string& key)
-{
-  const std::vector<std::string>& node = io::nodeOnlyKeys();
-  return std::find(node.begin(), node.end(), key) != node.end();
-}
 }  // namespace
 
 TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltInDefaults)
@@ -115,34 +94,12 @@ TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltI
 
 TEST(GridSlamConfigFile, TheUsersFileIsShortAndTheTwoFilesSplitTheKeys)
 {
-  // Before any read, a source's unused keys are all its leaf keys.
-  const std::vector<std::string> user = io::YamlParamSource(kUserFile).unusedKeys();
-  const std::vector<std::string> advanced = io::YamlParamSource(kAdvancedFile).unusedKeys();
-  EXPECT_LE(user.size(), 25u) << "config/grid_slam.yaml holds the keys a user sets; the others go in the advanced file";
-  EXPECT_GE(user.size(), 10u);
-  EXPECT_GT(advanced.size(), 0u);
-  // No key in both: each is stated, and explained, once.
-  const std::set<std::string> user_set(user.begin(), user.end());
-  std::set<std::string> all = user_set;
-  for (const auto& k : advanced)
-  {
-    EXPECT_EQ(user_set.count(k), 0u) << "key " << k << " is in both files";
-    all.insert(k);
-  }
-  EXPECT_EQ(all.size(), user.size() + advanced.size());
-  // The frames, the mode, the particles and the seed are the user's.
-  for (const char* k : { "map_frame", "odom_frame", "base_frame", "mode", "particles", "seed" })
-    EXPECT_EQ(user_set.count(k), 1u) << k;
-  // Every key the reader knows is stated in one of the two files, and every key of the files is the reader's or the
-  // node's own.
-  AskedKeys asked;
-  core::GridSlamConfig c;
-  io::readGridSlamConfig(asked, &c);
-  EXPECT_GT(asked.keys.size(), 40u);
-  for (const auto& k : asked.keys)
-    EXPECT_EQ(all.count(k), 1u) << "key " << k << " is in neither file";
-  for (const auto& k : all)
-    EXPECT_TRUE(asked.keys.count(k) || isNodeOnlyKey(k)) << "key " << k << " is read by no one";
+  const std::vector<std::string> users_keys{ "map_frame", "odom_frame", "base_frame", "mode", "particles", "seed" };
+  split_config::expectSplitKeys(kUserFile, kAdvancedFile, users_keys, 40u,
+                                [](const io::ParamSource& p) {
+                                  core::GridSlamConfig c;
+                                  io::readGridSlamConfig(p, &c);
+                                });
 }
 
 TEST(GridSlamConfigFile, TheUsersFileAloneIsNotTheShippedFilter)
@@ -165,19 +122,13 @@ TEST(GridSlamConfigFile, AMisspeltKeyOverTheAdvancedFileIsStillReported)
 {
   // The tools warn of each file's unused keys: the advanced file leaves only the node's keys, and a user's file laid
   // over it still shows its misspelt key (and only that one).
-  const std::string path = std::string(::testing::TempDir()) + "grid_slam_user.yaml";
-  std::ofstream(path) << "particles: 12\nrbpf:\n  kernel: 2\nlinear_updte: 0.2\n";
-  io::YamlParamSource advanced(kAdvancedFile), user(path);
   core::GridSlamConfig c;
-  io::readGridSlamConfig(advanced, &c);
-  io::readGridSlamConfig(user, &c);
-  for (const auto& k : advanced.unusedKeys())
-    EXPECT_TRUE(isNodeOnlyKey(k)) << "key " << k << " of the advanced file would be warned of";
-  EXPECT_EQ(user.unusedKeys(), std::vector<std::string>{ "linear_updte" });
+  split_config::expectMisspeltKeyReported(kAdvancedFile, "particles: 12\nrbpf:\n  kernel: 2\nlinear_updte: 0.2\n",
+                                          "linear_updte",
+                                          [&](const io::ParamSource& p) { io::readGridSlamConfig(p, &c); });
   EXPECT_EQ(c.particles, 12);
   EXPECT_EQ(c.matcher.kernel, 2);
   EXPECT_EQ(c.matcher.coarse_kernel, 1);  // the rest of rbpf/ stays the advanced file's
-  std::remove(path.c_str());
 }
 
 TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
