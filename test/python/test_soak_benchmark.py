@@ -18,16 +18,17 @@ def test_the_nodes_of_each_filter():
 
 
 def test_the_parameter_files_of_each_filter():
+    # The package's config folder, wherever the package lies (source tree, devel or install space).
     def files(filter_name, config=None):
-        return [(ns, os.path.relpath(path, ROOT)) for ns, path in
-                sb.param_files(argparse.Namespace(filter=filter_name, config=config))]
+        pairs = sb.param_files(argparse.Namespace(filter=filter_name, config=config))
+        assert all(os.path.isfile(path) for _, path in pairs), pairs
+        return [(ns, os.path.basename(path)) for ns, path in pairs]
     # The advanced file first, the user's file on top, an overlay last.
     assert files('grid', os.path.join(ROOT, 'config', 'grid_single_map.yaml')) == [
-        ('grid_slam', 'config/grid_slam_advanced.yaml'), ('grid_slam', 'config/grid_slam.yaml'),
-        ('grid_slam', 'config/grid_single_map.yaml')]
-    assert files('fastslam') == [('trunk_extraction', 'config/trunk_extraction.yaml'),
-                                 ('fastslam', 'config/fastslam_advanced.yaml'), ('fastslam', 'config/fastslam.yaml')]
-    assert all(os.path.isfile(os.path.join(ROOT, f)) for name in ('grid', 'fastslam') for _, f in files(name))
+        ('grid_slam', 'grid_slam_advanced.yaml'), ('grid_slam', 'grid_slam.yaml'),
+        ('grid_slam', 'grid_single_map.yaml')]
+    assert files('fastslam') == [('trunk_extraction', 'trunk_extraction.yaml'),
+                                 ('fastslam', 'fastslam_advanced.yaml'), ('fastslam', 'fastslam.yaml')]
 
 
 def test_resident_memory_of_a_process():
