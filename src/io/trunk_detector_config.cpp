@@ -42,6 +42,8 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("range_offset", &c->range_offset);
   p.get("min_range", &c->min_range);
   p.get("max_range", &c->max_range);
+  p.get("azimuth_resolution", &c->azimuth_resolution);
+  p.get("sensor_reach", &c->sensor_reach);
   p.get("detection_probability", &c->detection_probability);
   p.getSeed("seed", &c->seed);
   const std::string error = c->validate();

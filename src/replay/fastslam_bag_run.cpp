@@ -308,6 +308,9 @@ int runFastSlamBag(const SlamBagOptions& o)
     replayed.push_back(n.gps_topic);
   replay(bag, replayed, std::ref(feed), process);
   checkRan(o, sensor_topic, pipeline, record, feed, n.updates);
+  if (pipeline.shortReachSweeps() > 0)
+    std::fprintf(stderr, "slam_bag: warning: in %d of %d clouds %s (--extraction-config)\n",
+                 pipeline.shortReachSweeps(), feed.sweeps, pipeline.reachShortfall().c_str());
   if (!o.save_map_path.empty())
     out.add(session.mapFiles(o.save_map_path, &n.map_summary));
   if (out.enabled())

@@ -230,6 +230,7 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
     {
       trunks = detector_->detect(cloud.points, level, &stats);
       scope = core::sweepScope(detector_->config(), stats.reach);
+      warnShortReach(core::reachShortfall(detector_->config(), stats));
     }
     catch (const std::exception& e)
     {
@@ -284,6 +285,17 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
   }
   const core::SweepGeometry geometry = core::scanGeometry(scan);
   publish(msg->header, trunks, stats, band_height, "scan", scanPeriod(*msg), scope, &geometry);
+}
+
+void TrunkExtraction::warnShortReach(const std::string& why)
+{
+  if (why.empty())
+    return;
+  if (!reach_warned_)
+    ROS_WARN("%s: %s", name_.c_str(), why.c_str());
+  else
+    ROS_WARN_THROTTLE(60.0, "%s: %s", name_.c_str(), why.c_str());
+  reach_warned_ = true;
 }
 
 void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char* input, const std::string& why)

@@ -64,6 +64,8 @@ private:
   bool anyOutputSubscribed() const;
   /** @brief Reports a dropped input on ~stats (no TrunkArray is published for it). */
   void publishDropped(const std_msgs::Header& header, const char* input, const std::string& why);
+  /** @brief Says why the reach fell short of max_range (reachShortfall): when it first does, then every minute. */
+  void warnShortReach(const std::string& why);
   void publish(const std_msgs::Header& header, const std::vector<core::TrunkObservation>& trunks,
                const core::TrunkDetectorStats& stats, double band_height, const char* input, double sweep_period,
                const core::SensorScope& scope, const core::SweepGeometry* geometry = nullptr);
@@ -91,6 +93,7 @@ private:
   std::uint64_t markers_published_ = 0;
   std::uint64_t inputs_ = 0;
   std::size_t dropped_ = 0;  ///< inputs that could not be read (no TrunkArray published for them)
+  bool reach_warned_ = false;  ///< the reach fell short of max_range and that was said
 };
 
 }  // namespace rbpf_slam

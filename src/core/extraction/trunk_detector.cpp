@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -138,6 +139,10 @@ std::string TrunkDetectorConfig::validate() const
     return "range_sigma must be > 0";
   if (!std::isfinite(range_offset) || std::abs(range_offset) > 1.0)
     return "range_offset must be finite and within +-1 m";
+  if (!(azimuth_resolution >= 0.0 && azimuth_resolution < M_PI))
+    return "azimuth_resolution must be in [0, pi) rad (0: from the cloud)";
+  if (!(sensor_reach >= 0.0) || !std::isfinite(sensor_reach))
+    return "sensor_reach must be a finite number >= 0 (0: from azimuth_resolution or the cloud)";
   if (!(min_range >= 0.0) || !(max_range > min_range))
     return "max_range must be > min_range >= 0";
   if (!(detection_probability > 0.0 && detection_probability <= 1.0))
@@ -190,7 +195,8 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope);
   ground.build(pts);
   std::vector<Eigen::Vector3f> band = selectHeightBand(pts, &ground, cfg.min_height, cfg.max_height);
-  st->reach = singleRingReach(cfg.arc_radius_prior, cfg.min_points, estimateAzimuthStep(band));
+  detectorReach(cfg, cfg.sensor_reach > 0.0 || cfg.azimuth_resolution > 0.0 ? NAN : estimateAzimuthStep(band),
+                &st->reach, &st->reach_source, &st->azimuth_step);
   if (cfg.voxel_size > 0.0)
     downsampleVoxels(&band, cfg.voxel_size);
   st->band_points = static_cast<int>(band.size());
@@ -374,6 +380,39 @@ std::vector<TrunkObservation> TrunkDetector::detectScan(const PlanarScan& scan, 
   }
   st->trunks = static_cast<int>(out.size());
   return out;
+}
+
+void detectorReach(const TrunkDetectorConfig& config, double cloud_step, double* reach, ReachSource* source,
+                   double* step)
+{
+  *step = NAN;
+  if (config.sensor_reach > 0.0)
+  {
+    *reach = config.sensor_reach;
+    *source = ReachSource::kConfigured;
+    return;
+  }
+  *step = config.azimuth_resolution > 0.0 ? config.azimuth_resolution : cloud_step;
+  *reach = singleRingReach(config.arc_radius_prior, config.min_points, *step);
+  *source = !std::isfinite(*reach) ? ReachSource::kUnknown :
+            config.azimuth_resolution > 0.0 ? ReachSource::kResolution : ReachSource::kCloud;
+}
+
+std::string reachShortfall(const TrunkDetectorConfig& config, const TrunkDetectorStats& stats)
+{
+  if (!(stats.reach < config.max_range) || stats.reach_source == ReachSource::kConfigured ||
+      stats.reach_source == ReachSource::kUnknown)
+    return "";
+  char text[480];
+  std::snprintf(text, sizeof(text),
+                "trunks are looked for up to %.1f m, not max_range %.1f m: the points of a ring lie %.3f deg apart "
+                "(%s), and a trunk of radius %.2f m (arc_radius_prior) further away gives fewer than min_points %d "
+                "on one ring; set azimuth_resolution to the sensor's, or sensor_reach",
+                stats.reach, config.max_range, stats.azimuth_step * 180.0 / M_PI,
+                stats.reach_source == ReachSource::kResolution ? "azimuth_resolution, the sensor's" :
+                                                                "inferred from the cloud's points",
+                config.arc_radius_prior, config.min_points);
+  return text;
 }
 
 }  // namespace core

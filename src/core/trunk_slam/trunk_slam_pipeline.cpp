@@ -150,7 +150,14 @@ StampVerdict TrunkSlamPipeline::addSweep(double stamp, double period, const std:
   if (v != StampVerdict::kAccept && v != StampVerdict::kReset)
     return v;
   const auto t0 = std::chrono::steady_clock::now();
-  const bool taken = enqueueSweep(detectSweep(detector_.get(), stamp, period, points, mount), arrival);
+  TrunkSweep sweep = detectSweep(detector_.get(), stamp, period, points, mount);
+  if (!sweep.reach_shortfall.empty())
+  {
+    ++short_reach_sweeps_;
+    if (reach_shortfall_.empty())
+      reach_shortfall_ = sweep.reach_shortfall;
+  }
+  const bool taken = enqueueSweep(std::move(sweep), arrival);
   seconds_extraction_ += since(t0);
   return taken ? v : StampVerdict::kOverLimit;
 }

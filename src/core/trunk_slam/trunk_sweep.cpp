@@ -194,6 +194,7 @@ TrunkSweep detectSweep(TrunkDetector* detector, double stamp, double period,
   sweep.mount = mount;
   sweep.trunks = detector->detect(points, Eigen::Matrix3d::Identity(), &stats);
   sweep.scope = sweepScope(detector->config(), stats.reach);
+  sweep.reach_shortfall = reachShortfall(detector->config(), stats);
   sweep.tilt_roll = stats.tilt_roll;
   sweep.tilt_pitch = stats.tilt_pitch;
   return sweep;

@@ -850,3 +850,81 @@ TEST(TrunkDetector, TouchingTrunksInOneScanArcAreTwoTrunks)
       }
   EXPECT_GE(merged, 4);  // the set-ups where the scan cannot tell the two trunks apart by a range jump
 }
+
+namespace
+{
+/** A 16-ring lidar's view of a wall all round at @p distance [m], one point every @p step_deg along a ring; with
+ * @p keep below 1 each point is kept with that probability (an unevenly spaced cloud: dropped returns, resampling). */
+std::vector<Eigen::Vector3f> ringCloud(double distance, double step_deg, double keep, Random& rnd)
+{
+  std::vector<Eigen::Vector3f> pts;
+  for (int ring = 0; ring < 16; ++ring)
+  {
+    const double elevation = (-15.0 + 2.0 * ring) * M_PI / 180.0;
+    for (double a = -180.0; a < 180.0 - 1e-9; a += step_deg)
+      if (keep >= 1.0 || rnd.uniform() < keep)
+        pts.emplace_back(static_cast<float>(distance * std::cos(a * M_PI / 180.0)),
+                         static_cast<float>(distance * std::sin(a * M_PI / 180.0)),
+                         static_cast<float>(distance * std::tan(elevation)));
+  }
+  return pts;
+}
+
+TrunkDetectorStats detectStats(const TrunkDetectorConfig& c, const std::vector<Eigen::Vector3f>& pts)
+{
+  TrunkDetector d(c);
+  TrunkDetectorStats st;
+  d.detect(pts, Eigen::Matrix3d::Identity(), &st);
+  return st;
+}
+}  // namespace
+
+TEST(TrunkDetectorReach, TheCloudsStepTheSensorsResolutionOrASetReach)
+{
+  using rbpf_slam::core::ReachSource;
+  Random rnd(5);
+  TrunkDetectorConfig c = config();
+  const double step = 0.2 * M_PI / 180.0;
+  const double reach = 2.0 * c.arc_radius_prior / (c.min_points * step);  // 14.3 m
+  // An evenly spaced cloud: the step it shows is the sensor's.
+  const TrunkDetectorStats even = detectStats(c, ringCloud(6.0, 0.2, 1.0, rnd));
+  EXPECT_EQ(even.reach_source, ReachSource::kCloud);
+  EXPECT_NEAR(even.azimuth_step, step, 1e-4);
+  EXPECT_NEAR(even.reach, reach, 0.1);
+  // Below max_range (30 m), and the warning says why and what to set.
+  const std::string why = rbpf_slam::core::reachShortfall(c, even);
+  EXPECT_NE(why.find("inferred from the cloud"), std::string::npos) << why;
+  EXPECT_NE(why.find("azimuth_resolution"), std::string::npos) << why;
+  EXPECT_NE(why.find("sensor_reach"), std::string::npos) << why;
+  // One point in three kept: the gaps the cloud shows are wider than the sensor's step, and so the reach short.
+  const std::vector<Eigen::Vector3f> uneven = ringCloud(6.0, 0.2, 0.33, rnd);
+  const TrunkDetectorStats inferred = detectStats(c, uneven);
+  EXPECT_EQ(inferred.reach_source, ReachSource::kCloud);
+  EXPECT_LT(inferred.reach, 0.75 * reach);
+  // The sensor's resolution stated: the reach is the sensor's, whatever the cloud.
+  c.azimuth_resolution = step;
+  const TrunkDetectorStats stated = detectStats(c, uneven);
+  EXPECT_EQ(stated.reach_source, ReachSource::kResolution);
+  EXPECT_NEAR(stated.reach, reach, 1e-9);
+  EXPECT_NE(rbpf_slam::core::reachShortfall(c, stated).find("the sensor's"), std::string::npos);
+  // A reach set outright is taken as it is, and not warned of.
+  c.sensor_reach = 25.0;
+  const TrunkDetectorStats set = detectStats(c, uneven);
+  EXPECT_EQ(set.reach_source, ReachSource::kConfigured);
+  EXPECT_DOUBLE_EQ(set.reach, 25.0);
+  EXPECT_TRUE(rbpf_slam::core::reachShortfall(c, set).empty());
+  // A reach beyond max_range is no shortfall either.
+  c.sensor_reach = 0.0;
+  c.azimuth_resolution = 0.05 * M_PI / 180.0;  // 57 m
+  EXPECT_TRUE(rbpf_slam::core::reachShortfall(c, detectStats(c, uneven)).empty());
+}
+
+TEST(TrunkDetectorReach, NegativeOrNonFiniteSettingsAreRefused)
+{
+  TrunkDetectorConfig c = config();
+  c.azimuth_resolution = -0.01;
+  EXPECT_NE(c.validate().find("azimuth_resolution"), std::string::npos);
+  c.azimuth_resolution = 0.0;
+  c.sensor_reach = std::numeric_limits<double>::infinity();
+  EXPECT_NE(c.validate().find("sensor_reach"), std::string::npos);
+}

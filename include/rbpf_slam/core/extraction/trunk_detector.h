@@ -74,6 +74,14 @@ struct TrunkDetectorConfig
   double range_offset = 0.0;        ///< [m] 2D: added to every valid range (the scanner's range calibration)
   double min_range = 0.5;           ///< [m] trunks whose centre is nearer or further are dropped
   double max_range = 30.0;          ///< [m]
+  /// [rad] 3D: the sensor's horizontal angle between two points of a ring (its driver's azimuth resolution, e.g.
+  /// 0.2 deg for a 16-ring lidar at 10 Hz): how far a trunk still gives min_points on one ring (the reach) follows
+  /// from it. 0: inferred from the cloud's points (estimateAzimuthStep), which an unevenly spaced cloud (a
+  /// resampled or merged scan) can make short.
+  double azimuth_resolution = 0.0;
+  /// [m] 3D: the reach set outright (trunks are looked for up to the nearer of it and max_range); 0: from
+  /// azimuth_resolution or the cloud.
+  double sensor_reach = 0.0;
   /// Share of the trunks inside its scope the detector reports (consumers weigh a miss by it), in (0, 1].
   double detection_probability = 0.9;
   std::uint64_t seed = 0;           ///< of the RANSAC sampler
@@ -99,6 +107,15 @@ struct TrunkObservation
   int id = -1;          ///< the landmark's id when the detector knows it (known association), else -1
 };
 
+/** @brief Where a 3D detector's reach comes from (TrunkDetectorStats::reach). */
+enum class ReachSource
+{
+  kUnknown,     ///< no reach (2D, or too few points to tell)
+  kConfigured,  ///< TrunkDetectorConfig::sensor_reach
+  kResolution,  ///< TrunkDetectorConfig::azimuth_resolution, the sensor's
+  kCloud,       ///< inferred from the spacing of the cloud's points along its rings
+};
+
 /** @brief Counts of one detect() call, for diagnostics and benchmarks. */
 struct TrunkDetectorStats
 {
@@ -117,12 +134,29 @@ struct TrunkDetectorStats
   double tilt_pitch = 0.0;  ///< [rad]
   /// [m] 3D: how far a trunk of arc_radius_prior still gives min_points on one ring of this cloud (NaN: unknown)
   double reach = NAN;
+  ReachSource reach_source = ReachSource::kUnknown;  ///< where reach comes from
+  double azimuth_step = NAN;  ///< [rad] 3D: the step between a ring's points the reach was made from (NaN: none)
   // Wall time of the stages of detect() [ms].
   double ms_band = 0.0;     ///< ground estimate and height band
   double ms_cluster = 0.0;  ///< clustering and candidate selection
   double ms_tilt = 0.0;     ///< tilt from the trunks
   double ms_fit = 0.0;      ///< circle fits and rejection
 };
+
+/**
+ * @brief The reach of a 3D detector (TrunkDetectorStats::reach and reach_source): @p config's sensor_reach when set,
+ * else singleRingReach() of its azimuth_resolution when set, else of @p cloud_step (the cloud's own step; NaN:
+ * unknown).
+ */
+void detectorReach(const TrunkDetectorConfig& config, double cloud_step, double* reach, ReachSource* source,
+                   double* step);
+
+/**
+ * @brief Why trunks beyond the reach of @p stats are not looked for although @p config's max_range is further
+ * (naming the step, its source and the parameters that set it); empty when the reach is not below max_range, is
+ * unknown, or was set outright.
+ */
+std::string reachShortfall(const TrunkDetectorConfig& config, const TrunkDetectorStats& stats);
 
 /** @brief A planar scan as REP-117 gives it. */
 struct PlanarScan

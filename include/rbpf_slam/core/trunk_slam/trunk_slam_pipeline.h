@@ -154,6 +154,10 @@ public:
   GeoAnchor anchor() const { return gnss_.anchor(); }
   /** @brief Fixes that went into the anchor's fit, and fixes that weighed the particles. */
   int gnssFixesUsed() const { return gnss_.used(); }
+  /** @brief Why the extraction did not look for trunks up to its max_range, as the first sweep that fell short said
+   * it (TrunkSweep::reach_shortfall; empty when none did), and how many sweeps fell short. */
+  const std::string& reachShortfall() const { return reach_shortfall_; }
+  int shortReachSweeps() const { return short_reach_sweeps_; }
   int gnssFixesWeighed() const { return gnss_.weighed(); }
   /** @brief Fixes the innovation gate refused (kGnssGate2: inconsistent with the anchor and the filter's pose). */
   int gnssFixesRejected() const { return gnss_.rejected(); }
@@ -190,6 +194,8 @@ private:
 
   TrunkDetectorConfig detector_config_;
   TrunkSlamConfig filter_config_;
+  std::string reach_shortfall_;
+  int short_reach_sweeps_ = 0;
   std::unique_ptr<TrunkDetector> detector_;
   std::unique_ptr<FastSlam> filter_;
   std::unique_ptr<LoopClosing> loops_;  ///< without a saved map, when enabled

@@ -2,6 +2,7 @@
 #define RBPF_SLAM_CORE_TRUNK_SLAM_TRUNK_SWEEP_H
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -54,6 +55,9 @@ struct TrunkSweep
   SensorMount mount;  ///< the sensor on base_link
   SensorScope scope;  ///< what the sensor could see (sensor frame; NaN where it does not say)
   std::vector<TrunkObservation> trunks;  ///< sensor frame, levelled
+  /// 3D: why trunks beyond the detector's reach were not looked for although max_range is further (reachShortfall;
+  /// empty: they were)
+  std::string reach_shortfall;
 };
 
 /** @brief A sweep's period and tilt that are not finite (or a negative period) as 0: every trunk at the stamp, level. */
