@@ -143,6 +143,9 @@ def prepare_cloud(path, work):
         if header['points'] == 0:
             raise ValueError('the cloud holds no points')
         return path, header['points'], np.zeros(3)
+    with open(path, 'rb') as f:
+        if f.read(4) != b'LASF' and not path.lower().endswith(('.las', '.laz')):
+            raise ValueError('not a PCD, LAS or LAZ file')
     xyz = read_laz(path) if path.lower().endswith('.laz') else read_las(path)
     if len(xyz) == 0:
         raise ValueError('the cloud holds no points')
@@ -181,7 +184,8 @@ def run_finder(cmd, path, show_progress):
             if bar is not None:
                 bar.close()
     if proc.returncode != 0:
-        raise atomic.UserError('%s: %s' % (path, errors[-1] if errors else 'cloud_trunks failed (%d)' % proc.returncode))
+        reason = errors[-1] if errors else 'cloud_trunks failed (%d)' % proc.returncode
+        raise atomic.UserError('%s: %s' % (path, reason))
 
 
 def read_results(out_dir, offset):
@@ -246,8 +250,10 @@ def plot(trunks, summary, density, title):
     for i, t in enumerate(trunks, 1):
         ax.add_patch(Circle((t['x'], t['y']), 0.5 * t['dbh'], fill=False, ec='tab:red', lw=1.5))
         ax.plot(t['x'], t['y'], '+', color='tab:red', ms=6)
-        ax.annotate('%d: %.1f cm' % (i, 100 * t['dbh']), (t['x'], t['y']), xytext=(6, 6), textcoords='offset points',
-                    color='tab:red', fontsize=9)
+        corner = 0.35 * t['dbh']  # the label starts at the circle's upper right, outside it at any zoom
+        ax.annotate('%d: %.1f cm' % (i, 100 * t['dbh']), (t['x'] + corner, t['y'] + corner), xytext=(4, 4),
+                    textcoords='offset points', color='tab:red', fontsize=9,
+                    bbox={'boxstyle': 'round,pad=0.1', 'fc': 'white', 'ec': 'none', 'alpha': 0.7})
     ax.set_xlabel('x [m]')
     ax.set_ylabel('y [m]')
     ax.set_aspect('equal')

@@ -1,15 +1,17 @@
 """Writes a synthetic point cloud of a forest stand, as a terrestrial scan sees it from all sides, with its trees.
 
-  make_forest_cloud OUT.pcd [--points 10000000] [--trees 60] [--size 30] [--seed 1]
+  make_forest_cloud OUT.pcd|OUT.las [--points 10000000] [--trees 60] [--size 30] [--seed 1] [--origin X,Y]
 
 The stand is a square of SIZE metres on gently undulating ground: TREES stems (DBH 8-60 cm, tapering, leaning up to
 4 degrees, 3 mm bark noise) with branch whorls from 2 m up and a crown, and shrubs between them. Of the points 20 %
 lie on the ground, 45 % on the stems, 20 % on branches and crowns and 15 % on shrubs. Writes OUT.pcd (binary, float32
 x y z) and beside it OUT_truth.csv (x, y, dbh of each stem at 1.3 m above the ground; metres), each complete or not
-at all. For timing and checking `extract_trunks`.
+at all; OUT.las is a LAS 1.2 file (point format 0, millimetres) instead. --origin moves the stand's corner, e.g. to
+projected coordinates. For timing and checking `extract_trunks`.
 """
 import argparse
 import os
+import struct
 
 import numpy as np
 
@@ -115,11 +117,29 @@ def make_stand(n_points, n_trees, size, seed):
     return points, trees
 
 
-def truth_csv(trees):
+def write_las(path, xyz, origin):
+    """A LAS 1.2 file of the points moved by origin (x, y): point format 0, a scale of 1 mm, offset origin."""
+    n = len(xyz)
+    header = bytearray(227)
+    header[0:4] = b'LASF'
+    header[24], header[25] = 1, 2
+    struct.pack_into('<HIIBHI', header, 94, 227, 227, 0, 0, 20, n)
+    struct.pack_into('<3d3d', header, 131, 0.001, 0.001, 0.001, origin[0], origin[1], 0.0)
+    lo, hi = xyz.min(axis=0).astype(float), xyz.max(axis=0).astype(float)
+    struct.pack_into('<6d', header, 179, hi[0] + origin[0], lo[0] + origin[0], hi[1] + origin[1], lo[1] + origin[1],
+                     hi[2], lo[2])
+    records = np.zeros(n, dtype=np.dtype([('xyz', '<i4', 3), ('rest', 'V8')]))
+    records['xyz'] = np.round(xyz.astype(float) / 0.001).astype('<i4')
+    with open(path, 'wb') as f:
+        f.write(bytes(header))
+        f.write(records.tobytes())
+
+
+def truth_csv(trees, origin=(0.0, 0.0)):
     lines = ['x,y,dbh']
     for i in range(len(trees['dbh'])):
         cx, cy = axis(trees, i, 1.3)
-        lines.append('%.4f,%.4f,%.4f' % (cx, cy, trees['dbh'][i]))
+        lines.append('%.4f,%.4f,%.4f' % (cx + origin[0], cy + origin[1], trees['dbh'][i]))
     return '\n'.join(lines) + '\n'
 
 
@@ -136,15 +156,27 @@ def _main(argv):
     p.add_argument('--trees', type=int, default=60)
     p.add_argument('--size', type=float, default=30.0, help='side of the square stand [m]')
     p.add_argument('--seed', type=int, default=1)
+    p.add_argument('--origin', metavar='X,Y', default='0,0', help='the stand\'s corner [m] (default: 0,0)')
     args = p.parse_args(argv)
+    try:
+        origin = [float(v) for v in args.origin.split(',')]
+    except ValueError:
+        origin = []
+    if len(origin) != 2 or not np.all(np.isfinite(origin)):
+        p.error('--origin must be X,Y in metres')
+    if origin != [0.0, 0.0] and not args.out.lower().endswith('.las'):
+        p.error('--origin needs a LAS output (a PCD holds single precision)')
     if args.points < 1000 or args.trees < 1 or not args.size > 3.0:
         p.error('--points must be >= 1000, --trees >= 1 and --size > 3')
     points, trees = make_stand(args.points, args.trees, args.size, args.seed)
     truth = os.path.splitext(args.out)[0] + '_truth.csv'
     with atomic.atomic_output(args.out) as tmp_cloud, atomic.atomic_output(truth) as tmp_truth:
-        write_pcd(tmp_cloud, points)
+        if args.out.lower().endswith('.las'):
+            write_las(tmp_cloud, points, origin)
+        else:
+            write_pcd(tmp_cloud, points)
         with open(tmp_truth, 'w') as f:
-            f.write(truth_csv(trees))
+            f.write(truth_csv(trees, origin))
     print('%s: %d points, %d trees on %g × %g m; trees in %s' % (args.out, len(points), args.trees, args.size,
                                                                   args.size, truth))
     return 0

@@ -195,7 +195,8 @@ std::vector<float> densityGrid(const std::vector<Eigen::Vector3f>& points, const
     grid[static_cast<std::size_t>(iy * nx + ix)] += 1.0f;
   }
   char line[256];
-  std::snprintf(line, sizeof line, "density_x0 %.6f\ndensity_y0 %.6f\ndensity_cell %.6f\ndensity_nx %ld\ndensity_ny %ld\n",
+  std::snprintf(line, sizeof line,
+                "density_x0 %.6f\ndensity_y0 %.6f\ndensity_cell %.6f\ndensity_nx %ld\ndensity_ny %ld\n",
                 lo.x() + offset.x(), lo.y() + offset.y(), cell, nx, ny);
   *info << line;
   return grid;
@@ -221,7 +222,8 @@ void writeOutputs(const Options& opt, const Cloud& cloud, const std::vector<core
           << stats.columns << "\nstems " << stats.stems << "\n";
   const std::vector<float> density = densityGrid(cloud.points, o, &summary);
   std::ofstream grid(opt.out_dir + "/density.f32", std::ios::binary);
-  grid.write(reinterpret_cast<const char*>(density.data()), static_cast<std::streamsize>(density.size() * sizeof(float)));
+  grid.write(reinterpret_cast<const char*>(density.data()),
+             static_cast<std::streamsize>(density.size() * sizeof(float)));
   std::ofstream(opt.out_dir + "/summary.txt") << summary.str();
   if (!csv || !grid)
     throw std::runtime_error("cannot write into " + opt.out_dir);
@@ -251,7 +253,8 @@ int main(int argc, char** argv)
     const std::string problem = opt.config.validate();
     if (!problem.empty())
       throw std::runtime_error(problem);
-    const auto progress = [&](double share) {
+    const auto progress = [&](double share)
+    {
       if (opt.progress)
         std::fprintf(stderr, "progress %.2f\n", 0.3 + 0.7 * share);
     };

@@ -151,6 +151,10 @@ def fault_files(folder):
     with open(p, 'wb') as f:
         f.write(b'\x00\x01 this is no point cloud\n' * 10)
     files['malformed pcd'] = (p, 'not a PCD file')
+    p = str(folder / 'points.xyz')
+    with open(p, 'w') as f:
+        f.write('1 2 3\n4 5 6\n')
+    files['unknown format'] = (p, 'not a PCD, LAS or LAZ file')
     p = str(folder / 'ascii_short.pcd')
     write_ascii(p, pts[:50])
     with open(p) as f:
@@ -200,6 +204,22 @@ def test_a_failure_leaves_earlier_outputs_as_they_were(tmp_path, capsys):
     assert sorted(os.listdir(str(tmp_path))) == ['bad.pcd', 'r_trunks.csv']
 
 
+def test_a_laz_file_when_laspy_has_a_laz_backend(tmp_path, capsys):
+    laspy = pytest.importorskip('laspy')
+    if not laspy.LazBackend.detect_available():
+        pytest.skip('laspy has no LAZ backend')
+    las = laspy.create(point_format=0, file_version='1.2')
+    las.header.scales = [0.001] * 3
+    las.header.offsets = [0.0] * 3
+    pts = tree().astype(float)
+    las.x, las.y, las.z = pts[:, 0], pts[:, 1], pts[:, 2]
+    cloud = str(tmp_path / 'tree.laz')
+    las.write(cloud)
+    code, _, err = run([cloud], capsys)
+    assert code == 0, err
+    expect_one_trunk(str(tmp_path / 'tree'))
+
+
 def test_laz_without_laspy_names_the_module_to_install(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, 'laspy', None)  # import laspy then fails, as where it is not installed
     cloud = tmp_path / 'plot.laz'
@@ -229,14 +249,17 @@ def test_command_line_errors(tmp_path, capsys):
     assert code == 1 and 'the output folder does not exist' in err and len(err.splitlines()) == 1
 
 
-def test_a_synthetic_stand_gives_its_trees(tmp_path, capsys):
+@pytest.mark.parametrize('name,origin', [('stand.pcd', '0,0'), ('stand.las', '512000,5402000')])
+def test_a_synthetic_stand_gives_its_trees(tmp_path, capsys, name, origin):
     """make_forest_cloud's stand (branch whorls, crowns, shrubs): its stems are found with their DBH."""
-    cloud = str(tmp_path / 'stand.pcd')
-    assert make_forest_cloud.main([cloud, '--points', '600000', '--trees', '12', '--size', '12', '--seed', '3']) == 0
+    cloud = str(tmp_path / name)
+    assert make_forest_cloud.main([cloud, '--points', '600000', '--trees', '12', '--size', '12', '--seed', '3',
+                                   '--origin', origin]) == 0
     code, out, err = run([cloud], capsys)
     assert code == 0, err
     _, truth = read_csv(str(tmp_path / 'stand_truth.csv'))
     _, found = read_csv(str(tmp_path / 'stand_trunks.csv'))
+    assert all(abs(f['x'] - float(origin.split(',')[0]) - 6.0) < 6.0 for f in found), found
     errors = []
     for t in truth:
         near = [f for f in found if np.hypot(f['x'] - t['x'], f['y'] - t['y']) < 0.5 * t['dbh']]

@@ -17,10 +17,10 @@ namespace core
 namespace
 {
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kSectors = 24;             // coverage is counted in sectors of 15°
+constexpr int kSectors = 24;               // coverage is counted in sectors of 15°
 constexpr long kMaxGroundCells = 4000000;  // a larger grid doubles its cell (a stray point far away)
-constexpr std::size_t kLowestKept = 64;  // a cell's ground is looked for among its lowest heights
-constexpr double kMinFitBand = 0.005;    // [m] the last refit's band is at least this
+constexpr std::size_t kLowestKept = 64;    // a cell's ground is looked for among its lowest heights
+constexpr double kMinFitBand = 0.005;      // [m] the last refit's band is at least this
 
 bool positive(double v)
 {
@@ -144,8 +144,8 @@ void GroundGrid::build(const std::vector<Eigen::Vector3f>& points, const StemCol
   std::vector<std::uint32_t>().swap(cell_of);
   std::vector<float> lowest(cells);
   for (std::size_t c = 0; c < cells; ++c)
-    lowest[c] = lowestDenseHeight(z.data() + start[c], start[c + 1] - start[c], config.ground_min_points,
-                                  config.ground_band);
+    lowest[c] =
+        lowestDenseHeight(z.data() + start[c], start[c + 1] - start[c], config.ground_min_points, config.ground_band);
   fillFromNeighbours(lowest, config);
 }
 
@@ -159,7 +159,8 @@ template <typename Relax>
 void chamferSweeps(long nx, long ny, double cell, Relax relax)
 {
   const std::array<std::array<long, 2>, 4> forward = { { { -1, -1 }, { 0, -1 }, { 1, -1 }, { -1, 0 } } };
-  const auto visit = [&](long ix, long iy, long sign) {
+  const auto visit = [&](long ix, long iy, long sign)
+  {
     for (const auto& d : forward)
     {
       const long jx = ix + sign * d[0], jy = iy + sign * d[1];
@@ -188,9 +189,9 @@ void GroundGrid::fillFromNeighbours(const std::vector<float>& lowest, const Stem
   std::vector<double> capped(cells);
   for (std::size_t c = 0; c < cells; ++c)
     capped[c] = std::isnan(lowest[c]) ? inf : lowest[c];
-  chamferSweeps(nx_, ny_, cell_, [&](std::size_t c, std::size_t n, double step) {
-    capped[c] = std::min(capped[c], capped[n] + config.max_ground_slope * step);
-  });
+  chamferSweeps(nx_, ny_, cell_,
+                [&](std::size_t c, std::size_t n, double step)
+                { capped[c] = std::min(capped[c], capped[n] + config.max_ground_slope * step); });
   // Other cells (under a stem or a shrub, or empty) take the ground of the nearest cell that shows it.
   std::vector<double> value(cells, inf), distance(cells, inf), ground_values;
   for (std::size_t c = 0; c < cells; ++c)
@@ -200,13 +201,15 @@ void GroundGrid::fillFromNeighbours(const std::vector<float>& lowest, const Stem
       distance[c] = 0.0;
       ground_values.push_back(value[c]);
     }
-  chamferSweeps(nx_, ny_, cell_, [&](std::size_t c, std::size_t n, double step) {
-    if (distance[n] + step < distance[c])
-    {
-      distance[c] = distance[n] + step;
-      value[c] = value[n];
-    }
-  });
+  chamferSweeps(nx_, ny_, cell_,
+                [&](std::size_t c, std::size_t n, double step)
+                {
+                  if (distance[n] + step < distance[c])
+                  {
+                    distance[c] = distance[n] + step;
+                    value[c] = value[n];
+                  }
+                });
   double prior = config.ground_height;
   if (!std::isfinite(prior) && !ground_values.empty())
   {
@@ -274,8 +277,7 @@ int findRoot(std::vector<int>* parent, int i)
 }
 }  // namespace
 
-std::vector<std::vector<int>> clusterSlice(const std::vector<Eigen::Vector3f>& slice, double tolerance,
-                                           int min_points)
+std::vector<std::vector<int>> clusterSlice(const std::vector<Eigen::Vector3f>& slice, double tolerance, int min_points)
 {
   // Points in occupied cells of side `tolerance`; cells that touch (8 neighbours) are one cluster, so points
   // closer than the tolerance always share one.
@@ -347,8 +349,8 @@ struct SortedPoints
   /** @brief Index range of the points with x in [lo, hi]. */
   std::pair<std::size_t, std::size_t> range(double lo, double hi) const
   {
-    const auto a = std::lower_bound(xy.begin(), xy.end(), lo,
-                                    [](const Eigen::Vector2d& p, double v) { return p.x() < v; });
+    const auto a =
+        std::lower_bound(xy.begin(), xy.end(), lo, [](const Eigen::Vector2d& p, double v) { return p.x() < v; });
     const auto b = std::upper_bound(a, xy.end(), hi, [](double v, const Eigen::Vector2d& p) { return v < p.x(); });
     return { static_cast<std::size_t>(a - xy.begin()), static_cast<std::size_t>(b - xy.begin()) };
   }
@@ -401,8 +403,8 @@ CircleSupport support(const SortedPoints& pts, const Eigen::Vector2d& c, double 
   return s;
 }
 
-bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, Eigen::Vector2d* centre,
-                   double* radius)
+bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
+                   Eigen::Vector2d* centre, double* radius)
 {
   const Eigen::Vector2d ab = b - a, ac = c - a;
   const double det = 2.0 * (ab.x() * ac.y() - ab.y() * ac.x());
@@ -521,7 +523,8 @@ std::vector<StemCircle> fitStemCircles(const std::vector<Eigen::Vector3f>& clust
   std::vector<StemCircle> out;
   SortedPoints pts;
   std::vector<Eigen::Vector3f> sorted = cluster;
-  std::sort(sorted.begin(), sorted.end(), [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return a.x() < b.x(); });
+  std::sort(sorted.begin(), sorted.end(),
+            [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return a.x() < b.x(); });
   for (const auto& p : sorted)
   {
     pts.xy.emplace_back(p.x(), p.y());
@@ -590,8 +593,8 @@ std::vector<std::vector<StemCircle>> linkColumns(std::vector<StemCircle> circles
         if (circles[i].slice <= last.slice || dh > config.max_gap + config.slice_step + 1e-9)
           continue;
         const double allowed_c = config.centre_tolerance + lean * dh;
-        const double allowed_r = config.radius_tolerance + config.radius_tolerance_share * last.radius +
-                                 config.max_taper * dh;
+        const double allowed_r =
+            config.radius_tolerance + config.radius_tolerance_share * last.radius + config.max_taper * dh;
         const double dc = (circles[i].center - last.center).norm();
         const double dr = std::abs(circles[i].radius - last.radius);
         if (dc <= allowed_c && dr <= allowed_r)
@@ -794,15 +797,15 @@ std::vector<Stem> suppressDuplicates(std::vector<Stem> stems)
   std::vector<Stem> kept;
   for (const auto& s : stems)
   {
-    const bool duplicate = std::any_of(kept.begin(), kept.end(), [&](const Stem& k) {
-      return (k.center - s.center).norm() < 0.5 * std::max(k.dbh, s.dbh);
-    });
+    const bool duplicate =
+        std::any_of(kept.begin(), kept.end(),
+                    [&](const Stem& k) { return (k.center - s.center).norm() < 0.5 * std::max(k.dbh, s.dbh); });
     if (!duplicate)
       kept.push_back(s);
   }
-  std::sort(kept.begin(), kept.end(), [](const Stem& a, const Stem& b) {
-    return a.center.x() != b.center.x() ? a.center.x() < b.center.x() : a.center.y() < b.center.y();
-  });
+  std::sort(kept.begin(), kept.end(),
+            [](const Stem& a, const Stem& b)
+            { return a.center.x() != b.center.x() ? a.center.x() < b.center.x() : a.center.y() < b.center.y(); });
   return kept;
 }
 }  // namespace
@@ -813,7 +816,8 @@ std::vector<Stem> findStems(const std::vector<Eigen::Vector3f>& points, const St
   const std::string error = config.validate();
   if (!error.empty())
     throw std::invalid_argument("findStems: " + error);
-  const auto report = [&](double share) {
+  const auto report = [&](double share)
+  {
     if (progress)
       progress(share);
   };

@@ -41,14 +41,14 @@ void addGround(double half, Random& rnd, Cloud* cloud)
 /** A stem: a leaning, tapering cylinder of radius @p r_bh at 1.3 m above the ground; @p arc its visible angle. */
 struct StemSpec
 {
-  double x = 0.0, y = 0.0;     // axis at the ground
-  double r_bh = 0.15;          // [m]
-  double taper = 0.01;         // [m] less radius per metre up
+  double x = 0.0, y = 0.0;  // axis at the ground
+  double r_bh = 0.15;       // [m]
+  double taper = 0.01;      // [m] less radius per metre up
   double lean_deg = 0.0;
-  double lean_dir = 0.0;       // [rad]
-  double height = 4.0;         // [m] above the ground
-  double arc = 2.0 * kPi;      // [rad] visible, centred on arc_dir
-  double arc_dir = 0.0;        // [rad]
+  double lean_dir = 0.0;   // [rad]
+  double height = 4.0;     // [m] above the ground
+  double arc = 2.0 * kPi;  // [rad] visible, centred on arc_dir
+  double arc_dir = 0.0;    // [rad]
 };
 
 Eigen::Vector2d axisAt(const StemSpec& s, double h)
@@ -124,8 +124,8 @@ std::vector<Eigen::Vector3f> ringSlice(const Eigen::Vector2d& c, double r, doubl
   Cloud cloud;
   for (double a = a0; a < a1; a += 0.01 / r)
     for (double z = -0.05; z <= 0.05; z += 0.02)
-      cloud.emplace_back(c.x() + (r + rnd.gaussian(0.002)) * std::cos(a), c.y() + (r + rnd.gaussian(0.002)) * std::sin(a),
-                         1.3 + z);
+      cloud.emplace_back(c.x() + (r + rnd.gaussian(0.002)) * std::cos(a),
+                         c.y() + (r + rnd.gaussian(0.002)) * std::sin(a), 1.3 + z);
   return cloud;
 }
 }  // namespace
@@ -183,7 +183,7 @@ TEST(StemColumns, GroundUnderAStemIsTheGroundAroundIt)
 
 TEST(StemColumns, ClustersOfASliceAreConnectedCells)
 {
-  Cloud slice = { { 0.0f, 0.0f, 1.0f }, { 0.03f, 0.0f, 1.0f }, { 0.06f, 0.01f, 1.0f }, { 1.0f, 1.0f, 1.0f },
+  Cloud slice = { { 0.0f, 0.0f, 1.0f },  { 0.03f, 0.0f, 1.0f },  { 0.06f, 0.01f, 1.0f }, { 1.0f, 1.0f, 1.0f },
                   { 1.02f, 1.0f, 1.0f }, { 1.04f, 1.01f, 1.0f }, { -3.0f, 0.0f, 1.0f } };
   const auto clusters = clusterSlice(slice, 0.04, 2);
   ASSERT_EQ(clusters.size(), 2u);
@@ -381,10 +381,12 @@ TEST(StemColumns, EmptyAndNonFiniteCloudsGiveNoStemAndNaNPointsAreSkipped)
   for (std::size_t i = 0; i < cloud.size(); i += 50)
     cloud[i].z() = nan;
   double last = -1.0;
-  const auto stems = findStems(cloud, StemColumnsConfig(), &stats, [&](double share) {
-    EXPECT_GE(share, last);
-    last = share;
-  });
+  const auto stems = findStems(cloud, StemColumnsConfig(), &stats,
+                               [&](double share)
+                               {
+                                 EXPECT_GE(share, last);
+                                 last = share;
+                               });
   ASSERT_EQ(stems.size(), 1u);
   expectStem(stems[0], s);
   EXPECT_DOUBLE_EQ(last, 1.0);

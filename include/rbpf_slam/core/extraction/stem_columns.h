@@ -22,46 +22,48 @@ namespace core
 struct StemColumnsConfig
 {
   // Ground: per cell the mean of the lowest ground_min_points heights that lie within ground_band (stray points
-  // below the ground do not count); a cell whose value stands more than max_ground_slope per metre above its neighbours'
-  // shows no ground (a stem, a shrub), and takes theirs.
-  double ground_cell = 0.25;       ///< [m] side of the ground grid's cells
-  double ground_band = 0.1;        ///< [m]
-  int ground_min_points = 3;       ///< points within ground_band that make a cell's ground
-  double max_ground_slope = 0.5;   ///< [-] rise per metre
-  double ground_search = 3.0;      ///< [m] a cell without ground takes the ground of cells this near, else the prior
+  // below the ground do not count); a cell whose value stands more than max_ground_slope per metre above its
+  // neighbours' shows no ground (a stem, a shrub), and takes theirs.
+  double ground_cell = 0.25;      ///< [m] side of the ground grid's cells
+  double ground_band = 0.1;       ///< [m]
+  int ground_min_points = 3;      ///< points within ground_band that make a cell's ground
+  double max_ground_slope = 0.5;  ///< [-] rise per metre
+  double ground_search = 3.0;     ///< [m] a cell without ground takes the ground of cells this near, else the prior
   /// [m] prior ground height where no cell within ground_search shows ground; NaN: the median of the cells' ground
   double ground_height = std::numeric_limits<double>::quiet_NaN();
 
   // Horizontal slices: centres slice_min, slice_min + slice_step, ... up to slice_max, each slice_thickness thick.
-  double slice_min = 0.5;          ///< [m]
-  double slice_max = 3.0;          ///< [m]
-  double slice_step = 0.1;         ///< [m]
-  double slice_thickness = 0.1;    ///< [m] at most slice_step
+  double slice_min = 0.5;        ///< [m]
+  double slice_max = 3.0;        ///< [m]
+  double slice_step = 0.1;       ///< [m]
+  double slice_thickness = 0.1;  ///< [m] at most slice_step
 
   // Clusters of a slice: points in connected grid cells of this side.
   double cluster_tolerance = 0.08;  ///< [m] bridges the gaps a twig in front leaves in a ring
   int min_cluster_points = 8;
 
   // Circle per cluster: RANSAC on 3 points, geometric least squares on its inliers.
-  double min_dbh = 0.06;           ///< [m]
-  double max_dbh = 1.2;            ///< [m]
-  double inlier_band = 0.015;      ///< [m] a point within this of the circle is an inlier
+  double min_dbh = 0.06;       ///< [m]
+  double max_dbh = 1.2;        ///< [m]
+  double inlier_band = 0.015;  ///< [m] a point within this of the circle is an inlier
   int ransac_iterations = 300;
   int min_inliers = 8;
-  double min_coverage = 0.3;       ///< [-] share of the circle's 24 sectors that hold an inlier (all-sides clouds)
+  double min_coverage = 0.3;         ///< [-] share of the circle's 24 sectors that hold an inlier (all-sides clouds)
   double min_coverage_sensor = 0.2;  ///< [-] the same for a single-viewpoint scan (has_sensor)
-  double max_interior_share = 0.15;  ///< [-] points inside the ring, as a share of the inliers (bark is opaque)
-  int max_circles_per_cluster = 8;   ///< a cluster may join several stems through clutter
+  /// [-] points inside the band, as a share of the inliers (bark is opaque); times the disc's area over the band's
+  /// where that is below 1 (thin stems)
+  double max_interior_share = 0.15;
+  int max_circles_per_cluster = 8;  ///< a cluster may join several stems through clutter
 
   // Columns: circles of consecutive slices whose centres and radii agree.
-  double max_lean_deg = 8.0;       ///< [deg] the centre moves at most tan(lean) per metre of height
-  double centre_tolerance = 0.03;  ///< [m] plus the lean's share
-  double radius_tolerance = 0.02;  ///< [m] radii of linked circles differ by at most this ...
+  double max_lean_deg = 8.0;            ///< [deg] the centre moves at most tan(lean) per metre of height
+  double centre_tolerance = 0.03;       ///< [m] plus the lean's share
+  double radius_tolerance = 0.02;       ///< [m] radii of linked circles differ by at most this ...
   double radius_tolerance_share = 0.1;  ///< [-] ... plus this share of the radius ...
-  double max_taper = 0.05;         ///< [m/m] ... plus this per metre of height (taper)
-  double max_gap = 0.5;            ///< [m] height a column may skip (a whorl or a shrub hiding the stem)
-  int min_slices = 8;              ///< circles that make a stem
-  double breast_height = 1.3;      ///< [m] where the DBH is taken
+  double max_taper = 0.05;              ///< [m/m] ... plus this per metre of height (taper)
+  double max_gap = 0.5;                 ///< [m] height a column may skip (a whorl or a shrub hiding the stem)
+  int min_slices = 8;                   ///< circles that make a stem
+  double breast_height = 1.3;           ///< [m] where the DBH is taken
   /// [m] the radius line takes the slices this near breast height (all when fewer than three are): the butt swell
   /// and the crown's taper stay out of it
   double dbh_window = 0.5;
@@ -93,12 +95,12 @@ struct Stem
 /** @brief One slice's circle: a candidate stem section. */
 struct StemCircle
 {
-  int slice = 0;            ///< index of the slice
-  double height = 0.0;      ///< [m] the slice's centre above the ground
+  int slice = 0;        ///< index of the slice
+  double height = 0.0;  ///< [m] the slice's centre above the ground
   Eigen::Vector2d center = Eigen::Vector2d::Zero();
   double radius = 0.0;
   int inliers = 0;
-  double coverage = 0.0;    ///< [-] share of the 24 sectors holding an inlier
+  double coverage = 0.0;            ///< [-] share of the 24 sectors holding an inlier
   double z_min = 0.0, z_max = 0.0;  ///< [m] of the inliers
 };
 
@@ -152,8 +154,7 @@ std::vector<std::vector<Eigen::Vector3f>> slicePoints(const std::vector<Eigen::V
                                                       const GroundGrid& ground, const StemColumnsConfig& config);
 
 /** @brief Clusters of a slice: indices of points in connected cells of side @p tolerance, at least min_points each. */
-std::vector<std::vector<int>> clusterSlice(const std::vector<Eigen::Vector3f>& slice, double tolerance,
-                                           int min_points);
+std::vector<std::vector<int>> clusterSlice(const std::vector<Eigen::Vector3f>& slice, double tolerance, int min_points);
 
 /**
  * @brief Stem circles in one cluster: RANSAC on 3 points (sampled near each other) scored by inliers less the
