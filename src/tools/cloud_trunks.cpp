@@ -256,7 +256,7 @@ int main(int argc, char** argv)
     const auto progress = [&](double share)
     {
       if (opt.progress)
-        std::fprintf(stderr, "progress %.2f\n", 0.3 + 0.7 * share);
+        std::fprintf(stderr, "progress %.2f\n", 0.1 + 0.9 * share);
     };
     progress(0.0);
     core::StemColumnsStats stats;

@@ -828,9 +828,9 @@ std::vector<Stem> findStems(const std::vector<Eigen::Vector3f>& points, const St
   st.finite_points = static_cast<std::size_t>(std::count_if(points.begin(), points.end(), finite));
   GroundGrid ground;
   ground.build(points, config);
-  report(0.35);
+  report(0.1);  // the circles take most of the time
   const auto slices = slicePoints(points, ground, config);
-  report(0.6);
+  report(0.2);
   Random rng(config.seed);
   std::vector<StemCircle> circles;
   for (std::size_t k = 0; k < slices.size(); ++k)
@@ -847,7 +847,7 @@ std::vector<Stem> findStems(const std::vector<Eigen::Vector3f>& points, const St
       for (const auto& c : fitStemCircles(cluster, static_cast<int>(k), height, config, &rng))
         circles.push_back(c);
     }
-    report(0.6 + 0.4 * static_cast<double>(k + 1) / static_cast<double>(slices.size()));
+    report(0.2 + 0.8 * static_cast<double>(k + 1) / static_cast<double>(slices.size()));
   }
   st.circles = static_cast<int>(circles.size());
   const auto columns = linkColumns(std::move(circles), config);
