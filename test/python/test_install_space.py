@@ -130,6 +130,17 @@ def test_the_installed_world_generators_and_experiments_run(tmp_path):
                 if line and not line.startswith('#')]) == 20
 
 
+def test_the_installed_trunk_extraction_runs(tmp_path):
+    """extract_trunks (its script, its module and the program cloud_trunks) on a stand of make_forest_cloud."""
+    r = _run('rosrun rbpf_slam extract_trunks --help > /dev/null && rosrun rbpf_slam make_forest_cloud "%s/s.pcd" '
+             '--points 200000 --trees 4 --size 8 && rosrun rbpf_slam extract_trunks "%s/s.pcd"' % (tmp_path, tmp_path),
+             str(tmp_path))
+    assert r.returncode == 0, r.stdout[-3000:]
+    assert os.path.isfile(os.path.join(INSTALL, 'lib', 'rbpf_slam', 'cloud_trunks'))
+    assert (tmp_path / 's_trunks.csv').read_text().startswith('x,y,dbh,dbh_sigma,points,z_min,z_max\n')
+    assert (tmp_path / 's_trunks.png').stat().st_size > 10000
+
+
 CONVERTERS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag', 'mrclam_to_bag',
               'victoria_park_to_bag')
 
