@@ -35,7 +35,10 @@ float intensityOf(HitKind kind)
     case HitKind::kRock:
       return 45.0f;
     case HitKind::kBranch:
+    case HitKind::kStub:
       return 40.0f;
+    case HitKind::kSapling:
+      return 55.0f;
     case HitKind::kBox:
       return 80.0f;
     case HitKind::kGround:

@@ -113,7 +113,8 @@ Footprint trunkFootprint(const TrunkSpec& trunk, double top)
 class ClutterPlacer
 {
 public:
-  ClutterPlacer(const ClutterSpec& spec, const ForestWorld& world) : spec_(spec), world_(world), random_(spec.seed)
+  ClutterPlacer(double clearance, std::uint64_t seed, const ForestWorld& world)
+    : clearance_(clearance), world_(world), random_(seed)
   {
     for (const FoliageSpec& f : world.foliage)
     {
@@ -174,23 +175,23 @@ private:
       return false;
     for (const TrunkSpec& trunk : world_.trunks)
     {
-      if (gap(f, trunkFootprint(trunk, top)) < spec_.clearance)
+      if (gap(f, trunkFootprint(trunk, top)) < clearance_)
         return false;
     }
     for (const BoxSpec& box : world_.boxes)
     {
-      if (boxSegmentDistance(box, f.a, f.b) - f.radius < spec_.clearance)
+      if (boxSegmentDistance(box, f.a, f.b) - f.radius < clearance_)
         return false;
     }
     for (const Footprint& g : placed_)
     {
-      if (gap(f, g) < spec_.clearance)
+      if (gap(f, g) < clearance_)
         return false;
     }
     return true;
   }
 
-  const ClutterSpec& spec_;
+  double clearance_;
   const ForestWorld& world_;
   Random random_;
   std::vector<Footprint> placed_;
@@ -356,9 +357,16 @@ Ground::Ground(const GroundSpec& spec)
 {
   if (!std::isfinite(spec.amplitude) || spec.amplitude < 0.0)
     throw std::invalid_argument("Ground: amplitude must be finite and >= 0");
+  if (!std::isfinite(spec.slope.x()) || !std::isfinite(spec.slope.y()))
+    throw std::invalid_argument("Ground: slope must be finite");
   for (int i = 0; i < kWaves; ++i)
     k_[i] = Eigen::Vector2d::Zero();
-  // Flat ground is exactly z = 0 (no waves drawn), whatever the wavelength says.
+  // Without a slope the plane is left out of every sum, so that such ground is bit for bit what it was before
+  // grounds could slope.
+  slope_ = spec.slope;
+  sloped_ = slope_.x() != 0.0 || slope_.y() != 0.0;
+  max_slope_ = slope_.norm();
+  // Flat relief is exactly 0 (no waves drawn), whatever the wavelength says.
   if (spec.amplitude == 0.0)
     return;
   if (!std::isfinite(spec.wavelength) || spec.wavelength <= 0.0)
@@ -375,10 +383,17 @@ Ground::Ground(const GroundSpec& spec)
     k_[i] = Eigen::Vector2d(k * std::cos(direction), k * std::sin(direction));
     sum_k += k;
   }
-  max_slope_ = amplitude_ / kWaves * sum_k;
+  // The relief's bound, and the plane's gradient on top (the bound of a sum of gradients).
+  max_slope_ = sloped_ ? amplitude_ / kWaves * sum_k + slope_.norm() : amplitude_ / kWaves * sum_k;
 }
 
 double Ground::height(double x, double y) const
+{
+  const double h = relief(x, y);
+  return sloped_ ? h + slope_.x() * x + slope_.y() * y : h;
+}
+
+double Ground::relief(double x, double y) const
 {
   if (amplitude_ == 0.0)
     return 0.0;
@@ -401,6 +416,15 @@ double Ground::curvatureBoundAlong(double ux, double uy) const
 
 double Ground::heightAndGradient(double x, double y, Eigen::Vector2d* gradient) const
 {
+  const double h = reliefAndGradient(x, y, gradient);
+  if (!sloped_)
+    return h;
+  *gradient += slope_;
+  return h + slope_.x() * x + slope_.y() * y;
+}
+
+double Ground::reliefAndGradient(double x, double y, Eigen::Vector2d* gradient) const
+{
   gradient->setZero();
   if (amplitude_ == 0.0)
     return 0.0;
@@ -418,11 +442,13 @@ double Ground::heightAndGradient(double x, double y, Eigen::Vector2d* gradient) 
 Eigen::Vector2d Ground::gradient(double x, double y) const
 {
   Eigen::Vector2d g = Eigen::Vector2d::Zero();
-  if (amplitude_ == 0.0)
-    return g;
-  for (int i = 0; i < kWaves; ++i)
-    g += groundCos(k_[i].x() * x + k_[i].y() * y + phase_[i]) * k_[i];
-  return amplitude_ / kWaves * g;
+  if (amplitude_ != 0.0)
+  {
+    for (int i = 0; i < kWaves; ++i)
+      g += groundCos(k_[i].x() * x + k_[i].y() * y + phase_[i]) * k_[i];
+    g = amplitude_ / kWaves * g;
+  }
+  return sloped_ ? Eigen::Vector2d(g + slope_) : g;
 }
 
 Eigen::Vector3d trunkAxisAt(const TrunkSpec& t, double ground_z, double height, double* radius)
@@ -438,7 +464,7 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
 {
   checkSpec(spec, world);
   // Ground clutter keeps clear of foliage already in the world, not of the crowns made here.
-  ClutterPlacer placer(spec, *world);
+  ClutterPlacer placer(spec.clearance, spec.seed, *world);
   if (spec.crowns)
     addCrowns(spec, world);
   Random& random = placer.random();
@@ -501,6 +527,213 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
     rock.center = Eigen::Vector3d(f.a.x(), f.a.y(), kRockCenterHeight * radius);
     rock.radius = radius;
     world->rocks.push_back(rock);
+    return true;
+  });
+}
+
+namespace
+{
+// Branches leave the stem between a little below and a little above the horizontal; a live branch's tuft sits at
+// its tip. Foliage of the understory is as dense as a bush's.
+constexpr double kMinBranchElevation = -20.0 * kPi / 180.0;
+constexpr double kMaxBranchElevation = 20.0 * kPi / 180.0;
+constexpr double kWhorlAzimuthJitter = 0.4;  // [rad] around the even spacing of a whorl's branches
+constexpr double kTuftMeanFreePath = 0.3;
+constexpr double kUnderstoryMeanFreePath = 0.3;
+constexpr double kBreastHeight = 1.3;               // [m] where a sapling's diameter is given
+constexpr double kMaxSaplingLean = 4.0 * kPi / 180.0;
+constexpr double kMinCrownSphere = 0.15;            // [m] the smallest foliage sphere of a sapling's crown
+constexpr int kMaxCrownSpheres = 6;
+
+void checkInterval(const Interval& v, const char* what, double min, bool inclusive)
+{
+  const bool low_ok = inclusive ? v.lo >= min : v.lo > min;
+  if (!std::isfinite(v.lo) || !std::isfinite(v.hi) || !low_ok || v.lo > v.hi)
+    throw std::invalid_argument(std::string(what) + ": need " + (inclusive ? "" : "0 < ") + "lo <= hi" +
+                                (inclusive ? ", lo >= 0" : "") + ", both finite");
+}
+
+void checkShare(double v, const char* what)
+{
+  if (!(v >= 0.0 && v <= 1.0))
+    throw std::invalid_argument(std::string(what) + " must be within [0, 1]");
+}
+
+void checkSpec(const WhorlSpec& spec, const ForestWorld* world)
+{
+  if (!world)
+    throw std::invalid_argument("addWhorls: world is null");
+  checkInterval(spec.heights, "addWhorls: heights", 0.0, true);
+  checkInterval(spec.spacing, "addWhorls: spacing", 0.0, false);
+  checkInterval(spec.dead_length, "addWhorls: dead_length", 0.0, true);
+  checkInterval(spec.live_length, "addWhorls: live_length", 0.0, true);
+  checkInterval(spec.thickness, "addWhorls: thickness", 0.0, false);
+  checkInterval(spec.tuft_radius, "addWhorls: tuft_radius", 0.0, false);
+  checkShare(spec.fill, "addWhorls: fill");
+  checkShare(spec.live, "addWhorls: live");
+  if (spec.min_per_whorl < 1 || spec.min_per_whorl > spec.max_per_whorl || spec.max_per_whorl > 32)
+    throw std::invalid_argument("addWhorls: need 1 <= min_per_whorl <= max_per_whorl <= 32");
+}
+
+void checkSpec(const UnderstorySpec& spec, const ForestWorld* world)
+{
+  if (!world)
+    throw std::invalid_argument("addUnderstory: world is null");
+  if (spec.saplings < 0 || spec.shrubs < 0)
+    throw std::invalid_argument("addUnderstory: saplings and shrubs must be >= 0");
+  checkInterval(spec.sapling_dbh, "addUnderstory: sapling_dbh", 0.0, false);
+  checkInterval(spec.sapling_height, "addUnderstory: sapling_height", kBreastHeight, false);
+  checkInterval(spec.sapling_crown_base, "addUnderstory: sapling_crown_base", 0.0, true);
+  checkInterval(spec.sapling_crown_radius, "addUnderstory: sapling_crown_radius", 0.0, false);
+  checkInterval(spec.shrub_radius, "addUnderstory: shrub_radius", 0.0, false);
+  checkInterval(spec.shrub_top, "addUnderstory: shrub_top", 0.0, false);
+  if (!std::isfinite(spec.clearance) || spec.clearance < 0.0)
+    throw std::invalid_argument("addUnderstory: clearance must be finite and >= 0");
+  if (!(world->min_x < world->max_x) || !(world->min_y < world->max_y))
+    throw std::invalid_argument("addUnderstory: world bounds must have min < max");
+}
+
+double draw(Random* random, const Interval& v)
+{
+  return random->uniform(v.lo, v.hi);
+}
+
+/** Foliage whose centre is @p p, p.z above the ground at @p foot: its centre height made relative to the ground
+ * below it, as FoliageSpec has it. */
+FoliageSpec foliageAt(const Ground& ground, const Eigen::Vector2d& foot, const Eigen::Vector3d& p, double radius,
+                      double mean_free_path)
+{
+  FoliageSpec f;
+  f.center = Eigen::Vector3d(p.x(), p.y(), p.z() + ground.height(foot.x(), foot.y()) - ground.height(p.x(), p.y()));
+  f.radius = radius;
+  f.mean_free_path = mean_free_path;
+  return f;
+}
+
+/** One whorl at @p height above the foot of @p trunk: its branches, and the tufts of the live ones. */
+void addWhorl(const WhorlSpec& spec, const TrunkSpec& trunk, double height, const Ground& ground, Random* random,
+              ForestWorld* world)
+{
+  const int count = spec.min_per_whorl +
+                    static_cast<int>(random->uniformIndex(static_cast<std::uint64_t>(spec.max_per_whorl -
+                                                                                     spec.min_per_whorl + 1)));
+  const double azimuth0 = random->uniform(0.0, 2.0 * kPi);
+  double stem_radius = 0.0;
+  const Eigen::Vector3d on_axis = trunkAxisAt(trunk, 0.0, height, &stem_radius);
+  const Eigen::Vector2d foot(trunk.x, trunk.y);
+  for (int i = 0; i < count; ++i)
+  {
+    const double azimuth =
+        azimuth0 + 2.0 * kPi * i / count + random->uniform(-kWhorlAzimuthJitter, kWhorlAzimuthJitter);
+    const double elevation = random->uniform(kMinBranchElevation, kMaxBranchElevation);
+    const bool live = random->uniform() < spec.live;
+    const double length = draw(random, live ? spec.live_length : spec.dead_length);
+    const Eigen::Vector3d dir(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                              std::sin(elevation));
+    StubSpec stub;
+    stub.a = on_axis;
+    stub.b = on_axis + (stem_radius + length) * dir;
+    stub.foot = foot;
+    stub.radius = 0.5 * draw(random, spec.thickness);
+    stub.live = live;
+    world->stubs.push_back(stub);
+    if (live)
+      world->foliage.push_back(foliageAt(ground, foot, stub.b, draw(random, spec.tuft_radius), kTuftMeanFreePath));
+  }
+}
+
+/** A sapling's crown: foliage spheres stacked up its axis from the crown base to its top, narrowing as a cone. */
+void addSaplingCrown(const TrunkSpec& stem, double base, double radius, const Ground& ground, ForestWorld* world)
+{
+  const double axis_norm = std::sqrt(1.0 + stem.lean_x * stem.lean_x + stem.lean_y * stem.lean_y);
+  const double top = stem.height / axis_norm;
+  const Eigen::Vector2d foot(stem.x, stem.y);
+  double bottom = base;  // of the next sphere, above the ground at the foot
+  for (int k = 0; k < kMaxCrownSpheres && top - bottom > 2.0 * 0.05; ++k)
+  {
+    const double r = std::min(std::max(kMinCrownSphere, radius * (top - bottom) / (top - base)), 0.5 * (top - bottom));
+    const Eigen::Vector3d center = trunkAxisAt(stem, 0.0, bottom + r, nullptr);
+    world->foliage.push_back(foliageAt(ground, foot, center, r, kUnderstoryMeanFreePath));
+    bottom += r;  // the next sphere starts at this one's centre
+  }
+}
+}  // namespace
+
+void addWhorls(const WhorlSpec& spec, ForestWorld* world)
+{
+  checkSpec(spec, world);
+  const Ground ground(world->ground);
+  Random random(spec.seed);
+  for (const TrunkSpec& trunk : world->trunks)
+  {
+    const double axis_norm = std::sqrt(1.0 + trunk.lean_x * trunk.lean_x + trunk.lean_y * trunk.lean_y);
+    const double top = trunk.height / axis_norm;
+    for (double h = spec.heights.lo + random.uniform(0.0, spec.spacing.lo); h <= spec.heights.hi && h < top;
+         h += draw(&random, spec.spacing))
+    {
+      double radius = 0.0;
+      trunkAxisAt(trunk, 0.0, h, &radius);
+      // A whorl bears branches only where the stem still has a radius (a thin trunk ends in a point).
+      if (random.uniform() < spec.fill && radius > 0.0)
+        addWhorl(spec, trunk, h, ground, &random, world);
+    }
+  }
+}
+
+void addUnderstory(const UnderstorySpec& spec, ForestWorld* world)
+{
+  checkSpec(spec, world);
+  const Ground ground(world->ground);
+  ClutterPlacer placer(spec.clearance, spec.seed, *world);
+  Random& random = placer.random();
+  const auto placeSeveral = [](int count, const auto& attempt) {
+    int failures = 0;
+    for (int i = 0; i < count && failures < kMaxConsecutiveFailures; ++i)
+      failures = attempt() ? 0 : failures + 1;
+  };
+  const auto roundFootprint = [&placer](double radius) {
+    return [&placer, radius]() {
+      const Eigen::Vector2d p = placer.uniformPoint();
+      return ClutterPlacer::circle(p.x(), p.y(), radius);
+    };
+  };
+
+  placeSeveral(spec.saplings, [&]() {
+    const double dbh = draw(&random, spec.sapling_dbh);
+    const double height = draw(&random, spec.sapling_height);
+    const double base = std::min(draw(&random, spec.sapling_crown_base), height - 0.2);
+    const double crown = draw(&random, spec.sapling_crown_radius);
+    const double lean = random.uniform(0.0, std::tan(kMaxSaplingLean));
+    const double lean_direction = random.uniform(0.0, 2.0 * kPi);
+    Footprint f;
+    if (!placer.place(height, roundFootprint(crown), &f))
+      return false;
+    TrunkSpec stem;
+    stem.x = f.a.x();
+    stem.y = f.a.y();
+    stem.lean_x = lean * std::cos(lean_direction);
+    stem.lean_y = lean * std::sin(lean_direction);
+    const double axis_norm = std::sqrt(1.0 + lean * lean);
+    stem.height = height * axis_norm;  // along the axis, so that the top is `height` above the ground
+    // A cone: radius r0 at the ground, 0 at the top, dbh / 2 at breast height (1.3 m up, 1.3 * axis_norm along it).
+    stem.radius = 0.5 * dbh * stem.height / (stem.height - kBreastHeight * axis_norm);
+    stem.taper = stem.radius / stem.height;
+    world->saplings.push_back(stem);
+    addSaplingCrown(stem, std::max(0.0, base), crown, ground, world);
+    return true;
+  });
+
+  placeSeveral(spec.shrubs, [&]() {
+    const double radius = draw(&random, spec.shrub_radius);
+    const double top = draw(&random, spec.shrub_top);
+    Footprint f;
+    if (!placer.place(top, roundFootprint(radius), &f))
+      return false;
+    FoliageSpec shrub;
+    shrub.center = Eigen::Vector3d(f.a.x(), f.a.y(), top - radius);
+    shrub.radius = radius;
+    shrub.mean_free_path = kUnderstoryMeanFreePath;
+    world->foliage.push_back(shrub);
     return true;
   });
 }

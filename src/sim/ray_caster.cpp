@@ -97,17 +97,10 @@ std::vector<ForestRayCaster::ShapeBounds> ForestRayCaster::placeShapes()
   for (std::size_t i = 0; i < world_.trunks.size(); ++i)
   {
     const TrunkSpec& t = world_.trunks[i];
-    const double z0 = ground_.height(t.x, t.y);
-    trunk_base_z_.push_back(z0);
-    // The axis may lean: its top is displaced by lean * height (normalised axis is shorter in z).
-    const double top_x = t.x + t.lean_x * t.height, top_y = t.y + t.lean_y * t.height;
-    const double r = t.radius + kTrunkBuried * t.taper;
-    // Bounding circle of the trunk's horizontal footprint over its whole height (for a cheap 2D reject).
-    const double half_x = 0.5 * (top_x - t.x), half_y = 0.5 * (top_y - t.y);
-    const double bound_r = r + std::hypot(half_x, half_y) + kTrunkBuried * std::hypot(t.lean_x, t.lean_y);
-    trunk_bound_.emplace_back(t.x + half_x, t.y + half_y, bound_r * bound_r);
-    boxes.push_back({ { HitKind::kTrunk, static_cast<int>(i) }, std::min(t.x, top_x) - r, std::min(t.y, top_y) - r,
-                      std::max(t.x, top_x) + r, std::max(t.y, top_y) + r });
+    trunk_base_z_.push_back(ground_.height(t.x, t.y));
+    Eigen::Vector3d circle;
+    boxes.push_back(stemBounds(t, { HitKind::kTrunk, static_cast<int>(i) }, &circle));
+    trunk_bound_.push_back(circle);
   }
   for (std::size_t i = 0; i < world_.foliage.size(); ++i)
   {
@@ -143,7 +136,39 @@ std::vector<ForestRayCaster::ShapeBounds> ForestRayCaster::placeShapes()
     const double r = 0.5 * std::hypot(b.length, b.width);  // the base's circumscribed circle
     boxes.push_back({ { HitKind::kBox, static_cast<int>(i) }, b.x - r, b.y - r, b.x + r, b.y + r });
   }
+  for (std::size_t i = 0; i < world_.saplings.size(); ++i)
+  {
+    const TrunkSpec& t = world_.saplings[i];
+    sapling_base_z_.push_back(ground_.height(t.x, t.y));
+    Eigen::Vector3d circle;
+    boxes.push_back(stemBounds(t, { HitKind::kSapling, static_cast<int>(i) }, &circle));
+    sapling_bound_.push_back(circle);
+  }
+  for (std::size_t i = 0; i < world_.stubs.size(); ++i)
+  {
+    const StubSpec& b = world_.stubs[i];
+    const double z0 = ground_.height(b.foot.x(), b.foot.y());
+    stub_a_.emplace_back(b.a.x(), b.a.y(), b.a.z() + z0);
+    stub_b_.emplace_back(b.b.x(), b.b.y(), b.b.z() + z0);
+    boxes.push_back({ { HitKind::kStub, static_cast<int>(i) }, std::min(b.a.x(), b.b.x()) - b.radius,
+                      std::min(b.a.y(), b.b.y()) - b.radius, std::max(b.a.x(), b.b.x()) + b.radius,
+                      std::max(b.a.y(), b.b.y()) + b.radius });
+  }
   return boxes;
+}
+
+ForestRayCaster::ShapeBounds ForestRayCaster::stemBounds(const TrunkSpec& t, const Shape& shape,
+                                                         Eigen::Vector3d* circle)
+{
+  // The axis may lean: its top is displaced by lean * height (normalised axis is shorter in z).
+  const double top_x = t.x + t.lean_x * t.height, top_y = t.y + t.lean_y * t.height;
+  const double r = t.radius + kTrunkBuried * t.taper;
+  // Bounding circle of the trunk's horizontal footprint over its whole height (for a cheap 2D reject).
+  const double half_x = 0.5 * (top_x - t.x), half_y = 0.5 * (top_y - t.y);
+  const double bound_r = r + std::hypot(half_x, half_y) + kTrunkBuried * std::hypot(t.lean_x, t.lean_y);
+  *circle = Eigen::Vector3d(t.x + half_x, t.y + half_y, bound_r * bound_r);
+  return { shape, std::min(t.x, top_x) - r, std::min(t.y, top_y) - r, std::max(t.x, top_x) + r,
+           std::max(t.y, top_y) + r };
 }
 
 void ForestRayCaster::findTop()
@@ -158,6 +183,10 @@ void ForestRayCaster::findTop()
     top_z_ = std::max(top_z_, std::max(branch_a_[i].z(), branch_b_[i].z()) + world_.branches[i].radius);
   for (std::size_t i = 0; i < world_.boxes.size(); ++i)
     top_z_ = std::max(top_z_, box_base_z_[i] + world_.boxes[i].height);
+  for (std::size_t i = 0; i < world_.saplings.size(); ++i)
+    top_z_ = std::max(top_z_, sapling_base_z_[i] + world_.saplings[i].height);
+  for (std::size_t i = 0; i < world_.stubs.size(); ++i)
+    top_z_ = std::max(top_z_, std::max(stub_a_[i].z(), stub_b_[i].z()) + world_.stubs[i].radius);
   top_z_ += 1e-6;
 }
 
@@ -206,6 +235,14 @@ void ForestRayCaster::setHeightRange(ShapeBounds* bounds) const
     case HitKind::kBox:
       b.z0 = box_base_z_[i] - kTrunkBuried;
       b.z1 = box_base_z_[i] + world_.boxes[i].height;
+      break;
+    case HitKind::kSapling:
+      b.z0 = sapling_base_z_[i] - kTrunkBuried;
+      b.z1 = sapling_base_z_[i] + world_.saplings[i].height;
+      break;
+    case HitKind::kStub:
+      b.z0 = std::min(stub_a_[i].z(), stub_b_[i].z()) - world_.stubs[i].radius;
+      b.z1 = std::max(stub_a_[i].z(), stub_b_[i].z()) + world_.stubs[i].radius;
       break;
     default:
       break;
@@ -280,6 +317,17 @@ double ForestRayCaster::intersectShape(const Shape& shape, const Eigen::Vector3d
                               d);
     case HitKind::kBox:
       return intersectBox(world_.boxes[shape.index], box_base_z_[shape.index], o, d);
+    case HitKind::kSapling:
+    {
+      const Eigen::Vector3d& b = sapling_bound_[shape.index];
+      const double wx = b.x() - o.x(), wy = b.y() - o.y();
+      const double cross = wx * d.y() - wy * d.x();
+      if (cross * cross > b.z() * (d.x() * d.x() + d.y() * d.y()))
+        return kInf;
+    }
+      return intersectTrunk(world_.saplings[shape.index], sapling_base_z_[shape.index], o, d);
+    case HitKind::kStub:
+      return intersectCapsule(stub_a_[shape.index], stub_b_[shape.index], world_.stubs[shape.index].radius, o, d);
     case HitKind::kFoliage:
     {
       const FoliageSpec& f = world_.foliage[shape.index];
@@ -299,6 +347,21 @@ double ForestRayCaster::intersectShape(const Shape& shape, const Eigen::Vector3d
 
 double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const
 {
+  if (ground_.slope() == Eigen::Vector2d::Zero())
+    return intersectRelief(o, d, t_max);
+  // z(t) - plane(x(t), y(t)) - relief(x(t), y(t)) = z'(t) - relief(x(t), y(t)) for the ray sheared by the plane
+  // (its heights measured from the plane), with the same parameter t: the crossing with the sloping ground is the
+  // sheared ray's crossing with the relief, whose bounds (|relief| <= amplitude, its curvature along the ray) hold
+  // whatever the slope is.
+  const Eigen::Vector2d& s = ground_.slope();
+  Eigen::Vector3d o_sheared = o, d_sheared = d;
+  o_sheared.z() -= s.dot(o.head<2>());
+  d_sheared.z() -= s.dot(d.head<2>());
+  return intersectRelief(o_sheared, d_sheared, t_max);
+}
+
+double ForestRayCaster::intersectRelief(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const
+{
   const double amp = ground_.amplitude();
   double t = 0.0;
   if (o.z() > amp)
@@ -314,7 +377,7 @@ double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::V
   const double curvature = std::max(1e-12, ground_.curvatureBoundAlong(d.x(), d.y()));
   const auto clearance = [&](double s) {
     const Eigen::Vector3d p = o + s * d;
-    return p.z() - ground_.height(p.x(), p.y());
+    return p.z() - ground_.relief(p.x(), p.y());
   };
   if (clearance(t) <= 0.0)
     return t <= t_max ? t : kInf;  // starts under ground (only possible at t = 0) or touches at the top
@@ -324,7 +387,7 @@ double ForestRayCaster::intersectGround(const Eigen::Vector3d& o, const Eigen::V
   {
     const Eigen::Vector3d p = o + t * d;
     Eigen::Vector2d grad;
-    const double f = p.z() - ground_.heightAndGradient(p.x(), p.y(), &grad);
+    const double f = p.z() - ground_.reliefAndGradient(p.x(), p.y(), &grad);
     if (f <= 0.0)
     {
       // Regula falsi (Illinois variant) on the bracket [t_above, t]: f is nearly linear over it.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <limits>
 #include <locale>
 #include <set>
 #include <sstream>
@@ -331,6 +332,44 @@ public:
     return values;
   }
 
+  /**
+   * An interval to draw from: a number (lo = hi) or [lo, hi] with lo <= hi, lo >= @p min (> @p min unless
+   * @p inclusive) and hi <= @p max.
+   */
+  sim::Interval interval(const YAML::Node& node, const std::string& key, double min, bool inclusive,
+                         double max = std::numeric_limits<double>::infinity()) const
+  {
+    sim::Interval v;
+    if (node.IsScalar())
+      v.lo = v.hi = number(node, key);
+    else
+    {
+      const std::vector<double> values = numbers(node, key, 2, 2, "a number or [lo, hi]");
+      v.lo = values[0];
+      v.hi = values[1];
+    }
+    std::ostringstream text;
+    text.imbue(std::locale::classic());
+    if (v.lo > v.hi)
+      text << "'" << key << "' [lo, hi] must have lo <= hi";
+    else if (inclusive ? v.lo < min : v.lo <= min)
+      text << "'" << key << "' must be " << (inclusive ? ">= " : "> ") << min;
+    else if (v.hi > max)
+      text << "'" << key << "' must be <= " << max;
+    if (!text.str().empty())
+      fail(node, text.str());
+    return v;
+  }
+
+  /** A share within [0, 1]. */
+  double share(const YAML::Node& node, const std::string& key) const
+  {
+    const double value = numberAtLeast(node, key, 0.0, true);
+    if (value > 1.0)
+      fail(node, "'" + key + "' must be within [0, 1], got " + node.Scalar());
+    return value;
+  }
+
   static std::string qualified(const std::string& parent, const std::string& key)
   {
     return parent.empty() ? key : parent + "." + key;
@@ -377,6 +416,13 @@ struct TreeDefaults
   double lean_sigma_deg = 0.0;
   double taper = 0.0;
   std::uint64_t seed = 1;
+  bool has_lean_sigma = false;
+  bool has_lean_range = false;  ///< lean_deg given: the lean's size uniform in it, its direction uniform
+  sim::Interval lean_deg;
+  bool has_taper_range = false;  ///< taper given as [lo, hi]: drawn per trunk
+  sim::Interval taper_range;
+  bool at_breast_height = false;  ///< listed_at: breast_height
+  double listed_taper = 0.0;
 };
 
 std::vector<TreeRow> readTrees(const YamlReader& reader, const YAML::Node& node)
@@ -432,7 +478,10 @@ std::vector<sim::BoxSpec> readBoxes(const YamlReader& reader, const YAML::Node& 
 TreeDefaults readTreeDefaults(const YamlReader& reader, const YAML::Node& node)
 {
   TreeDefaults d;
-  for (const auto& entry : reader.entries(node, "tree", { "height", "lean_sigma_deg", "taper", "seed" }))
+  const std::vector<std::string> keys = { "height", "lean_sigma_deg", "lean_deg", "taper", "listed_at",
+                                          "listed_taper", "seed" };
+  YAML::Node lean_range_node;
+  for (const auto& entry : reader.entries(node, "tree", keys))
   {
     const std::string key = YamlReader::qualified("tree", entry.first);
     if (entry.first == "height")
@@ -440,24 +489,109 @@ TreeDefaults readTreeDefaults(const YamlReader& reader, const YAML::Node& node)
     else if (entry.first == "lean_sigma_deg")
     {
       d.lean_sigma_deg = reader.numberAtLeast(entry.second, key, 0.0, true);
+      d.has_lean_sigma = true;
       if (d.lean_sigma_deg >= 45.0)  // tan() grows without bound; no standing tree leans that much
         reader.fail(entry.second, "'" + key + "' must be < 45, got " + entry.second.Scalar());
     }
+    else if (entry.first == "lean_deg")
+    {
+      d.lean_deg = reader.interval(entry.second, key, 0.0, true, 44.9);
+      d.has_lean_range = true;
+      lean_range_node = entry.second;
+    }
+    else if (entry.first == "taper" && entry.second.IsSequence())
+    {
+      d.taper_range = reader.interval(entry.second, key, 0.0, true);
+      d.has_taper_range = true;
+    }
     else if (entry.first == "taper")
       d.taper = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else if (entry.first == "listed_at")
+    {
+      const std::string at = entry.second.IsScalar() ? entry.second.Scalar() : std::string();
+      if (at != "ground" && at != "breast_height")
+        reader.fail(entry.second, "'" + key + "' must be ground or breast_height");
+      d.at_breast_height = at == "breast_height";
+    }
+    else if (entry.first == "listed_taper")
+      d.listed_taper = reader.numberAtLeast(entry.second, key, 0.0, true);
     else
       d.seed = reader.seed(entry.second, key);
   }
+  if (d.has_lean_sigma && d.has_lean_range)
+    reader.fail(lean_range_node, "give 'tree.lean_sigma_deg' or 'tree.lean_deg', not both");
   return d;
+}
+
+/**
+ * The trunks of the tree list with the world's tree shape: height, lean and taper drawn as the tree defaults say
+ * (tree.seed), and where the list gives the stems at breast height, the foot and the ground radius that put each
+ * stem's centre and radius at 1.3 m where the list says.
+ */
+std::vector<sim::TrunkSpec> makeTrunks(const YamlReader& reader, const std::vector<TreeRow>& rows,
+                                       const TreeDefaults& tree)
+{
+  constexpr double kBreastHeight = 1.3;
+  core::Random random(tree.seed);
+  const double lean_sigma = std::tan(tree.lean_sigma_deg * kPi / 180.0);
+  std::vector<sim::TrunkSpec> trunks;
+  for (std::size_t i = 0; i < rows.size(); ++i)
+  {
+    sim::TrunkSpec trunk = rows[i].trunk;
+    if (!rows[i].has_height)
+      trunk.height = tree.height;
+    if (tree.has_lean_range)
+    {
+      const double lean = std::tan(random.uniform(tree.lean_deg.lo, tree.lean_deg.hi) * kPi / 180.0);
+      const double direction = random.uniform(0.0, 2.0 * kPi);
+      trunk.lean_x = lean * std::cos(direction);
+      trunk.lean_y = lean * std::sin(direction);
+    }
+    else
+    {
+      trunk.lean_x = random.gaussian(lean_sigma);
+      trunk.lean_y = random.gaussian(lean_sigma);
+    }
+    const double axis_norm = std::sqrt(1.0 + trunk.lean_x * trunk.lean_x + trunk.lean_y * trunk.lean_y);
+    // The radius the taper starts from: at breast height (1.3 m up, 1.3 * axis_norm along the axis) or at the ground.
+    const double r_listed = tree.at_breast_height ? trunk.radius - kBreastHeight * tree.listed_taper : trunk.radius;
+    const double s_listed = tree.at_breast_height ? kBreastHeight * axis_norm : 0.0;
+    if (!(r_listed > 0.0))
+      reader.fail("tree " + std::to_string(i + 1) + " of the list: radius - 1.3 * tree.listed_taper must be > 0");
+    // Not capped: a thin trunk whose radius reaches 0 below its height ends in a point there (the ray
+    // caster stops a trunk where its radius reaches 0), and every trunk keeps the stated taper.
+    trunk.taper = tree.taper;
+    if (tree.has_taper_range)  // drawn, and at most what ends the stem in a point at its top
+    {
+      trunk.taper = random.uniform(tree.taper_range.lo, tree.taper_range.hi);
+      if (trunk.height > s_listed)
+        trunk.taper = std::min(trunk.taper, r_listed / (trunk.height - s_listed));
+    }
+    if (tree.at_breast_height)
+    {
+      trunk.x -= kBreastHeight * trunk.lean_x;
+      trunk.y -= kBreastHeight * trunk.lean_y;
+      trunk.radius = r_listed + trunk.taper * s_listed;
+    }
+    trunks.push_back(trunk);
+  }
+  return trunks;
 }
 
 sim::GroundSpec readGround(const YamlReader& reader, const YAML::Node& node)
 {
   sim::GroundSpec g;
-  for (const auto& entry : reader.entries(node, "ground", { "amplitude", "wavelength", "seed", "margin" }))
+  for (const auto& entry : reader.entries(node, "ground", { "amplitude", "wavelength", "seed", "margin", "slope" }))
   {
     const std::string key = YamlReader::qualified("ground", entry.first);
-    if (entry.first == "amplitude")
+    if (entry.first == "slope")
+    {
+      const std::vector<double> v = reader.numbers(entry.second, key, 2, 2, "[along x, along y]");
+      if (std::hypot(v[0], v[1]) > 1.0)  // steeper than 45 degrees: no stand is driven there
+        reader.fail(entry.second, "'" + key + "' must be no steeper than 1 (45 degrees)");
+      g.slope = Eigen::Vector2d(v[0], v[1]);
+    }
+    else if (entry.first == "amplitude")
       g.amplitude = reader.numberAtLeast(entry.second, key, 0.0, true);
     else if (entry.first == "wavelength")
       g.wavelength = reader.numberAtLeast(entry.second, key, 0.0, false);
@@ -492,6 +626,97 @@ sim::ClutterSpec readClutter(const YamlReader& reader, const YAML::Node& node)
       c.clearance = reader.numberAtLeast(entry.second, key, 0.0, true);
   }
   return c;
+}
+
+sim::WhorlSpec readWhorls(const YamlReader& reader, const YAML::Node& node)
+{
+  sim::WhorlSpec w;
+  const std::vector<std::string> keys = { "seed", "heights", "spacing", "fill", "per_whorl", "live", "dead_length",
+                                          "live_length", "thickness", "tuft_radius" };
+  for (const auto& entry : reader.entries(node, "whorls", keys))
+  {
+    const std::string key = YamlReader::qualified("whorls", entry.first);
+    const YAML::Node& v = entry.second;
+    if (entry.first == "seed")
+      w.seed = reader.seed(v, key);
+    else if (entry.first == "heights")
+      w.heights = reader.interval(v, key, 0.0, true);
+    else if (entry.first == "spacing")
+      w.spacing = reader.interval(v, key, 0.0, false);
+    else if (entry.first == "fill")
+      w.fill = reader.share(v, key);
+    else if (entry.first == "live")
+      w.live = reader.share(v, key);
+    else if (entry.first == "per_whorl")
+    {
+      const sim::Interval n = reader.interval(v, key, 1.0, true, 32.0);
+      if (n.lo != std::floor(n.lo) || n.hi != std::floor(n.hi))
+        reader.fail(v, "'" + key + "' must be whole numbers");
+      w.min_per_whorl = static_cast<int>(n.lo);
+      w.max_per_whorl = static_cast<int>(n.hi);
+    }
+    else if (entry.first == "dead_length")
+      w.dead_length = reader.interval(v, key, 0.0, true);
+    else if (entry.first == "live_length")
+      w.live_length = reader.interval(v, key, 0.0, true);
+    else if (entry.first == "thickness")
+      w.thickness = reader.interval(v, key, 0.0, false);
+    else
+      w.tuft_radius = reader.interval(v, key, 0.0, false);
+  }
+  return w;
+}
+
+void readSaplings(const YamlReader& reader, const YAML::Node& node, sim::UnderstorySpec* u)
+{
+  const std::string name = "understory.saplings";
+  for (const auto& entry : reader.entries(node, name, { "count", "dbh", "height", "crown_base", "crown_radius" }))
+  {
+    const std::string key = YamlReader::qualified(name, entry.first);
+    if (entry.first == "count")
+      u->saplings = reader.count(entry.second, key);
+    else if (entry.first == "dbh")
+      u->sapling_dbh = reader.interval(entry.second, key, 0.0, false);
+    else if (entry.first == "height")
+      u->sapling_height = reader.interval(entry.second, key, 1.3, false);
+    else if (entry.first == "crown_base")
+      u->sapling_crown_base = reader.interval(entry.second, key, 0.0, true);
+    else
+      u->sapling_crown_radius = reader.interval(entry.second, key, 0.0, false);
+  }
+}
+
+void readShrubs(const YamlReader& reader, const YAML::Node& node, sim::UnderstorySpec* u)
+{
+  const std::string name = "understory.shrubs";
+  for (const auto& entry : reader.entries(node, name, { "count", "radius", "top" }))
+  {
+    const std::string key = YamlReader::qualified(name, entry.first);
+    if (entry.first == "count")
+      u->shrubs = reader.count(entry.second, key);
+    else if (entry.first == "radius")
+      u->shrub_radius = reader.interval(entry.second, key, 0.0, false);
+    else
+      u->shrub_top = reader.interval(entry.second, key, 0.0, false);
+  }
+}
+
+sim::UnderstorySpec readUnderstory(const YamlReader& reader, const YAML::Node& node)
+{
+  sim::UnderstorySpec u;
+  for (const auto& entry : reader.entries(node, "understory", { "seed", "clearance", "saplings", "shrubs" }))
+  {
+    const std::string key = YamlReader::qualified("understory", entry.first);
+    if (entry.first == "seed")
+      u.seed = reader.seed(entry.second, key);
+    else if (entry.first == "clearance")
+      u.clearance = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else if (entry.first == "saplings")
+      readSaplings(reader, entry.second, &u);
+    else
+      readShrubs(reader, entry.second, &u);
+  }
+  return u;
 }
 
 /** Bounds of the trunk centres plus a margin; false when there are no trunks. */
@@ -534,12 +759,26 @@ sim::ForestWorld loadYamlWorld(const std::string& path)
   if (root.IsNull())
     reader.fail("empty world file ('trees' is required)");
 
-  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node, boxes_node;
+  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node, boxes_node, whorls_node, understory_node;
   bool has_trees = false;
   bool has_bounds = false;
-  for (const auto& entry : reader.entries(root, "", { "trees", "boxes", "bounds", "tree", "ground", "clutter" }))
+  bool has_whorls = false;
+  bool has_understory = false;
+  const std::vector<std::string> sections = { "trees", "boxes", "bounds", "tree", "ground", "clutter", "whorls",
+                                              "understory" };
+  for (const auto& entry : reader.entries(root, "", sections))
   {
-    if (entry.first == "boxes")
+    if (entry.first == "whorls")
+    {
+      whorls_node = entry.second;
+      has_whorls = true;
+    }
+    else if (entry.first == "understory")
+    {
+      understory_node = entry.second;
+      has_understory = true;
+    }
+    else if (entry.first == "boxes")
       boxes_node = entry.second;
     else if (entry.first == "trees")
     {
@@ -569,21 +808,11 @@ sim::ForestWorld loadYamlWorld(const std::string& path)
   world.boxes = boxes;
   world.ground = readGround(reader, ground_node);
   const sim::ClutterSpec clutter = readClutter(reader, clutter_node);
+  const sim::UnderstorySpec understory =
+      has_understory ? readUnderstory(reader, understory_node) : sim::UnderstorySpec();
+  const sim::WhorlSpec whorls = has_whorls ? readWhorls(reader, whorls_node) : sim::WhorlSpec();
 
-  core::Random random(tree.seed);
-  const double lean_sigma = std::tan(tree.lean_sigma_deg * kPi / 180.0);
-  for (const TreeRow& row : rows)
-  {
-    sim::TrunkSpec trunk = row.trunk;
-    if (!row.has_height)
-      trunk.height = tree.height;
-    trunk.lean_x = random.gaussian(lean_sigma);
-    trunk.lean_y = random.gaussian(lean_sigma);
-    // Not capped: a thin trunk whose radius reaches 0 below its height ends in a point there (the ray
-    // caster stops a trunk where its radius reaches 0), and every trunk keeps the stated taper.
-    trunk.taper = tree.taper;
-    world.trunks.push_back(trunk);
-  }
+  world.trunks = makeTrunks(reader, rows, tree);
 
   if (has_bounds)
   {
@@ -603,6 +832,11 @@ sim::ForestWorld loadYamlWorld(const std::string& path)
   try
   {
     sim::addClutter(clutter, &world);
+    // The understory keeps clear of the clutter; the branches on the stems come last, as they grow into both.
+    if (has_understory)
+      sim::addUnderstory(understory, &world);
+    if (has_whorls)
+      sim::addWhorls(whorls, &world);
   }
   catch (const std::invalid_argument& e)  // the checks above should have caught it; name the file anyway
   {

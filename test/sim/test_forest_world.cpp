@@ -8,6 +8,13 @@
 #include "rbpf_slam/sim/forest_world.h"
 
 using rbpf_slam::sim::addClutter;
+using rbpf_slam::sim::addUnderstory;
+using rbpf_slam::sim::addWhorls;
+using rbpf_slam::sim::Interval;
+using rbpf_slam::sim::StubSpec;
+using rbpf_slam::sim::trunkAxisAt;
+using rbpf_slam::sim::UnderstorySpec;
+using rbpf_slam::sim::WhorlSpec;
 using rbpf_slam::sim::BranchSpec;
 using rbpf_slam::sim::ClutterSpec;
 using rbpf_slam::sim::FoliageSpec;
@@ -258,6 +265,191 @@ TEST(Ground, RejectsInvalidSpecs)
   EXPECT_THROW(Ground(groundSpec(std::nan(""), 15.0, 1)), std::invalid_argument);
   EXPECT_THROW(Ground(groundSpec(0.3, 0.0, 1)), std::invalid_argument);
   EXPECT_NO_THROW(Ground(groundSpec(0.0, 0.0, 1)));  // flat: the wavelength does not matter
+}
+
+TEST(Ground, ASlopeAddsAPlaneToTheRelief)
+{
+  GroundSpec spec = groundSpec(0.3, 15.0, 3);
+  const Ground level(spec);
+  spec.slope = Eigen::Vector2d(0.10, -0.04);
+  const Ground sloped(spec);
+  const double h = 1e-5;
+  for (double x = -5.0; x <= 35.0; x += 2.3)
+  {
+    for (double y = -5.0; y <= 35.0; y += 2.9)
+    {
+      ASSERT_NEAR(sloped.height(x, y), level.height(x, y) + 0.10 * x - 0.04 * y, 1e-12);
+      ASSERT_EQ(sloped.relief(x, y), level.height(x, y));
+      const Eigen::Vector2d g = sloped.gradient(x, y);
+      ASSERT_NEAR(g.x(), (sloped.height(x + h, y) - sloped.height(x - h, y)) / (2.0 * h), 1e-8);
+      ASSERT_NEAR(g.y(), (sloped.height(x, y + h) - sloped.height(x, y - h)) / (2.0 * h), 1e-8);
+      Eigen::Vector2d g2;
+      ASSERT_EQ(sloped.heightAndGradient(x, y, &g2), sloped.height(x, y));
+      ASSERT_NEAR((g2 - g).norm(), 0.0, 1e-12);
+    }
+  }
+  // The bound of the gradient holds the plane's too; the amplitude stays the relief's.
+  EXPECT_NEAR(sloped.maxSlope(), level.maxSlope() + std::hypot(0.10, 0.04), 1e-12);
+  EXPECT_EQ(sloped.amplitude(), 0.3);
+  // A plane alone.
+  GroundSpec plane = groundSpec(0.0, 15.0, 1);
+  plane.slope = Eigen::Vector2d(0.0, 0.2);
+  EXPECT_EQ(Ground(plane).height(3.0, 5.0), 1.0);
+  EXPECT_EQ(Ground(plane).maxSlope(), 0.2);
+  plane.slope = Eigen::Vector2d(std::nan(""), 0.0);
+  EXPECT_THROW(Ground{ plane }, std::invalid_argument);
+}
+
+TEST(Ground, WithoutASlopeTheHeightIsTheRelief)
+{
+  // Bit for bit: ground without a slope is what it was before grounds could slope.
+  const Ground ground(groundSpec(0.3, 15.0, 1));
+  for (double x = -5.0; x <= 35.0; x += 1.9)
+  {
+    for (double y = -5.0; y <= 35.0; y += 2.1)
+    {
+      ASSERT_EQ(ground.height(x, y), ground.relief(x, y));
+      Eigen::Vector2d a, b;
+      ASSERT_EQ(ground.heightAndGradient(x, y, &a), ground.reliefAndGradient(x, y, &b));
+      ASSERT_EQ(a, b);
+      ASSERT_EQ(a, ground.gradient(x, y));
+    }
+  }
+}
+
+// --- Whorls and understory ------------------------------------------------------------------------
+
+TEST(Whorls, BranchesLeaveTheStemsWithinTheirRanges)
+{
+  ForestWorld world = sparseStand();
+  world.ground.slope = Eigen::Vector2d(0.1, 0.0);
+  WhorlSpec spec;
+  spec.seed = 3;
+  addWhorls(spec, &world);
+  ASSERT_FALSE(world.stubs.empty());
+  // 25 trunks, whorls from 1 to 6 m every 0.5-1 m, 70 % of them with 1-4 branches: about 25 * 7 * 0.7 * 2.5.
+  EXPECT_GT(world.stubs.size(), 150u);
+  EXPECT_LT(world.stubs.size(), 500u);
+  std::size_t live = 0;
+  for (const StubSpec& stub : world.stubs)
+  {
+    // On the axis of one of the trunks, at a whorl's height above its foot.
+    const TrunkSpec* stem = nullptr;
+    for (const TrunkSpec& t : world.trunks)
+      if (stub.foot == Eigen::Vector2d(t.x, t.y))
+        stem = &t;
+    ASSERT_NE(stem, nullptr);
+    const double height = stub.a.z();
+    EXPECT_GE(height, spec.heights.lo);
+    EXPECT_LE(height, spec.heights.hi);
+    double radius = 0.0;
+    const Eigen::Vector3d axis = trunkAxisAt(*stem, 0.0, height, &radius);
+    EXPECT_NEAR((axis - stub.a).norm(), 0.0, 1e-9);
+    // Its length beyond the stem's surface, its thickness and its direction (+-20 degrees of level).
+    const Eigen::Vector3d along = stub.b - stub.a;
+    const Interval length = stub.live ? spec.live_length : spec.dead_length;
+    EXPECT_GE(along.norm() - radius, length.lo - 1e-9);
+    EXPECT_LE(along.norm() - radius, length.hi + 1e-9);
+    EXPECT_GE(2.0 * stub.radius, spec.thickness.lo);
+    EXPECT_LE(2.0 * stub.radius, spec.thickness.hi);
+    EXPECT_LE(std::fabs(along.z()) / along.norm(), std::sin(20.0 * kPi / 180.0) + 1e-9);
+    live += stub.live ? 1 : 0;
+  }
+  // 30 % are live, each with a tuft at its tip (the crowns come from addClutter, not here).
+  EXPECT_GT(live, world.stubs.size() / 5);
+  EXPECT_LT(live, world.stubs.size() * 2 / 5);
+  EXPECT_EQ(world.foliage.size(), live);
+}
+
+TEST(Whorls, DeterministicBySeedAndNoneWithoutFill)
+{
+  ForestWorld a = sparseStand(), b = sparseStand(), c = sparseStand(), none = sparseStand();
+  WhorlSpec spec;
+  addWhorls(spec, &a);
+  addWhorls(spec, &b);
+  spec.seed = 2;
+  addWhorls(spec, &c);
+  ASSERT_EQ(a.stubs.size(), b.stubs.size());
+  for (std::size_t i = 0; i < a.stubs.size(); ++i)
+    ASSERT_EQ(a.stubs[i].b, b.stubs[i].b);
+  EXPECT_TRUE(a.stubs.size() != c.stubs.size() || a.stubs[0].b != c.stubs[0].b);
+  spec.fill = 0.0;
+  addWhorls(spec, &none);
+  EXPECT_TRUE(none.stubs.empty());
+  spec.fill = 1.5;
+  EXPECT_THROW(addWhorls(spec, &none), std::invalid_argument);
+  spec.fill = 0.5;
+  spec.min_per_whorl = 3;
+  spec.max_per_whorl = 2;
+  EXPECT_THROW(addWhorls(spec, &none), std::invalid_argument);
+}
+
+TEST(Understory, SaplingsAndShrubsWithinTheirRanges)
+{
+  ForestWorld world = sparseStand();
+  world.ground.amplitude = 0.0;
+  UnderstorySpec spec;
+  spec.saplings = 20;
+  spec.shrubs = 30;
+  spec.seed = 4;
+  addUnderstory(spec, &world);
+  ASSERT_EQ(world.saplings.size(), 20u);
+  EXPECT_TRUE(world.stubs.empty());
+  EXPECT_EQ(world.trunks.size(), 25u);  // no trees of the stand among them
+  for (const TrunkSpec& s : world.saplings)
+  {
+    double breast_radius = 0.0, top_radius = 1.0;
+    trunkAxisAt(s, 0.0, 1.3, &breast_radius);
+    const double axis_norm = std::sqrt(1.0 + s.lean_x * s.lean_x + s.lean_y * s.lean_y);
+    trunkAxisAt(s, 0.0, s.height / axis_norm, &top_radius);
+    EXPECT_GE(2.0 * breast_radius, spec.sapling_dbh.lo - 1e-12);
+    EXPECT_LE(2.0 * breast_radius, spec.sapling_dbh.hi + 1e-12);
+    EXPECT_NEAR(top_radius, 0.0, 1e-12);  // a cone
+    EXPECT_GE(s.height / axis_norm, spec.sapling_height.lo - 1e-9);
+    EXPECT_LE(s.height / axis_norm, spec.sapling_height.hi + 1e-9);
+    EXPECT_LE(std::hypot(s.lean_x, s.lean_y), std::tan(4.0 * kPi / 180.0) + 1e-12);
+    for (const TrunkSpec& t : world.trunks)
+      EXPECT_GE(std::hypot(s.x - t.x, s.y - t.y) - t.radius, spec.clearance);
+  }
+  // Every sapling has a crown of 1-6 spheres below its top; the shrubs are single spheres.
+  std::size_t shrubs = 0, crown_spheres = 0;
+  for (const FoliageSpec& f : world.foliage)
+  {
+    EXPECT_LE(f.center.z() + f.radius, spec.sapling_height.hi + 1e-9);
+    bool on_a_sapling = false;
+    for (const TrunkSpec& s : world.saplings)
+      on_a_sapling = on_a_sapling || std::hypot(f.center.x() - s.x, f.center.y() - s.y) < 0.3;
+    if (on_a_sapling)
+    {
+      ++crown_spheres;
+      EXPECT_GE(f.center.z() - f.radius, spec.sapling_crown_base.lo - 1e-9);
+      EXPECT_LE(f.radius, spec.sapling_crown_radius.hi + 1e-9);
+      continue;
+    }
+    ++shrubs;
+    EXPECT_GE(f.radius, spec.shrub_radius.lo);
+    EXPECT_LE(f.radius, spec.shrub_radius.hi);
+    EXPECT_GE(f.center.z() + f.radius, spec.shrub_top.lo - 1e-9);
+    EXPECT_LE(f.center.z() + f.radius, spec.shrub_top.hi + 1e-9);
+  }
+  EXPECT_EQ(shrubs, 30u);
+  EXPECT_GE(crown_spheres, 20u);
+  EXPECT_LE(crown_spheres, 120u);
+}
+
+TEST(Understory, RejectsInvalidSpecs)
+{
+  ForestWorld world = sparseStand();
+  UnderstorySpec spec;
+  spec.sapling_height = Interval{ 1.0, 3.0 };  // a sapling has no diameter at breast height below 1.3 m
+  EXPECT_THROW(addUnderstory(spec, &world), std::invalid_argument);
+  spec = UnderstorySpec();
+  spec.shrub_radius = Interval{ 0.8, 0.3 };
+  EXPECT_THROW(addUnderstory(spec, &world), std::invalid_argument);
+  spec = UnderstorySpec();
+  spec.saplings = -1;
+  EXPECT_THROW(addUnderstory(spec, &world), std::invalid_argument);
+  EXPECT_THROW(addUnderstory(UnderstorySpec(), nullptr), std::invalid_argument);
 }
 
 // --- Clutter --------------------------------------------------------------------------------------

@@ -144,6 +144,117 @@ TEST(RayCaster, FlatAndUndulatingGround)
   EXPECT_GT(ground_hits, 450);
 }
 
+TEST(RayCaster, SlopingGroundIsHitWhereThePlaneAndTheRayMeet)
+{
+  // A plane rising 10 % along x: z = 0.1 x. A ray 15 degrees down from 1.8 m meets it at 1.8 / (sin e + 0.1 cos e)
+  // uphill and 1.8 / (sin e - 0.1 cos e) downhill.
+  ForestWorld w = flatWorld();
+  w.ground.slope = Eigen::Vector2d(0.10, 0.0);
+  w.ground.margin = 100.0;
+  ForestRayCaster caster(w);
+  Random random(1);
+  const double e = 15.0 * M_PI / 180.0;
+  const RayHit up = caster.cast({ 0.0, 0.0, 1.8 }, { std::cos(e), 0.0, -std::sin(e) }, 100.0, random);
+  ASSERT_EQ(up.kind, HitKind::kGround);
+  EXPECT_NEAR(up.range, 1.8 / (std::sin(e) + 0.1 * std::cos(e)), 1e-6);
+  const RayHit down = caster.cast({ 0.0, 0.0, 1.8 }, { -std::cos(e), 0.0, -std::sin(e) }, 100.0, random);
+  ASSERT_EQ(down.kind, HitKind::kGround);
+  EXPECT_NEAR(down.range, 1.8 / (std::sin(e) - 0.1 * std::cos(e)), 1e-6);
+  // Across the slope the plane is level: as on flat ground.
+  EXPECT_NEAR(caster.cast({ 0.0, 0.0, 1.8 }, { 0.0, std::cos(e), -std::sin(e) }, 100.0, random).range,
+              1.8 / std::sin(e), 1e-6);
+  // A horizontal ray uphill meets the rising ground, 18 m ahead; downhill it never does.
+  EXPECT_NEAR(caster.cast({ 0.0, 0.0, 1.8 }, { 1.0, 0.0, 0.0 }, 100.0, random).range, 18.0, 1e-6);
+  EXPECT_EQ(caster.cast({ 0.0, 0.0, 1.8 }, { -1.0, 0.0, 0.0 }, 100.0, random).kind, HitKind::kNone);
+}
+
+TEST(RayCaster, SlopingUndulatingGroundHasNoEarlierCrossing)
+{
+  // The relief's bounds hold on the sheared ray whatever the slope: every hit lies on the ground and no point of the
+  // ray before it is below the ground, also for rays climbing the slope.
+  ForestWorld hilly;
+  hilly.ground.amplitude = 0.5;
+  hilly.ground.wavelength = 10.0;
+  hilly.ground.slope = Eigen::Vector2d(0.10, -0.05);
+  hilly.ground.margin = 1000.0;
+  ForestRayCaster caster(hilly);
+  Random r(4);
+  int ground_hits = 0;
+  for (int i = 0; i < 500; ++i)
+  {
+    const double az = r.uniform(-M_PI, M_PI), e = r.uniform(-0.3, 0.05);
+    const Eigen::Vector3d o(r.uniform(0.0, 30.0), r.uniform(0.0, 30.0), 0.0);
+    const Eigen::Vector3d origin(o.x(), o.y(), caster.ground().height(o.x(), o.y()) + 1.8);
+    const Eigen::Vector3d d(std::cos(e) * std::cos(az), std::cos(e) * std::sin(az), std::sin(e));
+    const RayHit h = caster.cast(origin, d, 200.0, r);
+    if (h.kind != HitKind::kGround)
+      continue;
+    ++ground_hits;
+    const Eigen::Vector3d p = origin + h.range * d;
+    ASSERT_NEAR(p.z(), caster.ground().height(p.x(), p.y()), 1e-3) << "ray " << i;
+    for (double t = 0.0; t < h.range - 0.01; t += 0.05)
+    {
+      const Eigen::Vector3d q = origin + t * d;
+      ASSERT_GT(q.z(), caster.ground().height(q.x(), q.y()) - 1e-9) << "ray " << i << " crosses at t=" << t;
+    }
+  }
+  EXPECT_GT(ground_hits, 400);
+}
+
+TEST(RayCaster, ARayHitsABranchStubOnAStem)
+{
+  // A stem at the origin with a horizontal dead branch of radius 2 cm along +x at 1.5 m, reaching 0.8 m from the
+  // axis; the ground slopes, and the branch's heights count from the ground at the stem's foot.
+  ForestWorld w = flatWorld();
+  w.ground.slope = Eigen::Vector2d(0.0, 0.10);
+  w.trunks.push_back(trunk(0.0, 2.0, 0.15));
+  StubSpec stub;
+  stub.foot = Eigen::Vector2d(0.0, 2.0);
+  stub.a = Eigen::Vector3d(0.0, 2.0, 1.5);
+  stub.b = Eigen::Vector3d(0.8, 2.0, 1.5);
+  stub.radius = 0.02;
+  w.stubs.push_back(stub);
+  ForestRayCaster caster(w);
+  Random random(1);
+  const double z = 0.2 + 1.5;  // the ground at the foot is 0.1 * 2 = 0.2 m up
+  // From the side, across the branch 0.5 m out from the axis: the branch's surface 2 cm before its axis.
+  const RayHit hit = caster.cast({ 0.5, -3.0, z }, { 0.0, 1.0, 0.0 }, 100.0, random);
+  EXPECT_EQ(hit.kind, HitKind::kStub);
+  EXPECT_EQ(hit.index, 0);
+  EXPECT_NEAR(hit.range, 5.0 - 0.02, 1e-9);
+  // From below, at its tip's round end.
+  const RayHit below = caster.cast({ 0.8, 2.0, 0.5 }, { 0.0, 0.0, 1.0 }, 100.0, random);
+  EXPECT_EQ(below.kind, HitKind::kStub);
+  EXPECT_NEAR(below.range, z - 0.02 - 0.5, 1e-9);
+  // Beside it, 3 cm off its axis: the ray passes and meets nothing within 10 m (the rising ground 20 m on).
+  EXPECT_EQ(caster.cast({ 0.5, -3.0, z + 0.03 }, { 0.0, 1.0, 0.0 }, 10.0, random).kind, HitKind::kNone);
+  // Along it, from outside: the tip first (before the stem).
+  const RayHit along = caster.cast({ 3.0, 2.0, z }, { -1.0, 0.0, 0.0 }, 100.0, random);
+  EXPECT_EQ(along.kind, HitKind::kStub);
+  EXPECT_NEAR(along.range, 3.0 - 0.8 - 0.02, 1e-9);
+}
+
+TEST(RayCaster, ARayHitsASaplingStem)
+{
+  // A cone-shaped sapling (radius 3 cm at the ground, 0 at 3 m) 6 m ahead: at 1 m up its radius is 2 cm.
+  ForestWorld w = flatWorld();
+  TrunkSpec sapling = trunk(6.0, 0.0, 0.03);
+  sapling.height = 3.0;
+  sapling.taper = 0.01;
+  w.saplings.push_back(sapling);
+  w.trunks.push_back(trunk(12.0, 0.0, 0.2));  // behind it
+  ForestRayCaster caster(w);
+  Random random(1);
+  const RayHit hit = caster.cast({ 0.0, 0.0, 1.0 }, { 1.0, 0.0, 0.0 }, 100.0, random);
+  EXPECT_EQ(hit.kind, HitKind::kSapling);
+  EXPECT_EQ(hit.index, 0);
+  EXPECT_NEAR(hit.range, 6.0 - 0.02, 1e-9);
+  // Above its top the ray passes on to the trunk behind it.
+  const RayHit over = caster.cast({ 0.0, 0.0, 3.2 }, { 1.0, 0.0, 0.0 }, 100.0, random);
+  EXPECT_EQ(over.kind, HitKind::kTrunk);
+  EXPECT_NEAR(over.range, 11.8, 1e-9);
+}
+
 TEST(RayCaster, GridTraversalMatchesBruteForce)
 {
   ForestWorld w = flatWorld();

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -197,6 +198,29 @@ TEST(Simulator, RingsHaveTheirElevationsOnFlatGround)
     ++counted;
   }
   EXPECT_EQ(counted, 8 * 1800);  // the 8 downward rings, every column
+}
+
+TEST(Simulator, TheLidarSeesNoGroundNearerThanItsLowestRingAllows)
+{
+  // The scenario's lidar (16 rings over +-15 degrees, 1.8 m up): its lowest ring meets level ground
+  // 1.8 / tan(15 deg) = 6.72 m away, so no ground return lies nearer. On a 10 % slope the body tilts with the
+  // ground, so along the slope the near edge stays at 6.7 m; across it the ground comes no nearer either.
+  for (const double slope : { 0.0, 0.10 })
+  {
+    SimulatorConfig c = quietConfig();
+    c.lidar3d.enabled = true;
+    c.lidar3d.range_sigma = 0.0;
+    ForestWorld world = flatWorld();
+    world.ground.slope = Eigen::Vector2d(slope, 0.0);
+    ForestSimulator sim(world, c);
+    LidarSweep sweep;
+    sim.castSweep(0.0, &sweep);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const LidarPoint& p : sweep.points)
+      nearest = std::min(nearest, std::hypot(static_cast<double>(p.x), static_cast<double>(p.y)));
+    ASSERT_FALSE(sweep.points.empty());
+    EXPECT_NEAR(nearest, 1.8 / std::tan(15.0 * M_PI / 180.0), 0.05) << "slope " << slope;
+  }
 }
 
 TEST(Simulator, SameSeedSameRunOtherSeedOtherRun)

@@ -322,6 +322,108 @@ TEST_F(WorldFileTest, YamlValuesAreValidated)
   EXPECT_EQ(loadError(syntax).find(syntax + ":"), 0u) << loadError(syntax);
 }
 
+TEST_F(WorldFileTest, YamlRealisticStandKeys)
+{
+  const std::string path = write("real.yaml",
+                                 "trees: [[5, 5, 0.2], [15, 15, 0.12], [10, 3, 0.3]]\n"
+                                 "bounds: [0, 0, 20, 20]\n"
+                                 "tree: {height: 15, lean_deg: [2, 4], taper: [0.004, 0.012], listed_at: breast_height,"
+                                 " listed_taper: 0.01, seed: 2}\n"
+                                 "ground: {amplitude: 0.5, slope: [0.10, -0.02]}\n"
+                                 "clutter: {bushes: 2, branches: 2}\n"
+                                 "whorls: {seed: 3, heights: [1, 6], spacing: [0.5, 1.0], fill: 1, per_whorl: 2,"
+                                 " live: 0.5, dead_length: [0.2, 1.0], live_length: [0.5, 1.5],"
+                                 " thickness: [0.01, 0.04],"
+                                 " tuft_radius: 0.2}\n"
+                                 "understory:\n"
+                                 "  seed: 4\n"
+                                 "  clearance: 0.2\n"
+                                 "  saplings: {count: 5, dbh: [0.01, 0.05], height: [1.5, 4], crown_base: [0.5, 2],"
+                                 " crown_radius: [0.3, 0.8]}\n"
+                                 "  shrubs: {count: 6, radius: [0.3, 1.0], top: [0.5, 2.0]}\n");
+  const ForestWorld world = loadForestWorld(path);
+  EXPECT_EQ(world.ground.slope, Eigen::Vector2d(0.10, -0.02));
+  EXPECT_EQ(world.ground.amplitude, 0.5);
+  const double list[3][3] = { { 5, 5, 0.2 }, { 15, 15, 0.12 }, { 10, 3, 0.3 } };
+  ASSERT_EQ(world.trunks.size(), 3u);
+  for (int i = 0; i < 3; ++i)
+  {
+    const TrunkSpec& t = world.trunks[i];
+    const double lean = std::hypot(t.lean_x, t.lean_y);
+    EXPECT_GE(lean, std::tan(2.0 * M_PI / 180.0) - 1e-12) << i;
+    EXPECT_LE(lean, std::tan(4.0 * M_PI / 180.0) + 1e-12) << i;
+    EXPECT_GE(t.taper, 0.004) << i;
+    EXPECT_LE(t.taper, 0.012) << i;
+    // Listed at breast height: the stem's centre 1.3 m above its foot is the list's, its radius there the list's
+    // less 1.3 * listed_taper (the clean worlds' radius at breast height).
+    double radius = 0.0;
+    const Eigen::Vector3d c = rbpf_slam::sim::trunkAxisAt(t, 0.0, 1.3, &radius);
+    EXPECT_NEAR(c.x(), list[i][0], 1e-12) << i;
+    EXPECT_NEAR(c.y(), list[i][1], 1e-12) << i;
+    EXPECT_NEAR(c.z(), 1.3, 1e-12) << i;
+    EXPECT_NEAR(radius, list[i][2] - 0.013, 1e-12) << i;
+  }
+  // Every whorl bears exactly two branches; the live ones carry tufts.
+  ASSERT_FALSE(world.stubs.empty());
+  EXPECT_EQ(world.stubs.size() % 2, 0u);
+  std::size_t live = 0;
+  for (const auto& stub : world.stubs)
+    live += stub.live ? 1 : 0;
+  EXPECT_EQ(world.saplings.size(), 5u);
+  // Foliage: 3 crowns, 2 bushes, the saplings' crowns (1-6 spheres each), 6 shrubs and the tufts.
+  EXPECT_GE(world.foliage.size(), 3u + 2u + 5u + 6u + live);
+  EXPECT_LE(world.foliage.size(), 3u + 2u + 30u + 6u + live);
+  EXPECT_EQ(world.branches.size(), 2u);
+  // Same file, same world.
+  const ForestWorld again = loadForestWorld(path);
+  ASSERT_EQ(again.stubs.size(), world.stubs.size());
+  EXPECT_EQ(again.stubs.back().b, world.stubs.back().b);
+  EXPECT_EQ(again.saplings.back().x, world.saplings.back().x);
+  EXPECT_EQ(again.trunks[2].lean_y, world.trunks[2].lean_y);
+}
+
+TEST_F(WorldFileTest, YamlRealisticStandKeysAreValidated)
+{
+  struct Case
+  {
+    std::string text;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+    { "tree: {lean_sigma_deg: 1, lean_deg: [2, 4]}\n", "not both" },
+    { "tree: {lean_deg: [4, 2]}\n", "'tree.lean_deg' [lo, hi] must have lo <= hi" },
+    { "tree: {lean_deg: 50}\n", "'tree.lean_deg' must be <= 44.9" },
+    { "tree: {listed_at: top}\n", "'tree.listed_at' must be ground or breast_height" },
+    { "tree: {taper: [0.01]}\n", "'tree.taper' must be a number or [lo, hi]" },
+    { "tree: {taper: [-0.01, 0.01]}\n", "'tree.taper' must be >= 0" },
+    { "tree: {listed_taper: -1}\n", "'tree.listed_taper' must be >= 0" },
+    { "ground: {slope: [2, 0]}\n", "'ground.slope' must be no steeper than 1" },
+    { "ground: {slope: 0.1}\n", "'ground.slope' must be [along x, along y]" },
+    { "whorls: {fill: 1.5}\n", "'whorls.fill' must be within [0, 1]" },
+    { "whorls: {per_whorl: [1.5, 3]}\n", "'whorls.per_whorl' must be whole numbers" },
+    { "whorls: {per_whorl: 0}\n", "'whorls.per_whorl' must be >= 1" },
+    { "whorls: {spacing: 0}\n", "'whorls.spacing' must be > 0" },
+    { "whorls: {branches: 3}\n", "unknown key 'whorls.branches'" },
+    { "understory: {saplings: {height: [1, 3]}}\n", "'understory.saplings.height' must be > 1.3" },
+    { "understory: {shrubs: {count: -1}}\n", "'understory.shrubs.count' must be an integer in [0, 1000000]" },
+    { "understory: {shrubs: {top: [2, 1]}}\n", "'understory.shrubs.top' [lo, hi] must have lo <= hi" },
+    { "understory: {bushes: 3}\n", "unknown key 'understory.bushes'" },
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i)
+  {
+    const std::string path =
+        write("real" + std::to_string(i) + ".yaml", std::string(kMinimalYamlTrees) + cases[i].text);
+    const std::string error = loadError(path);
+    EXPECT_EQ(error.find(path + ":2:"), 0u) << cases[i].text << " -> " << error;
+    EXPECT_NE(error.find(cases[i].message), std::string::npos) << cases[i].text << " -> " << error;
+  }
+  // A listed radius at breast height that the listed taper would make negative.
+  const std::string thin =
+      write("thin.yaml", "trees: [[1, 2, 0.01]]\ntree: {listed_at: breast_height, listed_taper: 0.01}\n");
+  EXPECT_NE(loadError(thin).find("tree 1 of the list: radius - 1.3 * tree.listed_taper must be > 0"), std::string::npos)
+      << loadError(thin);
+}
+
 TEST_F(WorldFileTest, YamlTreeFileErrorsNameTheTreeFile)
 {
   const std::string trees = write("broken.trees.txt", "1 2 0.2\n1 2\n");
@@ -448,6 +550,53 @@ TEST(ShippedWorlds, ParkCarsAreABoxList)
   ASSERT_FALSE(cars.empty());
   EXPECT_EQ(cars[0].x, 77.331);
   EXPECT_EQ(cars[0].length, 4.5);
+}
+
+TEST(ShippedWorlds, RealisticVariantsKeepTheCleanStandsTrees)
+{
+  for (const char* name : { "paper_forest", "dense_forest", "clumped", "plantation_rows", "sparse_stand",
+                            "touching_pairs" })
+  {
+    const ForestWorld clean = loadForestWorld(kWorldDir + name + ".yaml");
+    const ForestWorld real = loadForestWorld(kWorldDir + name + "_realistic.yaml");
+    // The clean stand is the ideal case: no branches on its stems, no understory, no slope.
+    EXPECT_TRUE(clean.stubs.empty()) << name;
+    EXPECT_TRUE(clean.saplings.empty()) << name;
+    EXPECT_EQ(clean.ground.slope, Eigen::Vector2d::Zero()) << name;
+    ASSERT_EQ(real.trunks.size(), clean.trunks.size()) << name;
+    EXPECT_EQ(real.min_x, clean.min_x);
+    EXPECT_EQ(real.max_y, clean.max_y);
+    for (std::size_t i = 0; i < real.trunks.size(); ++i)
+    {
+      // The same trees at breast height: the tree list's centre (the clean stem's within its 1-degree lean) and the
+      // clean stem's radius there.
+      double r_real = 0.0, r_clean = 0.0;
+      const Eigen::Vector3d c_real = rbpf_slam::sim::trunkAxisAt(real.trunks[i], 0.0, 1.3, &r_real);
+      const Eigen::Vector3d c_clean = rbpf_slam::sim::trunkAxisAt(clean.trunks[i], 0.0, 1.3, &r_clean);
+      EXPECT_NEAR(c_real.x(), clean.trunks[i].x, 1e-9) << name << " " << i;
+      EXPECT_NEAR(c_real.y(), clean.trunks[i].y, 1e-9) << name << " " << i;
+      EXPECT_LT((c_real - c_clean).head<2>().norm(), 0.1) << name << " " << i;
+      EXPECT_NEAR(r_real, r_clean, 1e-4) << name << " " << i;
+      // Leaning 2-4 degrees (the scenarios allow up to 5), tapering.
+      const double lean_deg = std::atan(std::hypot(real.trunks[i].lean_x, real.trunks[i].lean_y)) * 180.0 / M_PI;
+      EXPECT_GE(lean_deg, 2.0 - 1e-9) << name << " " << i;
+      EXPECT_LE(lean_deg, 4.0 + 1e-9) << name << " " << i;
+      EXPECT_GT(real.trunks[i].taper, 0.0) << name << " " << i;
+    }
+    // Sloping 10 %, relief +-0.5 m; branches on the stems, saplings (no trees: DBH < 8 cm), shrubs, fallen wood.
+    EXPECT_NEAR(real.ground.slope.norm(), 0.10, 1e-12) << name;
+    EXPECT_EQ(real.ground.amplitude, 0.5) << name;
+    EXPECT_GT(real.stubs.size(), 5 * real.trunks.size()) << name;
+    EXPECT_FALSE(real.saplings.empty()) << name;
+    for (const TrunkSpec& s : real.saplings)
+    {
+      double r = 0.0;
+      rbpf_slam::sim::trunkAxisAt(s, 0.0, 1.3, &r);
+      EXPECT_LT(2.0 * r, 0.08) << name;
+    }
+    EXPECT_GT(real.foliage.size(), clean.foliage.size() + real.saplings.size()) << name;
+    EXPECT_GE(real.branches.size(), clean.branches.size()) << name;
+  }
 }
 
 TEST(ShippedWorlds, GeneratedStandsKeepBothDrivesOpen)

@@ -50,6 +50,20 @@ struct BranchSpec
 };
 
 /**
+ * @brief A branch on a stem: a solid cylinder with round ends (a capsule) from a point on the stem's axis to its tip,
+ * so that it leaves the stem's surface. Heights are relative to the ground at the stem's foot, so that the branch
+ * moves with its stem whatever the ground does under its tip.
+ */
+struct StubSpec
+{
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();     ///< [m] on the stem's axis (x, y in the world)
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();     ///< [m] the tip
+  Eigen::Vector2d foot = Eigen::Vector2d::Zero();  ///< [m] the stem's foot, whose ground the heights start from
+  double radius = 0.01;                            ///< [m]
+  bool live = false;  ///< a live branch carries a foliage tuft at its tip (in ForestWorld::foliage)
+};
+
+/**
  * @brief A box standing on the ground (a parked car, a container): its base is a rectangle centred at (x, y),
  * length along the heading yaw, width across it; it rises @p height above the ground at its centre (and reaches
  * as far below it as a trunk, so undulating ground leaves no gap under it).
@@ -76,15 +90,18 @@ bool boxesOverlap(const BoxSpec& a, const BoxSpec& b);
 double intersectBox(const BoxSpec& box, double ground_z, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir);
 
 /**
- * @brief Gently undulating ground: h(x, y) = amplitude / K * sum_k sin(k_k . p + phase_k), so that
- * |h| <= amplitude everywhere. Waves are drawn from a seed: K = 3 directions, wavelengths within
- * [0.7, 1.3] x wavelength.
+ * @brief Gently undulating ground, on a plane when it slopes: h(x, y) = amplitude / K * sum_k sin(k_k . p + phase_k)
+ * + slope . p, the undulation (the relief) bounded by |amplitude|. Waves are drawn from a seed: K = 3 directions,
+ * wavelengths within [0.7, 1.3] x wavelength.
  */
 struct GroundSpec
 {
-  double amplitude = 0.3;    ///< [m] bound of |h|; 0 gives flat ground at z = 0
+  double amplitude = 0.3;    ///< [m] bound of the undulation's |h|; 0 gives flat ground (a plane with the slope)
   double wavelength = 15.0;  ///< [m] mean wavelength of the undulation
   std::uint64_t seed = 1;
+  /// [-] gradient of a plane added to the undulation, h += slope.x * x + slope.y * y (0.10 = 10 % rising along x;
+  /// the plane passes through the world's origin)
+  Eigen::Vector2d slope = Eigen::Vector2d::Zero();
   /// [m] the ground (and with it the world) ends this far outside the stand bounds, as Gazebo's finite
   /// floor plane did: a ray that leaves that box without a hit has no return.
   double margin = 20.0;
@@ -102,6 +119,52 @@ struct ClutterSpec
   std::uint64_t seed = 1;
 };
 
+/** @brief A closed interval [lo, hi] from which a value is drawn uniformly. */
+struct Interval
+{
+  double lo = 0.0;
+  double hi = 0.0;
+};
+
+/**
+ * @brief Branch whorls on every trunk (addWhorls): from the lowest whorl up, every spacing metres, a whorl bears
+ * branches with probability fill, per_whorl of them around the stem; a branch is dead (a bare stub) or live (longer,
+ * with a foliage tuft at its tip).
+ */
+struct WhorlSpec
+{
+  Interval heights{ 1.0, 6.0 };       ///< [m] above the ground at the foot: the first whorl within spacing.lo of lo
+  Interval spacing{ 0.5, 1.0 };       ///< [m] between whorls, drawn per whorl
+  double fill = 0.7;                  ///< [-] share of whorls that bear branches
+  int min_per_whorl = 1;              ///< branches of a whorl that bears them, drawn uniformly
+  int max_per_whorl = 4;
+  double live = 0.3;                  ///< [-] share of the branches that are live
+  Interval dead_length{ 0.2, 1.0 };   ///< [m] beyond the stem's surface
+  Interval live_length{ 0.5, 1.5 };   ///< [m] beyond the stem's surface
+  Interval thickness{ 0.01, 0.04 };   ///< [m] a branch's diameter
+  Interval tuft_radius{ 0.15, 0.4 };  ///< [m] the foliage sphere at a live branch's tip
+  std::uint64_t seed = 1;
+};
+
+/**
+ * @brief The understory (addUnderstory): saplings (thin tapering stems with a bushy crown from low down) and shrubs
+ * (foliage spheres on the ground). Neither is a tree of the stand: they go to ForestWorld::saplings and
+ * ForestWorld::foliage, never to its trunks.
+ */
+struct UnderstorySpec
+{
+  int saplings = 0;
+  Interval sapling_dbh{ 0.01, 0.05 };         ///< [m] stem diameter at 1.3 m above the ground
+  Interval sapling_height{ 1.5, 4.0 };        ///< [m] above the ground; lo > 1.3
+  Interval sapling_crown_base{ 0.5, 2.0 };    ///< [m] lowest foliage above the ground
+  Interval sapling_crown_radius{ 0.3, 0.8 };  ///< [m] widest foliage, at the crown's base
+  int shrubs = 0;
+  Interval shrub_radius{ 0.3, 1.0 };  ///< [m]
+  Interval shrub_top{ 0.5, 2.0 };     ///< [m] highest foliage above the ground
+  double clearance = 0.3;             ///< [m] from trunk surfaces, boxes, clutter and each other
+  std::uint64_t seed = 1;
+};
+
 /** @brief Everything the ray caster sees. Coordinates are world (stand) coordinates. */
 struct ForestWorld
 {
@@ -110,6 +173,8 @@ struct ForestWorld
   std::vector<RockSpec> rocks;
   std::vector<BranchSpec> branches;
   std::vector<BoxSpec> boxes;
+  std::vector<StubSpec> stubs;        ///< branches on the trunks (their live tufts are in foliage)
+  std::vector<TrunkSpec> saplings;    ///< understory stems (their crowns are in foliage); not trees of the stand
   GroundSpec ground;
   double min_x = 0.0, min_y = 0.0, max_x = 30.0, max_y = 30.0;  ///< [m] stand bounds (for clutter)
 };
@@ -123,6 +188,25 @@ Eigen::Vector3d trunkAxisAt(const TrunkSpec& trunk, double ground_z, double heig
 /** @brief Adds crowns, bushes, rocks and branches to @p world as @p spec asks (deterministic). */
 void addClutter(const ClutterSpec& spec, ForestWorld* world);
 
+/**
+ * @brief Adds branch whorls to every trunk of @p world as @p spec asks (deterministic for spec.seed): StubSpecs,
+ * and a foliage tuft at the tip of each live branch. Whorls stop below a trunk's top.
+ * @throws std::invalid_argument for a spec out of range (intervals with lo > hi, negative sizes, shares outside
+ * [0, 1], spacing.lo <= 0)
+ */
+void addWhorls(const WhorlSpec& spec, ForestWorld* world);
+
+/**
+ * @brief Adds saplings and shrubs to @p world as @p spec asks (deterministic for spec.seed), placed at random inside
+ * the stand bounds, at least spec.clearance from trunk surfaces, boxes, ground clutter (bushes, rocks, fallen
+ * branches) and each other; an item that does not fit after a bounded number of tries is left out, as in addClutter.
+ * A sapling is a cone-shaped stem (its radius reaches 0 at its top) leaning up to 4 degrees, with a conical crown of
+ * stacked foliage spheres from its crown base to its top; a shrub is one foliage sphere whose top is drawn from
+ * spec.shrub_top (a low, wide shrub is partly below the ground).
+ * @throws std::invalid_argument for a spec out of range
+ */
+void addUnderstory(const UnderstorySpec& spec, ForestWorld* world);
+
 /** @brief Ground height model built from a GroundSpec. */
 class Ground
 {
@@ -131,17 +215,26 @@ public:
   double height(double x, double y) const;
   /** @brief (dh/dx, dh/dy). */
   Eigen::Vector2d gradient(double x, double y) const;
+  /** @brief Bound of the relief's |h| (the undulation without the plane). */
   double amplitude() const { return amplitude_; }
-  /** @brief Bound of |grad h| (for safe ray marching). */
+  /** @brief Bound of |grad h|, the relief's and the plane's together (for safe ray marching). */
   double maxSlope() const { return max_slope_; }
   /** @brief Bound of |d2h/ds2| along the horizontal direction (ux, uy) (scales with its squared length). */
   double curvatureBoundAlong(double ux, double uy) const;
   /** @brief height() and gradient() at once (cheaper than both). */
   double heightAndGradient(double x, double y, Eigen::Vector2d* gradient) const;
+  /** @brief The plane's gradient (zero for ground without a slope). */
+  const Eigen::Vector2d& slope() const { return slope_; }
+  /** @brief The relief: the height without the plane (height() - slope . p). */
+  double relief(double x, double y) const;
+  /** @brief relief() and its gradient at once. */
+  double reliefAndGradient(double x, double y, Eigen::Vector2d* gradient) const;
 
 private:
   double amplitude_ = 0.0;
   double max_slope_ = 0.0;
+  Eigen::Vector2d slope_ = Eigen::Vector2d::Zero();
+  bool sloped_ = false;
   Eigen::Vector2d k_[3];
   double phase_[3] = { 0.0, 0.0, 0.0 };
 };

@@ -25,6 +25,8 @@ enum class HitKind : std::uint8_t
   kRock = 4,
   kBranch = 5,
   kBox = 6,
+  kStub = 7,     ///< a branch on a stem
+  kSapling = 8,  ///< an understory stem
 };
 
 struct RayHit
@@ -38,10 +40,11 @@ struct RayHit
  * @brief Casts rays into a ForestWorld with correct occlusion.
  *
  * Objects are bucketed in a uniform 2D grid and visited in ray order (Amanatides-Woo), so a ray
- * costs O(cells crossed + objects near it), not O(objects). Trunks are exact cone frusta (lean and
- * taper), rocks spheres, branches capsules, boxes oriented boxes, foliage porous spheres (the ray stops after an
- * exponential free path, drawn from the caller's generator). The ground is found by sphere tracing
- * with the ground's slope bound, refined by Newton steps.
+ * costs O(cells crossed + objects near it), not O(objects). Trunks and saplings are exact cone frusta (lean and
+ * taper), rocks spheres, fallen branches and the branches on stems capsules, boxes oriented boxes, foliage porous
+ * spheres (the ray stops after an exponential free path, drawn from the caller's generator). The ground is found by
+ * sphere tracing with the relief's curvature bound along the ray, refined on the bracket of the crossing; a sloping
+ * ground's plane is taken out exactly first (the ray is sheared by it, so that the tracing sees the relief alone).
  */
 class ForestRayCaster
 {
@@ -92,9 +95,12 @@ private:
 
   /**
    * @brief Stores each object's placement on the ground (the per-kind caches) and returns the objects' horizontal
-   * bounds, trunks first, then foliage, rocks, branches and boxes (the order of shapes_).
+   * bounds, trunks first, then foliage, rocks, branches, boxes, saplings and the branches on stems (the order of
+   * shapes_).
    */
   std::vector<ShapeBounds> placeShapes();
+  /** @brief The bounds of a trunk or sapling @p t standing at @p ground_z; its 2D bounding circle in @p circle. */
+  static ShapeBounds stemBounds(const TrunkSpec& t, const Shape& shape, Eigen::Vector3d* circle);
   /** @brief Sets top_z_ from the placed objects. */
   void findTop();
   /** @brief Sizes the grid to hold every bound (one cell at the origin when there are none). */
@@ -116,6 +122,8 @@ private:
   double intersectShape(const Shape& shape, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_max,
                         core::Random& random) const;
   double intersectGround(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_max) const;
+  /** @brief The first crossing of the ray with the relief alone (the ray already sheared by the ground's plane). */
+  double intersectRelief(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_max) const;
 
   ForestWorld world_;
   Ground ground_;
@@ -125,6 +133,9 @@ private:
   std::vector<Eigen::Vector3d> rock_center_;
   std::vector<Eigen::Vector3d> branch_a_, branch_b_;
   std::vector<double> box_base_z_;              ///< ground height under each box's centre
+  std::vector<Eigen::Vector3d> sapling_bound_;  ///< as trunk_bound_, for the saplings
+  std::vector<double> sapling_base_z_;          ///< ground height under each sapling
+  std::vector<Eigen::Vector3d> stub_a_, stub_b_; ///< the stems' branches' end points, absolute
   std::vector<Shape> shapes_;
   std::vector<std::pair<double, double>> shape_z_;  ///< height range of each shape
 
