@@ -1,15 +1,24 @@
-// The stem finder (core/extraction/stem_columns.h) on a PCD file: the computing half of `extract_trunks`, which
-// reads the other formats, shows the progress and writes the user's CSV and plot.
+// The trunk extractors on a PCD file. By default the stem finder (core/extraction/stem_columns.h): the computing
+// half of `extract_trunks`, which reads the other formats, shows the progress and writes the user's CSV and plot.
+// With --detector sweep the robot's per-sweep detector (core/extraction/trunk_detector.h) on one lidar sweep, for
+// `tree_view_benchmark`.
 //
 //   cloud_trunks CLOUD.pcd OUT_DIR [--sensor X,Y,Z] [--ground-height H] [--progress]
+//   cloud_trunks CLOUD.pcd OUT_DIR --detector sweep [--config FILE] [--sensor-height H]
 //
 // Reads the PCD (ascii, binary, binary_compressed; fields x y z as float32 or float64) with PCL's reader and writes
-// into the existing folder OUT_DIR: stems.csv (x, y, dbh, dbh_sigma, points, z_min, z_max, lean_deg, ground; the
-// file's frame, metres), density.f32 (points per cell of the top view, float32, row after row from the lowest y)
-// and summary.txt ("key value" lines: point counts, the density grid, the finder's counts). Points whose
-// coordinates are not finite are dropped, with a "warning:" line on stderr saying how many. With --progress,
-// "progress F" lines (F the share done) on stderr. Exit code 1 and one "error:" line for a file that cannot be
-// read, is empty or holds no finite point; 2 for a wrong command line.
+// into the existing folder OUT_DIR. The stem finder: stems.csv (x, y, dbh, dbh_sigma, points, z_min, z_max,
+// lean_deg, ground; the file's frame, metres), density.f32 (points per cell of the top view, float32, row after row
+// from the lowest y) and summary.txt ("key value" lines: point counts, the density grid, the finder's counts).
+// The sweep detector takes the points in the sensor's frame (origin at the sensor, z up, no levelling by TF) with the
+// detector keys of a trunk extraction YAML (--config, e.g. config/trunk_extraction.yaml; else the built-in values)
+// and the sensor's height above the ground under it (--sensor-height, over the file's sensor_height) and writes
+// trunks.csv (x, y, radius, radius_sigma, range, bearing, points, inliers, score, method, height; the levelled sensor
+// frame, metres and radians) and summary.txt (point counts and the detector's counts, TrunkDetectorStats).
+// Points whose coordinates are not finite are dropped, with a "warning:" line on stderr saying how many. With
+// --progress, "progress F" lines (F the share done) on stderr. Exit code 1 and one "error:" line for a file that
+// cannot be read, is empty or holds no finite point, or a configuration that cannot be used; 2 for a wrong command
+// line.
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
@@ -26,6 +35,9 @@
 #include <vector>
 
 #include "rbpf_slam/core/extraction/stem_columns.h"
+#include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/io/param_source.h"
+#include "rbpf_slam/io/trunk_detector_config.h"
 
 using namespace rbpf_slam;
 
@@ -47,11 +59,18 @@ struct Options
   std::string cloud, out_dir;
   core::StemColumnsConfig config;
   bool progress = false;
+  bool sweep = false;           ///< --detector sweep: the per-sweep detector instead of the stem finder
+  std::string detector_config;  ///< --config: a trunk extraction YAML
+  double sensor_height = -1.0;  ///< --sensor-height [m]; negative: the configuration's
+  bool stem_options = false;    ///< --sensor or --ground-height given (the stem finder's only)
 };
 
 void usage(const char* prog)
 {
-  std::fprintf(stderr, "usage: %s CLOUD.pcd OUT_DIR [--sensor X,Y,Z] [--ground-height H] [--progress]\n", prog);
+  std::fprintf(stderr,
+               "usage: %s CLOUD.pcd OUT_DIR [--sensor X,Y,Z] [--ground-height H] [--progress]\n"
+               "       %s CLOUD.pcd OUT_DIR --detector sweep [--config FILE] [--sensor-height H] [--progress]\n",
+               prog, prog);
 }
 
 bool parseNumbers(const std::string& text, std::vector<double>* values)
@@ -84,19 +103,38 @@ bool parseOptions(int argc, char** argv, Options* opt)
         return false;
       opt->config.has_sensor = true;
       opt->config.sensor = Eigen::Vector3d(v[0], v[1], v[2]);
+      opt->stem_options = true;
     }
     else if (arg == "--ground-height" && i + 1 < argc)
     {
       if (!parseNumbers(argv[++i], &v) || v.size() != 1)
         return false;
       opt->config.ground_height = v[0];
+      opt->stem_options = true;
+    }
+    else if (arg == "--detector" && i + 1 < argc)
+    {
+      const std::string name = argv[++i];
+      if (name != "stems" && name != "sweep")
+        return false;
+      opt->sweep = name == "sweep";
+    }
+    else if (arg == "--config" && i + 1 < argc)
+      opt->detector_config = argv[++i];
+    else if (arg == "--sensor-height" && i + 1 < argc)
+    {
+      if (!parseNumbers(argv[++i], &v) || v.size() != 1 || v[0] < 0.0)
+        return false;
+      opt->sensor_height = v[0];
     }
     else if (!arg.empty() && arg[0] == '-')
       return false;
     else
       positional.push_back(arg);
   }
-  if (positional.size() != 2)
+  // Each detector's options belong to it alone.
+  if (positional.size() != 2 || (opt->sweep && opt->stem_options) ||
+      (!opt->sweep && (!opt->detector_config.empty() || opt->sensor_height >= 0.0)))
     return false;
   opt->cloud = positional[0];
   opt->out_dir = positional[1];
@@ -129,7 +167,8 @@ double fieldValue(const std::uint8_t* point, const pcl::PCLPointField& f)
   return v;
 }
 
-Cloud readCloud(const std::string& path)
+/** @brief The cloud of a PCD file; with @p keep_frame its coordinates as they are (no offset), whatever their size. */
+Cloud readCloud(const std::string& path, bool keep_frame)
 {
   {
     std::ifstream probe(path);
@@ -161,7 +200,7 @@ Cloud readCloud(const std::string& path)
       ++cloud.dropped;
       continue;
     }
-    if (!have_offset)
+    if (!have_offset && !keep_frame)
     {
       // Coordinates of kilometres (a projection's) lose their millimetres in single precision; metres do not.
       cloud.offset = q.cwiseAbs().maxCoeff() > 1000.0 ? Eigen::Vector3d(q.array().round()) : Eigen::Vector3d::Zero();
@@ -228,6 +267,83 @@ void writeOutputs(const Options& opt, const Cloud& cloud, const std::vector<core
   if (!csv || !grid)
     throw std::runtime_error("cannot write into " + opt.out_dir);
 }
+
+/** @brief The stem finder on a cloud: stems.csv, density.f32 and summary.txt. */
+void runStems(Options& opt, const Cloud& cloud)
+{
+  // The sensor and the prior ground are in the file's frame; the points about the offset.
+  opt.config.sensor -= cloud.offset;
+  opt.config.ground_height -= cloud.offset.z();
+  const std::string problem = opt.config.validate();
+  if (!problem.empty())
+    throw std::runtime_error(problem);
+  const auto progress = [&](double share)
+  {
+    if (opt.progress)
+      std::fprintf(stderr, "progress %.2f\n", 0.1 + 0.9 * share);
+  };
+  progress(0.0);
+  core::StemColumnsStats stats;
+  const auto stems = core::findStems(cloud.points, opt.config, &stats, progress);
+  writeOutputs(opt, cloud, stems, stats);
+}
+
+/** @brief The detector's configuration: the YAML's detector keys over the built-in values, then --sensor-height. */
+core::TrunkDetectorConfig sweepConfig(const Options& opt)
+{
+  core::TrunkDetectorConfig config;
+  if (!opt.detector_config.empty())
+  {
+    if (!std::ifstream(opt.detector_config))
+      throw std::runtime_error(opt.detector_config + ": cannot open the configuration");
+    try
+    {
+      io::readTrunkDetectorConfig(io::YamlParamSource(opt.detector_config), &config);
+    }
+    catch (const std::exception& e)
+    {
+      const std::string what = e.what();  // the YAML parser's messages name the file already
+      throw std::runtime_error(what.rfind(opt.detector_config, 0) == 0 ? what : opt.detector_config + ": " + what);
+    }
+  }
+  if (opt.sensor_height >= 0.0)
+    config.sensor_height = opt.sensor_height;
+  const std::string problem = config.validate();
+  if (!problem.empty())
+    throw std::runtime_error(problem);
+  return config;
+}
+
+/** @brief The per-sweep detector on a cloud in the sensor's frame: trunks.csv and summary.txt. */
+void runSweep(const Options& opt, const Cloud& cloud)
+{
+  core::TrunkDetector detector(sweepConfig(opt));
+  if (opt.progress)
+    std::fprintf(stderr, "progress 0.10\n");
+  core::TrunkDetectorStats stats;
+  const auto trunks = detector.detect(cloud.points, Eigen::Matrix3d::Identity(), &stats);
+  std::ofstream csv(opt.out_dir + "/trunks.csv");
+  csv << "x,y,radius,radius_sigma,range,bearing,points,inliers,score,method,height\n";
+  for (const auto& t : trunks)
+  {
+    char line[320];
+    std::snprintf(line, sizeof line, "%.4f,%.4f,%.4f,%.4f,%.4f,%.5f,%d,%d,%.3f,%s,%.3f\n", t.center.x(), t.center.y(),
+                  t.radius, std::sqrt(std::max(0.0, t.radius_variance)), t.range, t.bearing, t.num_points,
+                  t.num_inliers, t.score, core::trunkMethodName(t.method), t.height);
+    csv << line;
+  }
+  std::ofstream summary(opt.out_dir + "/summary.txt");
+  summary << "points_read " << cloud.read << "\npoints_dropped " << cloud.dropped << "\ninput_points "
+          << stats.input_points << "\nfinite_points " << stats.finite_points << "\nband_points " << stats.band_points
+          << "\nclusters " << stats.clusters << "\nrejected_size " << stats.rejected_size << "\nrejected_radius "
+          << stats.rejected_radius << "\nrejected_inliers " << stats.rejected_inliers << "\nrejected_shape "
+          << stats.rejected_shape << "\nsplit_clusters " << stats.split_clusters << "\ntrunks " << stats.trunks
+          << "\ntilt_roll " << stats.tilt_roll << "\ntilt_pitch " << stats.tilt_pitch << "\nreach " << stats.reach
+          << "\n";
+  if (!csv || !summary)
+    throw std::runtime_error("cannot write into " + opt.out_dir);
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -243,25 +359,14 @@ int main(int argc, char** argv)
   {
     if (opt.progress)
       std::fprintf(stderr, "progress 0.00\n");
-    Cloud cloud = readCloud(opt.cloud);
+    const Cloud cloud = readCloud(opt.cloud, opt.sweep);
     if (cloud.dropped > 0)
       std::fprintf(stderr, "warning: %zu of %zu points have coordinates that are not finite, dropped\n", cloud.dropped,
                    cloud.read);
-    // The sensor and the prior ground are in the file's frame; the points about the offset.
-    opt.config.sensor -= cloud.offset;
-    opt.config.ground_height -= cloud.offset.z();
-    const std::string problem = opt.config.validate();
-    if (!problem.empty())
-      throw std::runtime_error(problem);
-    const auto progress = [&](double share)
-    {
-      if (opt.progress)
-        std::fprintf(stderr, "progress %.2f\n", 0.1 + 0.9 * share);
-    };
-    progress(0.0);
-    core::StemColumnsStats stats;
-    const auto stems = core::findStems(cloud.points, opt.config, &stats, progress);
-    writeOutputs(opt, cloud, stems, stats);
+    if (opt.sweep)
+      runSweep(opt, cloud);
+    else
+      runStems(opt, cloud);
   }
   catch (const std::exception& e)
   {

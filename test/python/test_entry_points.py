@@ -31,6 +31,7 @@ MODULES = {
     'real_data_benchmark': 'real_data_benchmark',
     'soak_benchmark': 'soak_benchmark',
     'trajectory_eval': 'trajectory_eval',
+    'tree_view_benchmark': 'tree_view_benchmark',
 }
 
 TEMPLATE = re.compile(r'#!/usr/bin/env python3\n"""[^"]+: see\s+`(\w+) --help`\s+and\s+rbpf_slam/(\w+)\.py\."""\n'

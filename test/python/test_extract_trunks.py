@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from rbpf_slam import extract_trunks, make_forest_cloud, paths
+from rbpf_slam import extract_trunks, make_forest_cloud, paths, tree_view_benchmark
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HEADER = ('# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n'
@@ -270,52 +270,14 @@ def test_a_synthetic_stand_gives_its_trees(tmp_path, capsys, name, origin):
 
 
 # --- The two TreeLS trees of the data folder ($RBPF_SLAM_DATA/treels), when it is given --------------------------
-
-#: a start for the reference fit, read off the top view of the 1-2.5 m slab: axis x, y and radius [m]
-TREELS = {'pine': (-0.06, 0.15, 0.13), 'spruce': (0.16, 0.0, 0.13)}
-
-
-def read_binary_pcd(path):
-    with open(path, 'rb') as f:
-        while not f.readline().startswith(b'DATA'):
-            pass
-        return np.frombuffer(f.read(), dtype='<f4').reshape(-1, 3).astype(float)
-
-
-def geometric_circle(p, c, r):
-    """Gauss-Newton on the points' distances to the circle, from (c, r)."""
-    for _ in range(100):
-        d = p - c
-        dist = np.hypot(d[:, 0], d[:, 1])
-        step = np.linalg.lstsq(np.c_[-d / dist[:, None], -np.ones(len(p))], r - dist, rcond=None)[0]
-        c, r = c + step[:2], r + step[2]
-        if np.abs(step).max() < 1e-10:
-            break
-    return c, r
-
-
-def reference_dbh(p, x, y, r):
-    """The ground at the stem (the median over 8 sectors of the third-lowest point 0.15-0.6 m from the axis) and a
-    circle fitted to the points 1.25-1.35 m above it: geometric least squares, trimmed to 4, 3, 2 and 1.5 cm."""
-    c = np.array([x, y])
-    d = np.hypot(p[:, 0] - x, p[:, 1] - y)
-    sector = np.floor((np.arctan2(p[:, 1] - y, p[:, 0] - x) + np.pi) / (np.pi / 4))
-    ground = np.median([np.sort(p[(d > 0.15) & (d < 0.6) & (sector == k), 2])[2] for k in range(8)])
-    s = p[(p[:, 2] > ground + 1.25) & (p[:, 2] < ground + 1.35)][:, :2]
-    s = s[np.abs(np.hypot(s[:, 0] - x, s[:, 1] - y) - r) < 0.05]
-    for band in (0.04, 0.03, 0.02, 0.015, 0.015, 0.015):
-        inliers = s[np.abs(np.hypot(*(s - c).T) - r) < band]
-        c, r = geometric_circle(inliers, c, r)
-    a = np.arctan2(inliers[:, 1] - c[1], inliers[:, 0] - c[0])
-    coverage = len(np.unique(np.floor((a + np.pi) / (2 * np.pi) * 36))) / 36.0
-    return ground, c, 2 * r, len(inliers), coverage
-
+# (their reference fit is tree_view_benchmark.reference_fit, which tree_view_benchmark measures against too)
 
 @pytest.mark.skipif(not os.environ.get(paths.DATA_ENV), reason='%s is not set' % paths.DATA_ENV)
-@pytest.mark.parametrize('name', sorted(TREELS))
+@pytest.mark.parametrize('name', sorted(tree_view_benchmark.TREES))
 def test_the_treels_trees_match_their_reference_fit(tmp_path, capsys, name):
     cloud = os.path.join(paths.data_dir(None, 'treels'), name + '.pcd')
-    ground, centre, dbh, inliers, coverage = reference_dbh(read_binary_pcd(cloud), *TREELS[name])
+    ground, centre, dbh, inliers, coverage = tree_view_benchmark.reference_fit(tree_view_benchmark.read_pcd(cloud),
+                                                                               *tree_view_benchmark.TREES[name])
     code, out, err = run([cloud, '--out', str(tmp_path / name)], capsys)
     assert code == 0, err
     _, rows = read_csv(str(tmp_path / name) + '_trunks.csv')

@@ -4,6 +4,7 @@
 scripts/test installs the workspace into RBPF_INSTALL (default: RBPF_WS/install) before the pytests. Every
 command runs in a clean environment that sources only the install space's setup.bash, so nothing of the source
 tree or the devel space can stand in for a missing installed file."""
+import json
 import os
 import signal
 import socket
@@ -11,6 +12,7 @@ import subprocess
 import tempfile
 import time
 
+import numpy as np
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -139,6 +141,25 @@ def test_the_installed_trunk_extraction_runs(tmp_path):
     assert os.path.isfile(os.path.join(INSTALL, 'lib', 'rbpf_slam', 'cloud_trunks'))
     assert (tmp_path / 's_trunks.csv').read_text().startswith('x,y,dbh,dbh_sigma,points,z_min,z_max\n')
     assert (tmp_path / 's_trunks.png').stat().st_size > 10000
+
+
+
+def test_the_installed_tree_view_benchmark_runs(tmp_path):
+    """tree_view_benchmark (its script, its module, cloud_trunks' two extractors and the installed trunk extraction
+    configuration) on a stem of 30 cm, 1 cm points around and up to 5 m, on a ground of 2 cm points."""
+    a, z = np.meshgrid(np.arange(94) * 2 * np.pi / 94, np.arange(0.0, 5.0, 0.01))
+    gx, gy = np.meshgrid(np.arange(-1.0, 1.0, 0.02), np.arange(-1.0, 1.0, 0.02))
+    xyz = np.concatenate([np.column_stack([0.15 * np.cos(a.ravel()), 0.15 * np.sin(a.ravel()), z.ravel()]),
+                          np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])]).astype('<f4')
+    with open(str(tmp_path / 'stem.pcd'), 'wb') as f:
+        f.write(('VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH %d\nHEIGHT 1\nPOINTS %d\n'
+                 'DATA binary\n' % (len(xyz), len(xyz))).encode('ascii') + xyz.tobytes())
+    r = _run('rosrun rbpf_slam tree_view_benchmark --cloud "%s/stem.pcd" --stem 0,0,0.15 --distances 4 --bearings 2 '
+             '--range-sigma 0 --out "%s/out"' % (tmp_path, tmp_path), str(tmp_path))
+    assert r.returncode == 0, r.stdout[-3000:]
+    assert os.path.isfile(os.path.join(INSTALL, 'lib', 'rbpf_slam', 'tree_view_benchmark'))
+    summary = json.loads((tmp_path / 'out' / 'summary.json').read_text())
+    assert summary['sweep_detector'][0]['found'] == 1.0 and summary['stem_finder'][0]['found'] == 1.0, summary
 
 
 CONVERTERS = ('carmen_to_bag', 'ese650_to_bag', 'freiburg_to_bag', 'lego_to_bag', 'mrclam_to_bag',
