@@ -33,6 +33,14 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("min_inlier_ratio", &c->min_inlier_ratio);
   p.get("min_vertical_extent", &c->min_vertical_extent);
   p.get("max_tilt", &c->max_tilt);
+  p.get("column_fit", &c->column_fit);
+  p.get("slice_height", &c->slice_height);
+  p.get("min_slices", &c->min_slices);
+  p.get("max_stem_lean", &c->max_stem_lean);
+  p.get("max_interior_share", &c->max_interior_share);
+  p.get("min_silhouette_coverage", &c->min_silhouette_coverage);
+  p.get("seen_from_all_sides", &c->seen_from_all_sides);
+  p.get("max_stems_per_cluster", &c->max_stems_per_cluster);
   p.get("max_arc_angle", &c->max_arc_angle);
   p.get("min_fit_points", &c->min_fit_points);
   p.get("min_fit_arc", &c->min_fit_arc);

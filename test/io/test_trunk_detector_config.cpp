@@ -37,6 +37,14 @@ TEST(TrunkDetectorConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.arc_radius_prior, defaults.arc_radius_prior);
   EXPECT_EQ(read.range_sigma, defaults.range_sigma);
   EXPECT_EQ(read.range_offset, defaults.range_offset);
+  EXPECT_EQ(read.column_fit, defaults.column_fit);
+  EXPECT_EQ(read.slice_height, defaults.slice_height);
+  EXPECT_EQ(read.min_slices, defaults.min_slices);
+  EXPECT_EQ(read.max_stem_lean, defaults.max_stem_lean);
+  EXPECT_EQ(read.max_interior_share, defaults.max_interior_share);
+  EXPECT_EQ(read.min_silhouette_coverage, defaults.min_silhouette_coverage);
+  EXPECT_EQ(read.seen_from_all_sides, defaults.seen_from_all_sides);
+  EXPECT_EQ(read.max_stems_per_cluster, defaults.max_stems_per_cluster);
   EXPECT_EQ(read.max_range, defaults.max_range);
   EXPECT_EQ(read.seed, defaults.seed);
 }

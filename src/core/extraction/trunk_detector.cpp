@@ -12,9 +12,11 @@
 #include <Eigen/Eigenvalues>
 
 #include "rbpf_slam/core/extraction/ground_model.h"
+#include "rbpf_slam/core/extraction/stem_axis.h"
 #include "rbpf_slam/core/extraction/tilt_estimator.h"
 #include "rbpf_slam/core/extraction/trunk_clustering.h"
 #include "rbpf_slam/core/extraction/trunk_fit.h"
+#include "rbpf_slam/core/filter/random.h"
 
 namespace rbpf_slam
 {
@@ -56,6 +58,96 @@ void levelCandidate(const TrunkCandidate& candidate, const Eigen::Vector2d& tilt
   out->reserve(candidate.points.size());
   for (const auto& q : candidate.points)
     out->emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z());
+}
+
+/**
+ * The stems of every candidate (fitStemAxes()) into @p out, after levelling the points by the small tilt @p tilt (the
+ * shift of a vertical axis per metre up in the sensor's frame, removed by a rotation: x += tilt.x z, y += tilt.y z,
+ * z -= tilt . (x, y)); rejections into @p st when given. @p max_lean overrides config.max_stem_lean.
+ */
+std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candidates,
+                                        const std::vector<Eigen::Vector3d>& sweep, const Eigen::Vector2d& tilt,
+                                        TrunkDetectorConfig cfg, double max_lean, std::vector<TrunkObservation>* out,
+                                        TrunkDetectorStats* st)
+{
+  cfg.max_stem_lean = max_lean;
+  Random rng(cfg.seed);
+  std::vector<Eigen::Vector3d> all_levelled;
+  all_levelled.reserve(sweep.size());
+  for (const auto& q : sweep)
+    all_levelled.emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z(),
+                              q.z() - tilt.x() * q.x() - tilt.y() * q.y());
+  NearestReturns occluders;
+  occluders.build(all_levelled);
+  std::vector<StemAxisFit> all;
+  std::vector<Eigen::Vector3d> levelled;
+  for (const auto& c : candidates)
+  {
+    levelled.clear();
+    for (const auto& q : c.points)
+      levelled.emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z(),
+                            q.z() - tilt.x() * q.x() - tilt.y() * q.y());
+    StemAxisRejection why = StemAxisRejection::kNone;
+    const std::vector<StemAxisFit> stems = fitStemAxes(levelled, cfg, &rng, &why, &occluders);
+    for (const auto& s : stems)
+    {
+      if (out)
+        out->push_back(toTrunkObservation(s, static_cast<int>(levelled.size())));
+      all.push_back(s);
+    }
+    if (!st)
+      continue;
+    st->split_clusters += stems.size() > 1 ? 1 : 0;
+    if (!stems.empty())
+      continue;
+    switch (why)
+    {
+      case StemAxisRejection::kRadius:
+        ++st->rejected_radius;
+        break;
+      case StemAxisRejection::kInliers:
+      case StemAxisRejection::kSize:
+        ++st->rejected_inliers;
+        break;
+      case StemAxisRejection::kClutter:
+        ++st->rejected_clutter;
+        break;
+      default:
+        ++st->rejected_shape;
+    }
+  }
+  return all;
+}
+
+/**
+ * The sensor's residual tilt from the stems: each stem's axis fitted with a lean of up to config.max_tilt +
+ * config.max_stem_lean, the tilt the median of their leans per axis (the stems' own leans scatter about the
+ * vertical; the median keeps a few bent or misfitted ones from pulling it). Zero without stems.
+ */
+Eigen::Vector2d tiltFromStemAxes(const std::vector<TrunkCandidate>& candidates,
+                                 const std::vector<Eigen::Vector3d>& sweep, const TrunkDetectorConfig& cfg,
+                                 const Eigen::Vector2d& start)
+{
+  const std::vector<StemAxisFit> stems =
+      fitStemColumns(candidates, sweep, start, cfg, 2.0 * cfg.max_stem_lean, nullptr, nullptr);
+  if (stems.empty())
+    return start;
+  std::vector<double> lx, ly;
+  for (const auto& s : stems)
+  {
+    lx.push_back(s.lean.x());
+    ly.push_back(s.lean.y());
+  }
+  const auto median = [](std::vector<double>* v) {
+    const std::size_t m = v->size() / 2;
+    std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(m), v->end());
+    double med = (*v)[m];
+    if (v->size() % 2 == 0)
+      med = 0.5 * (med + *std::max_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(m)));
+    return med;
+  };
+  // A stem leaning by a after levelling by start is upright after the further correction -a.
+  return start - Eigen::Vector2d(median(&lx), median(&ly));
 }
 
 TiltEstimatorParams tiltParams(const TrunkDetectorConfig& cfg)
@@ -129,6 +221,18 @@ std::string TrunkDetectorConfig::validate() const
     return "min_vertical_extent must be >= 0";
   if (!positive(max_tilt))
     return "max_tilt must be > 0";
+  if (!positive(slice_height))
+    return "slice_height must be > 0";
+  if (min_slices < 1)
+    return "min_slices must be >= 1";
+  if (!positive(max_stem_lean) || !(max_stem_lean < 0.5 * M_PI))
+    return "max_stem_lean must be in (0, pi/2) rad";
+  if (!(max_interior_share >= 0.0))
+    return "max_interior_share must be >= 0";
+  if (!(min_silhouette_coverage >= 0.0 && min_silhouette_coverage <= 1.0))
+    return "min_silhouette_coverage must be in [0, 1]";
+  if (max_stems_per_cluster < 1)
+    return "max_stems_per_cluster must be >= 1";
   if (min_fit_points < 3)
     return "min_fit_points must be >= 3";
   if (!(min_fit_arc >= 0.0))
@@ -211,14 +315,23 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
 
   Eigen::Vector2d tilt = Eigen::Vector2d::Zero();
   if (cfg.level_by_trunks && cfg.method == TrunkMethod::kCircle)
+  {
     tilt = estimateTiltFromTrunks(candidates, tiltParams(cfg));
+    if (cfg.column_fit)
+      tilt = tiltFromStemAxes(candidates, pts, cfg, tilt);
+  }
   st->tilt_pitch = std::atan(tilt.x());
   st->tilt_roll = -std::atan(tilt.y());
   timer.lap(&st->ms_tilt);
 
+  const bool columns = cfg.column_fit && cfg.method == TrunkMethod::kCircle;
+  if (columns)
+    fitStemColumns(candidates, pts, tilt, cfg, cfg.max_stem_lean, &out, st);
   std::vector<Eigen::Vector2d>& p2 = impl_->projected;
   for (const auto& c : candidates)
   {
+    if (columns)
+      break;
     levelCandidate(c, tilt, &p2);
     const int n = static_cast<int>(p2.size());
     const TrunkFit fit = fitTrunk(p2, cfg);

@@ -928,3 +928,148 @@ TEST(TrunkDetectorReach, NegativeOrNonFiniteSettingsAreRefused)
   c.sensor_reach = std::numeric_limits<double>::infinity();
   EXPECT_NE(c.validate().find("sensor_reach"), std::string::npos);
 }
+
+namespace
+{
+/** A sweep of a 16-ring lidar (rings every 2 deg over +-15 deg, 0.2 deg azimuth steps) 1.8 m over flat ground. */
+struct RingSweep
+{
+  std::vector<Eigen::Vector3f> points;
+
+  /**
+   * Casts every beam against @p hit (the range along a unit direction, or infinity) and the ground, keeping the
+   * nearest return with range noise @p sigma, for azimuths within @p half_fov of @p bearing.
+   */
+  template <typename Hit>
+  void cast(const Hit& hit, double bearing, double half_fov, double sigma, Random& rnd)
+  {
+    const double step = 0.2 * M_PI / 180.0;
+    for (int ring = 0; ring < 16; ++ring)
+    {
+      const double el = (-15.0 + 2.0 * ring) * M_PI / 180.0;
+      for (double a = bearing - half_fov; a <= bearing + half_fov; a += step)
+      {
+        const Eigen::Vector3d d(std::cos(el) * std::cos(a), std::cos(el) * std::sin(a), std::sin(el));
+        double t = hit(d);
+        if (d.z() < 0.0)
+          t = std::min(t, kSensorHeight / -d.z());
+        if (!std::isfinite(t) || t > 30.0)
+          continue;
+        const Eigen::Vector3d p = d * (t + rnd.gaussian(sigma));
+        points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+      }
+    }
+  }
+};
+
+/** Range along @p d from the origin to a vertical cylinder (axis through (cx, cy), radius r); infinity if none. */
+double hitCylinder(const Eigen::Vector3d& d, double cx, double cy, double r, double lean_x = 0.0)
+{
+  // Horizontal problem in the direction's projection; a lean shifts the axis with height (solved by iteration).
+  const double h = std::hypot(d.x(), d.y());
+  if (h < 1e-9)
+    return std::numeric_limits<double>::infinity();
+  double t = std::hypot(cx, cy);
+  for (int it = 0; it < 4; ++it)
+  {
+    const double z = d.z() * t;
+    const Eigen::Vector2d c(cx + lean_x * (z + kSensorHeight), cy);
+    const Eigen::Vector2d u(d.x() / h, d.y() / h);
+    const double along = u.dot(c);
+    const double across2 = c.squaredNorm() - along * along;
+    if (across2 > r * r)
+      return std::numeric_limits<double>::infinity();
+    t = (along - std::sqrt(r * r - across2)) / h;
+  }
+  return t;
+}
+
+TrunkDetectorConfig columnConfig()
+{
+  TrunkDetectorConfig c = config();
+  c.column_fit = true;
+  c.sensor_height = kSensorHeight;
+  return c;
+}
+}  // namespace
+
+TEST(TrunkDetectorColumnFit, LeaningStemWithBranchesGivesItsAxisAndDiameter)
+{
+  // A stem of 20 cm radius at 6 m leaning 4 deg, with branch stubs sticking out sideways at three heights (thin
+  // horizontal cylinders seen as short runs of points beside the stem): one trunk, centre within 3 cm of the axis at
+  // its height, radius within 1.5 cm.
+  Random rnd(3);
+  RingSweep sweep;
+  const double lean = std::tan(4.0 * M_PI / 180.0);
+  const auto scene = [&](const Eigen::Vector3d& d) {
+    double t = hitCylinder(d, 6.0, 0.0, 0.2, lean);
+    for (double zb : { -1.0, -0.5, 0.1 })
+    {
+      // A branch: the points of a box 0.6 m long, 4 cm thick, beside the stem at height zb.
+      const double tb = 6.0 / std::max(1e-9, d.x());
+      const Eigen::Vector3d p = d * tb;
+      if (std::abs(p.z() - zb) < 0.02 && p.y() > 0.2 && p.y() < 0.8)
+        t = std::min(t, tb);
+    }
+    return t;
+  };
+  sweep.cast(scene, 0.0, 0.3, 0.02, rnd);
+  TrunkDetector det(columnConfig());
+  const auto obs = det.detect(sweep.points);
+  ASSERT_EQ(obs.size(), 1u);
+  const double z_axis = obs[0].height + kSensorHeight;
+  EXPECT_LT((obs[0].center - Eigen::Vector2d(6.0 + lean * z_axis, 0.0)).norm(), 0.03);
+  EXPECT_NEAR(obs[0].radius, 0.2, 0.015);
+}
+
+TEST(TrunkDetectorColumnFit, PorousFoliageIsNoTrunkWhereTheClusterFitTakesIt)
+{
+  // A bush: a porous sphere of 0.5 m radius 1.2 m above the ground at 5 m, each ray stopping after an exponential
+  // free path of 0.3 m inside it. The column fit finds no trunk in it (points lie behind and inside any circle fitted
+  // to its front, and its slices show scattered points); a stem of 15 cm radius beside it is still found.
+  Random rnd(5);
+  RingSweep sweep;
+  Random path(9);
+  const auto scene = [&](const Eigen::Vector3d& d) {
+    double t = hitCylinder(d, 5.0, -1.5, 0.15);
+    const Eigen::Vector3d c(5.0, 0.5, 1.2 - kSensorHeight);
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - 0.25);
+    if (disc > 0.0)
+    {
+      const double t_in = b - std::sqrt(disc), t_out = b + std::sqrt(disc);
+      const double stop = t_in - 0.3 * std::log(1.0 - path.uniform());
+      if (stop < t_out)
+        t = std::min(t, stop);
+    }
+    return t;
+  };
+  sweep.cast(scene, 0.0, 0.6, 0.02, rnd);
+  TrunkDetectorStats st;
+  const auto obs = TrunkDetector(columnConfig()).detect(sweep.points, Eigen::Matrix3d::Identity(), &st);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_LT((obs[0].center - Eigen::Vector2d(5.0, -1.5)).norm(), 0.03);
+  EXPECT_NEAR(obs[0].radius, 0.15, 0.015);
+}
+
+TEST(TrunkDetectorColumnFit, FullRingsAreAcceptedOnlyFromAllSides)
+{
+  // A stem of 15 cm radius at 4 m seen from all sides (points all round it, an accumulated cloud): one trunk when
+  // seen_from_all_sides, none from a single sensor (which cannot see its back).
+  Random rnd(7);
+  std::vector<Eigen::Vector3f> pts;
+  for (double z = -1.5; z <= 0.5; z += 0.1)
+    for (double a = -M_PI; a < M_PI; a += 0.05)
+    {
+      const double rr = 0.15 + rnd.gaussian(0.01);
+      pts.emplace_back(static_cast<float>(4.0 + rr * std::cos(a)), static_cast<float>(rr * std::sin(a)),
+                       static_cast<float>(z));
+    }
+  TrunkDetectorConfig c = columnConfig();
+  c.level_by_trunks = false;
+  EXPECT_TRUE(TrunkDetector(c).detect(pts).empty());
+  c.seen_from_all_sides = true;
+  const auto obs = TrunkDetector(c).detect(pts);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_LT((obs[0].center - Eigen::Vector2d(4.0, 0.0)).norm(), 0.02);
+  EXPECT_NEAR(obs[0].radius, 0.15, 0.01);
+}

@@ -65,6 +65,27 @@ struct TrunkDetectorConfig
   double min_inlier_ratio = 0.7;    ///< inliers / cluster points
   double min_vertical_extent = 0.6; ///< [m] 3D: a trunk spans at least this much of the band
   double max_tilt = 0.35;           ///< [rad] 3D: clusters whose axis leans more are not trunks
+  /// 3D circle method: fit each stem as a column of consistent cross-sections, a leaning cylinder (fitStemAxes(),
+  /// the settings below), several per cluster, and take the sensor's tilt from the stems' axes; off: one circle per
+  /// cluster's horizontal projection (split in two for touching trunks) and the tilt from the clusters. The column
+  /// fit holds among branches, shrubs and saplings (docs/trunk_extraction.md) but still loses some touching trunks
+  /// that the cluster fit splits.
+  bool column_fit = false;
+  double slice_height = 0.1;        ///< [m] 3D: slices of a cluster that show a stem's continuity (about a ring)
+  int min_slices = 3;               ///< 3D: a stem holds at least two points on each of this many slices
+  double max_stem_lean = 0.15;      ///< [rad] 3D: a stem's axis leans at most this much after levelling
+  /// 3D: points a stem's bark would hide (inside it by more than ransac_threshold, or, in one sweep, behind it within
+  /// its silhouette), as a share of its inliers, at most: foliage and bushes return from inside and behind any
+  /// circle fitted to their front, bark from its surface only
+  double max_interior_share = 0.15;
+  /// 3D, one sweep: per slice, a stem's inliers span at least this share of the bearings its circle covers, where
+  /// nothing nearer returned (mean over its slices): each ring crosses a stem's whole silhouette unless something
+  /// hides part of it; a circle through foliage meets scattered points
+  double min_silhouette_coverage = 0.5;
+  /// 3D: the cloud shows stems from all sides (accumulated or merged sweeps): a stem's points may go all round it.
+  /// Off (one sweep), points on a stem's far side, which its bark hides from the sensor, count against it.
+  bool seen_from_all_sides = false;
+  int max_stems_per_cluster = 4;    ///< 3D: stems looked for in one cluster (touching trunks, stems joined by branches)
   double max_arc_angle = 3.2;       ///< [rad] a trunk is seen over at most about half its circumference
   int min_fit_points = 8;           ///< fewer points (or an arc narrower than min_fit_arc) use the arc fallback
   double min_fit_arc = 0.6;         ///< [rad] angle subtended at the centre below which circles are unreliable
