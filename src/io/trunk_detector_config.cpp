@@ -38,6 +38,7 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("min_slices", &c->min_slices);
   p.get("max_stem_lean", &c->max_stem_lean);
   p.get("max_interior_share", &c->max_interior_share);
+  p.get("max_see_through", &c->max_see_through);
   p.get("min_silhouette_coverage", &c->min_silhouette_coverage);
   p.get("seen_from_all_sides", &c->seen_from_all_sides);
   p.get("max_stems_per_cluster", &c->max_stems_per_cluster);

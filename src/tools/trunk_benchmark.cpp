@@ -2,12 +2,12 @@
 // the true trunks, per range band, circle against centroid. Prints a table; not a test.
 //
 //   rosrun rbpf_slam trunk_benchmark [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class]
-//                                    [--column-fit]
+//                                    [--cluster-fit]
 // --no-level: no tilt estimation from the trunks; --true-level: the cloud is levelled with the true sensor
 // attitude first (what an IMU or a tilt-aware TF tree gives a robot). --by-class: the circle method's per-sweep
 // figures by range band (1-4, 4-7, 7-10 m) and DBH class (< 10, 10-20, 20-30, >= 30 cm) as a Markdown table, with
 // what the spurious detections stand on; the sensor stands where a robot can (clear of saplings and low foliage).
-// --column-fit: the detector fits stems as columns of consistent cross-sections (column_fit).
+// --cluster-fit: one circle per cluster instead of the stems as columns (column_fit false), for comparison.
 #include <time.h>
 
 #include <algorithm>
@@ -99,7 +99,7 @@ void add(BandStats* b, bool visible, bool matched, double err, double rad_err)
 
 bool g_level = true;
 bool g_true_level = false;  // level with the true sensor attitude (what a good IMU or TF gives)
-bool g_column_fit = false;  // stems as columns of consistent cross-sections (TrunkDetectorConfig::column_fit)
+bool g_column_fit = true;  // stems as columns of consistent cross-sections (TrunkDetectorConfig::column_fit)
 
 std::vector<TrueTrunk> trueTrunks(const sim::ForestWorld& world)
 {
@@ -603,8 +603,8 @@ int main(int argc, char** argv)
       g_level = false;
     else if (arg == "--true-level")
       g_true_level = true;
-    else if (arg == "--column-fit")
-      g_column_fit = true;
+    else if (arg == "--cluster-fit")
+      g_column_fit = false;
     else if (arg == "--by-class")
       by_class = true;
     else if (arg == "--step" && i + 1 < argc)
@@ -612,7 +612,7 @@ int main(int argc, char** argv)
     else
     {
       std::fprintf(stderr,
-                   "usage: %s [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class] [--column-fit]\n",
+                   "usage: %s [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class] [--cluster-fit]\n",
                    argv[0]);
       return 2;
     }
@@ -630,7 +630,7 @@ int main(int argc, char** argv)
                   "trees by their range from the sensor and true DBH, detections by theirs; recall over the trees\n"
                   "with >= 10 returns on the stem 0.5-2 m above its foot (visible) and over all in the band;\n"
                   "errors against the true axis and diameter at the detection's height, over the matched trees.\n",
-                  g_column_fit ? ", column fit" : "",
+                  g_column_fit ? ", column fit" : ", cluster fit",
                   g_true_level ? "true levelling" : (g_level ? "tilt from the trunks" : "no levelling"), step);
       for (const auto& path : worlds)
         runByClass(path.substr(path.find_last_of('/') + 1), sim::loadForestWorld(path), step);

@@ -43,6 +43,7 @@ TEST(TrunkDetectorConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.max_stem_lean, defaults.max_stem_lean);
   EXPECT_EQ(read.max_interior_share, defaults.max_interior_share);
   EXPECT_EQ(read.min_silhouette_coverage, defaults.min_silhouette_coverage);
+  EXPECT_EQ(read.max_see_through, defaults.max_see_through);
   EXPECT_EQ(read.seen_from_all_sides, defaults.seen_from_all_sides);
   EXPECT_EQ(read.max_stems_per_cluster, defaults.max_stems_per_cluster);
   EXPECT_EQ(read.max_range, defaults.max_range);

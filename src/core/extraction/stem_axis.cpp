@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 
 #include "rbpf_slam/core/extraction/circle_fit.h"
+#include "rbpf_slam/core/extraction/trunk_fit.h"
 
 namespace rbpf_slam
 {
@@ -59,6 +60,8 @@ struct Support
   int interior = 0;
   int slices = 0;
   double coverage = 0.0;  // mean share of the silhouette the slices show
+  int see_through = 0;    // cells of the silhouette (on the slices) where the sweep returned from behind the bark
+  int silhouette_cells = 0;  // cells of the silhouette looked at
   double score = -std::numeric_limits<double>::infinity();
 };
 
@@ -97,6 +100,16 @@ public:
 
   int remaining() const { return static_cast<int>(std::count(active_.begin(), active_.end(), true)); }
 
+  /** The active points inside @p cyl's bark or within @p band outside it, with the members removed before. */
+  std::vector<int> nearOf(const Cylinder& cyl, double band) const
+  {
+    std::vector<int> near;
+    for (std::size_t i = 0; i < pts_.size(); ++i)
+      if (cyl.residual(pts_[i]) <= band && (active_[i] || std::abs(cyl.residual(pts_[i])) <= cfg_.ransac_threshold))
+        near.push_back(static_cast<int>(i));
+    return near;
+  }
+
   void remove(const std::vector<int>& members)
   {
     for (int i : members)
@@ -119,6 +132,7 @@ public:
     slice_lo_.assign(ns, std::numeric_limits<double>::infinity());
     slice_hi_.assign(ns, -std::numeric_limits<double>::infinity());
     slice_elevation_.assign(ns, 0.0);
+    slice_z_.assign(ns, 0.0);
     for (std::size_t i = 0; i < pts_.size(); ++i)
     {
       if (!active_[i])
@@ -134,6 +148,7 @@ public:
         // Bearing relative to the axis' (no wrap-around: both lie within a trunk's width).
         const double rel = std::atan2(axis.x() * p.y() - axis.y() * p.x(), axis.dot(p.head<2>()));
         slice_elevation_[k] += std::atan2(p.z(), p.head<2>().norm());
+        slice_z_[k] += p.z();
         slice_lo_[k] = std::min(slice_lo_[k], rel);
         slice_hi_[k] = std::max(slice_hi_[k], rel);
       }
@@ -154,7 +169,9 @@ public:
       weighted += share * n;
     }
     s.coverage = s.slices > 0 ? sum / s.slices : 0.0;
-    s.score = weighted - s.interior;
+    if (occluders_)
+      countSeeThrough(cyl, &s);
+    s.score = weighted - s.interior - s.see_through;
     return s;
   }
 
@@ -197,13 +214,33 @@ public:
   }
 
   /** The active points within the threshold of @p cyl. */
-  std::vector<int> inliersOf(const Cylinder& cyl) const
+  std::vector<int> inliersOf(const Cylinder& cyl, double band = -1.0) const
   {
+    if (band < 0.0)
+      band = cfg_.ransac_threshold;
     std::vector<int> in;
     for (std::size_t i = 0; i < pts_.size(); ++i)
-      if (active_[i] && std::abs(cyl.residual(pts_[i])) <= cfg_.ransac_threshold)
+      if (active_[i] && std::abs(cyl.residual(pts_[i])) <= band)
         in.push_back(static_cast<int>(i));
     return in;
+  }
+
+  /**
+   * The inlier band for the next refit: three robust standard deviations (1.4826 median absolute residual) of
+   * @p members around @p cyl, within [ransac_threshold / 2, ransac_threshold]. Bark closer to the noise than the
+   * threshold then keeps a touching neighbour's points or a branch's base out of the fit.
+   */
+  double adaptiveBand(const Cylinder& cyl, const std::vector<int>& members) const
+  {
+    if (members.size() < 5)
+      return cfg_.ransac_threshold;
+    std::vector<double> r;
+    r.reserve(members.size());
+    for (int i : members)
+      r.push_back(std::abs(cyl.residual(pts_[static_cast<std::size_t>(i)])));
+    const std::size_t m = r.size() / 2;
+    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(m), r.end());
+    return std::min(cfg_.ransac_threshold, std::max(0.5 * cfg_.ransac_threshold, 3.0 * 1.4826 * r[m]));
   }
 
   /**
@@ -339,10 +376,57 @@ public:
       if (along <= 0.0 || across >= inner)
         continue;
       const double front = along - std::sqrt(fit.radius * fit.radius - across * across);
-      if (range > front + cfg_.ransac_threshold)
+      if (range > front + 2.0 * cfg_.ransac_threshold)
         ++hidden;
     }
     return hidden;
+  }
+
+  /**
+   * Free space behind the bark: on each slice counted in @p s, the cells of the sweep's nearest returns within the
+   * circle's silhouette (narrowed by a cell at each side) whose nearest return lies behind the circle's
+   * front by more than twice the threshold: the beam went through where the stem would stand. Cells without a
+   * return say nothing.
+   */
+  void countSeeThrough(const Cylinder& cyl, Support* s) const
+  {
+    const double step = occluders_->azimuthCell();
+    for (std::size_t k = 0; k < slice_count_.size(); ++k)
+    {
+      const int n = slice_count_[k];
+      if (n < kMinSlicePoints)
+        continue;
+      const Eigen::Vector2d axis = cyl.axisAt(slice_z_[k] / n);
+      const double d = axis.norm();
+      if (!(d > cyl.radius))
+        continue;
+      const double half = std::asin(cyl.radius / d) - step;
+      const double bearing = std::atan2(axis.y(), axis.x());
+      const double elevation = slice_elevation_[k] / n;
+      for (double a = -half + 0.5 * step; a < half; a += step)
+      {
+        const double nearest = occluders_->nearest(elevation, bearing + a);
+        if (!std::isfinite(nearest))
+          continue;
+        ++s->silhouette_cells;
+        const double across = d * std::sin(a);
+        const double front = d * std::cos(a) - std::sqrt(std::max(0.0, cyl.radius * cyl.radius - across * across));
+        if (nearest > front + 2.0 * cfg_.ransac_threshold)
+          ++s->see_through;
+      }
+    }
+  }
+
+  /** The share of @p fit's silhouette cells where the sweep saw through it (countSeeThrough()); 0 without any. */
+  double seeThroughShare(const StemAxisFit& fit)
+  {
+    Cylinder cyl;
+    cyl.center = fit.center;
+    cyl.lean = fit.lean;
+    cyl.z0 = fit.height;
+    cyl.radius = fit.radius;
+    const Support s = support(cyl);
+    return s.silhouette_cells > 0 ? static_cast<double>(s.see_through) / s.silhouette_cells : 0.0;
   }
 
   /**
@@ -359,12 +443,6 @@ public:
     const Support s = support(cyl);
     if (!occluders_ || s.slices == 0)
       return s.coverage;
-    const double d = cyl.center.norm();
-    if (!(d > cyl.radius))
-      return s.coverage;
-    const double half = std::asin(cyl.radius / d);
-    const double bearing = std::atan2(cyl.center.y(), cyl.center.x());
-    const double front = d - cyl.radius - cfg_.ransac_threshold;
     const double step = occluders_->azimuthCell();
     double sum = 0.0;
     for (std::size_t k = 0; k < slice_count_.size(); ++k)
@@ -372,6 +450,17 @@ public:
       const int n = slice_count_[k];
       if (n < kMinSlicePoints)
         continue;
+      const Eigen::Vector2d axis = cyl.axisAt(slice_z_[k] / n);
+      const double d = axis.norm();
+      if (!(d > cyl.radius))
+      {
+        sum += 1.0;
+        continue;
+      }
+      // The inliers' bearings are relative to the axis at their own height, as in support().
+      const double half = std::asin(cyl.radius / d);
+      const double bearing = std::atan2(axis.y(), axis.x());
+      const double front = d - cyl.radius - cfg_.ransac_threshold;
       const double widen = 0.5 * (slice_hi_[k] - slice_lo_[k]) / (n - 1);
       const double lo = slice_lo_[k] - widen, hi = slice_hi_[k] + widen;
       const double elevation = slice_elevation_[k] / n;
@@ -382,6 +471,59 @@ public:
       sum += std::min(1.0, std::max(0.0, shown) / (2.0 * half));
     }
     return sum / s.slices;
+  }
+
+  /**
+   * Two touching trunks whose fronts make one shallow arc fit one wide cylinder: fitTrunkPair() on the horizontal
+   * projection (along the axis' lean) of the points @p near it, as for a cluster (its tests decide). The two stems,
+   * or none.
+   */
+  std::vector<StemAxisFit> splitTouching(const StemAxisFit& fit, const std::vector<int>& near) const
+  {
+    std::vector<StemAxisFit> parts;
+    if (near.size() < 2 * static_cast<std::size_t>(std::max(cfg_.min_fit_points, cfg_.min_points)))
+      return parts;
+    std::vector<Eigen::Vector2d> p2;
+    p2.reserve(near.size());
+    for (int i : near)
+    {
+      const Eigen::Vector3d& p = pts_[static_cast<std::size_t>(i)];
+      p2.push_back(p.head<2>() - fit.lean * (p.z() - fit.height));
+    }
+    TrunkFit single;
+    single.ok = true;
+    single.center = fit.center;
+    single.radius = fit.radius;
+    single.covariance = fit.covariance;
+    single.inliers = fit.inliers;
+    single.arc_angle = fit.arc_angle;
+    const TrunkRejection rejection = checkTrunkFit(single, static_cast<int>(p2.size()), cfg_);
+    if (!isPoorSingleFit(p2, single, rejection, cfg_))
+      return parts;
+    const TrunkPairFit pair = fitTrunkPair(p2, single, cfg_);
+    if (!pair.ok)
+      return parts;
+    for (int k = 0; k < 2; ++k)
+    {
+      StemAxisFit part = fit;
+      part.center = pair.fits[k].center;
+      part.radius = pair.fits[k].radius;
+      part.covariance = pair.fits[k].covariance;
+      part.arc_angle = pair.fits[k].arc_angle;
+      part.members.clear();
+      part.z_lo = std::numeric_limits<double>::infinity();
+      part.z_hi = -std::numeric_limits<double>::infinity();
+      for (int j : pair.members[k])
+      {
+        const int i = near[static_cast<std::size_t>(j)];
+        part.members.push_back(i);
+        part.z_lo = std::min(part.z_lo, pts_[static_cast<std::size_t>(i)].z());
+        part.z_hi = std::max(part.z_hi, pts_[static_cast<std::size_t>(i)].z());
+      }
+      part.inliers = static_cast<int>(part.members.size());
+      parts.push_back(std::move(part));
+    }
+    return parts;
   }
 
   /** Whether the sensor (the origin) sees the inliers in front of the axis: their mean range is the shorter. */
@@ -403,13 +545,28 @@ private:
   std::vector<bool> active_;
   std::vector<int> slice_;
   std::vector<int> slice_count_;
-  std::vector<double> slice_lo_, slice_hi_, slice_elevation_;
+  std::vector<double> slice_lo_, slice_hi_, slice_elevation_, slice_z_;
 };
+
+/** Whether @p fit overlaps a stem of @p stems: two stems stand side by side, their bark at most touching. */
+bool overlapsAny(const StemAxisFit& fit, const std::vector<StemAxisFit>& stems, const TrunkDetectorConfig& cfg)
+{
+  for (const auto& s : stems)
+  {
+    const Eigen::Vector2d other = s.center + s.lean * (fit.height - s.height);
+    if ((fit.center - other).norm() < fit.radius + s.radius - cfg.ransac_threshold)
+      return true;
+  }
+  return false;
+}
 
 /** Why @p fit is no stem (kNone: it is one). */
 StemAxisRejection judge(const StemAxisFit& fit, AxisSearch& search, const TrunkDetectorConfig& cfg)
 {
-  if (fit.radius < cfg.min_radius || fit.radius > cfg.max_radius)
+  // min_radius tells a tree from a sapling and holds for the fit; max_radius bounds the stems looked for, and a fit
+  // within two of its standard deviations above it may be of a stem within.
+  const double radius_margin = 2.0 * std::sqrt(std::max(0.0, fit.covariance(2, 2)));
+  if (fit.radius < cfg.min_radius || fit.radius - radius_margin > cfg.max_radius)
     return StemAxisRejection::kRadius;
   const double range = fit.center.norm();
   if (range < cfg.min_range || range > cfg.max_range)
@@ -420,8 +577,16 @@ StemAxisRejection judge(const StemAxisFit& fit, AxisSearch& search, const TrunkD
       fit.lean.norm() > std::tan(cfg.max_stem_lean))
     return StemAxisRejection::kShape;
   if (cfg.seen_from_all_sides ? fit.interior > cfg.max_interior_share * fit.inliers :
-                                 search.shadowedPoints(fit) > cfg.max_interior_share * fit.inliers)
+                                 (search.shadowedPoints(fit) > cfg.max_interior_share * fit.inliers ||
+                                  search.seeThroughShare(fit) > cfg.max_see_through))
     return StemAxisRejection::kClutter;
+  // One sensor sees at most the half of a stem facing it. At the silhouette the beam grazes the bark, so range
+  // noise moves a point along the bark's tangent, as far as it stays within the inlier band b (sqrt(2 r b + b^2)),
+  // which widens the arc by the angle that subtends at the axis on each side.
+  const double b = cfg.ransac_threshold;
+  const double slide = std::sqrt(2.0 * fit.radius * b + b * b);
+  if (!cfg.seen_from_all_sides && fit.arc_angle > kPi + 2.0 * std::atan(slide / fit.radius))
+    return StemAxisRejection::kShape;
   if (!cfg.seen_from_all_sides &&
       (!search.axisBehindPoints(fit) || search.visibleCoverage(fit) < cfg.min_silhouette_coverage))
     return StemAxisRejection::kShape;
@@ -454,9 +619,12 @@ std::vector<StemAxisFit> fitStemAxes(const std::vector<Eigen::Vector3d>& points,
     }
     StemAxisFit fit;
     bool refined = false;
+    double band = config.ransac_threshold;
     for (int round = 0; round < kRefineRounds; ++round)
     {
-      const std::vector<int> in = search.inliersOf(cyl);
+      const std::vector<int> in = search.inliersOf(cyl, band);
+      if (round > 0)
+        band = search.adaptiveBand(cyl, in);
       Cylinder next = cyl;
       Eigen::Matrix3d cov;
       if (!search.refine(in, &next, &cov))
@@ -472,13 +640,23 @@ std::vector<StemAxisFit> fitStemAxes(const std::vector<Eigen::Vector3d>& points,
     }
     search.describe(cyl, &fit);
     why = judge(fit, search, config);
+    if (why == StemAxisRejection::kNone && overlapsAny(fit, stems, config))
+      why = StemAxisRejection::kShape;
     if (fit.members.empty())
       break;
     search.remove(fit.members);
     if (why != StemAxisRejection::kNone)
       continue;
+    // The noise's tails and what lies inside the bark belong to this stem too: they must not make a second one.
+    // With them, a wide cylinder over two touching trunks explains its points poorly, and they split it.
+    const std::vector<int> near = search.nearOf(cyl, 2.0 * config.ransac_threshold);
+    search.remove(near);
     fit.ok = true;
-    stems.push_back(std::move(fit));
+    std::vector<StemAxisFit> parts = search.splitTouching(fit, near);
+    for (auto& part : parts)
+      stems.push_back(std::move(part));
+    if (parts.empty())
+      stems.push_back(std::move(fit));
   }
   if (last)
     *last = why;

@@ -61,6 +61,37 @@ void levelCandidate(const TrunkCandidate& candidate, const Eigen::Vector2d& tilt
 }
 
 /**
+ * The stems of one cluster (levelled points): when one circle explains its horizontal projection poorly and two
+ * touching trunks explain it (fitTrunkPair(), as for the cluster fit), the stems of each of the two parts, else (or
+ * when the parts give none) the stems of the whole (fitStemAxes()).
+ */
+std::vector<StemAxisFit> stemsOfCluster(const std::vector<Eigen::Vector3d>& levelled, const TrunkDetectorConfig& cfg,
+                                        Random* rng, StemAxisRejection* why, const NearestReturns* occluders)
+{
+  std::vector<Eigen::Vector2d> p2;
+  p2.reserve(levelled.size());
+  for (const auto& q : levelled)
+    p2.push_back(q.head<2>());
+  const TrunkFit fit = fitTrunk(p2, cfg);
+  if (isPoorSingleFit(p2, fit, checkTrunkFit(fit, static_cast<int>(p2.size()), cfg), cfg))
+  {
+    const TrunkPairFit pair = fitTrunkPair(p2, fit, cfg);
+    std::vector<StemAxisFit> stems;
+    for (int k = 0; pair.ok && k < 2; ++k)
+    {
+      std::vector<Eigen::Vector3d> part;
+      for (int i : pair.members[k])
+        part.push_back(levelled[static_cast<std::size_t>(i)]);
+      for (auto& stem : fitStemAxes(part, cfg, rng, why, occluders))
+        stems.push_back(std::move(stem));
+    }
+    if (!stems.empty())
+      return stems;
+  }
+  return fitStemAxes(levelled, cfg, rng, why, occluders);
+}
+
+/**
  * The stems of every candidate (fitStemAxes()) into @p out, after levelling the points by the small tilt @p tilt (the
  * shift of a vertical axis per metre up in the sensor's frame, removed by a rotation: x += tilt.x z, y += tilt.y z,
  * z -= tilt . (x, y)); rejections into @p st when given. @p max_lean overrides config.max_stem_lean.
@@ -88,7 +119,7 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
       levelled.emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z(),
                             q.z() - tilt.x() * q.x() - tilt.y() * q.y());
     StemAxisRejection why = StemAxisRejection::kNone;
-    const std::vector<StemAxisFit> stems = fitStemAxes(levelled, cfg, &rng, &why, &occluders);
+    const std::vector<StemAxisFit> stems = stemsOfCluster(levelled, cfg, &rng, &why, &occluders);
     for (const auto& s : stems)
     {
       if (out)
@@ -119,10 +150,14 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
   return all;
 }
 
+/// Stems whose median lean the tilt takes: with fewer, a stem's own lean (a few degrees) would be read as tilt.
+constexpr std::size_t kMinTiltStems = 3;
+
 /**
  * The sensor's residual tilt from the stems: each stem's axis fitted with a lean of up to config.max_tilt +
  * config.max_stem_lean, the tilt the median of their leans per axis (the stems' own leans scatter about the
- * vertical; the median keeps a few bent or misfitted ones from pulling it). Zero without stems.
+ * vertical; the median keeps a few bent or misfitted ones from pulling it). @p start with fewer than kMinTiltStems
+ * stems.
  */
 Eigen::Vector2d tiltFromStemAxes(const std::vector<TrunkCandidate>& candidates,
                                  const std::vector<Eigen::Vector3d>& sweep, const TrunkDetectorConfig& cfg,
@@ -130,7 +165,7 @@ Eigen::Vector2d tiltFromStemAxes(const std::vector<TrunkCandidate>& candidates,
 {
   const std::vector<StemAxisFit> stems =
       fitStemColumns(candidates, sweep, start, cfg, 2.0 * cfg.max_stem_lean, nullptr, nullptr);
-  if (stems.empty())
+  if (stems.size() < kMinTiltStems)
     return start;
   std::vector<double> lx, ly;
   for (const auto& s : stems)
@@ -229,6 +264,8 @@ std::string TrunkDetectorConfig::validate() const
     return "max_stem_lean must be in (0, pi/2) rad";
   if (!(max_interior_share >= 0.0))
     return "max_interior_share must be >= 0";
+  if (!(max_see_through >= 0.0 && max_see_through <= 1.0))
+    return "max_see_through must be in [0, 1]";
   if (!(min_silhouette_coverage >= 0.0 && min_silhouette_coverage <= 1.0))
     return "min_silhouette_coverage must be in [0, 1]";
   if (max_stems_per_cluster < 1)

@@ -71,25 +71,34 @@ enum class StemAxisRejection
 
 /**
  * @brief Stems in one cluster by their vertical continuity: a stem is a near-vertical column of consistent
- * cross-sections, so a circle hypothesis (RANSAC on three nearby points of the horizontal projection) is scored by
- * the slices (config.slice_height thick) it explains with at least two points, then by its inliers, less the points
- * it leaves inside the bark. The best one is refined as a leaning cylinder by Gauss-Newton for (cx, cy, lean x,
- * lean y, r), the inliers chosen again around each refit, with the noise config.range_sigma, a weak radius prior
- * (arc_radius_prior, arc_radius_sigma) and a lean prior of standard deviation config.max_stem_lean / 2.
+ * cross-sections. The points fall into slices along the sensor's rings (a new slice where the elevation angle jumps
+ * between rings, or after config.slice_height in a dense cloud). A circle hypothesis (RANSAC on three nearby points of
+ * the horizontal projection) is scored by its inliers, each weighted by the share of the circle's silhouette (the
+ * bearings it covers from the sensor, the origin) that its slice's inliers span, less the points inside the bark and
+ * the beams of the sweep that pass through it (@p occluders). The best one is refined as a leaning cylinder by
+ * Gauss-Newton for (cx, cy, lean x, lean y, r), with the noise config.range_sigma, a weak radius prior
+ * (arc_radius_prior, arc_radius_sigma) and a lean prior of standard deviation config.max_stem_lean / 2; the inliers
+ * are chosen again around each refit, within three robust standard deviations of the residuals (between half and all
+ * of config.ransac_threshold).
  *
- * It is kept when its radius lies within [min_radius, max_radius], at least config.min_slices slices and
- * config.min_vertical_extent of height hold its inliers, there are at least config.min_points of them, the axis
- * leans at most config.max_stem_lean, at most config.max_interior_share of its inliers' number of points lie inside
- * the bark, and, unless the inliers go more than halfway round (a cloud seen from all sides), the axis lies behind
- * the points as seen from the sensor (the origin). Branches, twigs and shrubs touching the stem stay outside its
- * inliers. Its inliers are then taken out and the rest tried again, up to config.max_stems_per_cluster stems (two
- * trunks whose bark touches make one cluster).
+ * It is kept when its radius is at least config.min_radius and at most max_radius (within two of its standard
+ * deviations), at least config.min_slices slices and config.min_vertical_extent of height hold its inliers, there are
+ * at least config.min_points of them, its axis leans at most config.max_stem_lean, and its bark is opaque: at most
+ * config.max_interior_share of its inliers' number of points lie inside it or (one sweep) behind it within its
+ * silhouette. From one sensor (not config.seen_from_all_sides) also: at most config.max_see_through of its
+ * silhouette's cells hold a return from behind it; its slices show on average config.min_silhouette_coverage of its
+ * width where nothing nearer returned; its inliers go round no more than the half facing the sensor, widened by
+ * the noise at the silhouette; and its axis lies behind them. A stem overlapping one already found is no new stem.
+ * Two touching trunks fitted as one wide cylinder are split by fitTrunkPair() on the points near it. The inliers of
+ * a stem, and the points within twice the threshold of its bark, are then taken out (of a rejected hypothesis its
+ * inliers) and the rest tried again, up to config.max_stems_per_cluster stems and twice as many hypotheses.
  *
  * @param points a cluster's points in the levelled frame (sensor at the origin, z up)
  * @param rng RANSAC's generator, advanced
  * @param last why the search ended (kNone when max_stems_per_cluster stems were found)
  * @param occluders the sweep's nearest returns (same frame): the part of a stem's silhouette where something nearer
- *        returned counts as shown (a stem partly hidden behind another); none: only the inliers show it
+ *        returned counts as shown (a stem partly hidden behind another), a return from behind it as a beam through
+ *        it; none: only the inliers show it, and no beam is known to pass
  */
 std::vector<StemAxisFit> fitStemAxes(const std::vector<Eigen::Vector3d>& points, const TrunkDetectorConfig& config,
                                      Random* rng, StemAxisRejection* last = nullptr,

@@ -67,10 +67,8 @@ struct TrunkDetectorConfig
   double max_tilt = 0.35;           ///< [rad] 3D: clusters whose axis leans more are not trunks
   /// 3D circle method: fit each stem as a column of consistent cross-sections, a leaning cylinder (fitStemAxes(),
   /// the settings below), several per cluster, and take the sensor's tilt from the stems' axes; off: one circle per
-  /// cluster's horizontal projection (split in two for touching trunks) and the tilt from the clusters. The column
-  /// fit holds among branches, shrubs and saplings (docs/trunk_extraction.md) but still loses some touching trunks
-  /// that the cluster fit splits.
-  bool column_fit = false;
+  /// cluster's horizontal projection (split in two for touching trunks) and the tilt from the clusters.
+  bool column_fit = true;
   double slice_height = 0.1;        ///< [m] 3D: slices of a cluster that show a stem's continuity (about a ring)
   int min_slices = 3;               ///< 3D: a stem holds at least two points on each of this many slices
   double max_stem_lean = 0.15;      ///< [rad] 3D: a stem's axis leans at most this much after levelling
@@ -78,6 +76,10 @@ struct TrunkDetectorConfig
   /// its silhouette), as a share of its inliers, at most: foliage and bushes return from inside and behind any
   /// circle fitted to their front, bark from its surface only
   double max_interior_share = 0.15;
+  /// 3D, one sweep: a stem is opaque, so the beams through its silhouette return from its bark; at most this share
+  /// of the silhouette's cells (per slice) may return from more than twice ransac_threshold behind it (beams grazing
+  /// its edge). Foliage and a circle fitted across a gap let beams through.
+  double max_see_through = 0.1;
   /// 3D, one sweep: per slice, a stem's inliers span at least this share of the bearings its circle covers, where
   /// nothing nearer returned (mean over its slices): each ring crosses a stem's whole silhouette unless something
   /// hides part of it; a circle through foliage meets scattered points
