@@ -93,6 +93,20 @@ double gap(const Footprint& f, const Footprint& g)
   return segmentDistance(f.a, f.b, g.a, g.b) - f.radius - g.radius;
 }
 
+/** Free distance between the edge of footprint @p f and the nearest route of @p track (+inf without routes). */
+double trackGap(const TrackSpec& track, const Footprint& f)
+{
+  double best = std::numeric_limits<double>::infinity();
+  for (const std::vector<Eigen::Vector2d>& route : track.routes)
+  {
+    if (route.size() == 1)
+      best = std::min(best, segmentDistance(f.a, f.b, route[0], route[0]));
+    for (std::size_t i = 1; i < route.size(); ++i)
+      best = std::min(best, segmentDistance(f.a, f.b, route[i - 1], route[i]));
+  }
+  return best - f.radius;
+}
+
 /**
  * What a trunk occupies between the ground and @p top [m above ground]: its axis leans, so over that
  * height it sweeps a segment; the widest radius over the height stands for all of it.
@@ -131,15 +145,16 @@ public:
 
   /**
    * Calls @p draw_position (which draws a footprint) up to kMaxAttempts times until the footprint fits;
-   * returns false when the item is given up. @p top is the item's height above ground.
+   * returns false when the item is given up. @p top is the item's height above ground; with @p off_track the item
+   * also keeps the track's clearance from its routes.
    */
   template <typename DrawPosition>
-  bool place(double top, DrawPosition draw_position, Footprint* result)
+  bool place(double top, DrawPosition draw_position, Footprint* result, bool off_track = true)
   {
     for (int attempt = 0; attempt < kMaxAttempts; ++attempt)
     {
       const Footprint f = draw_position();
-      if (fits(f, top))
+      if (fits(f, top) && (!off_track || trackGap(world_.track, f) >= world_.track.clearance))
       {
         placed_.push_back(f);
         *result = f;
@@ -197,6 +212,16 @@ private:
   std::vector<Footprint> placed_;
 };
 
+void checkTrack(const TrackSpec& track, const std::string& who)
+{
+  if (!std::isfinite(track.clearance) || track.clearance < 0.0 || !std::isfinite(track.headroom))
+    throw std::invalid_argument(who + ": the track's clearance must be finite and >= 0, its headroom finite");
+  for (const std::vector<Eigen::Vector2d>& route : track.routes)
+    for (const Eigen::Vector2d& p : route)
+      if (!p.allFinite())
+        throw std::invalid_argument(who + ": the track's routes must be finite");
+}
+
 void checkSpec(const ClutterSpec& spec, const ForestWorld* world)
 {
   if (!world)
@@ -209,6 +234,7 @@ void checkSpec(const ClutterSpec& spec, const ForestWorld* world)
     throw std::invalid_argument("addClutter: crown_base must be finite");
   if (!(world->min_x < world->max_x) || !(world->min_y < world->max_y))
     throw std::invalid_argument("addClutter: world bounds must have min < max");
+  checkTrack(world->track, "addClutter");
 }
 
 void addCrowns(const ClutterSpec& spec, ForestWorld* world)
@@ -277,6 +303,11 @@ std::vector<Eigen::Vector2d> boxCorners(const BoxSpec& box)
   return { o + hl * u + hw * v, o - hl * u + hw * v, o - hl * u - hw * v, o + hl * u - hw * v };
 }
 }  // namespace
+
+double trackDistance(const TrackSpec& track, const Eigen::Vector2d& center, double radius)
+{
+  return trackGap(track, Footprint{ center, center, radius });
+}
 
 double boxDistance(const BoxSpec& box, const Eigen::Vector2d& p)
 {
@@ -495,7 +526,7 @@ void addClutter(const ClutterSpec& spec, ForestWorld* world)
       return Footprint{ mid - half, mid + half, radius };
     };
     Footprint f;
-    if (!placer.place(2.0 * radius, draw, &f))
+    if (!placer.place(2.0 * radius, draw, &f, false))  // fallen wood may lie across a track: it is driven over
       return false;
     BranchSpec branch;
     branch.a = f.a;
@@ -563,6 +594,7 @@ void checkSpec(const WhorlSpec& spec, const ForestWorld* world)
 {
   if (!world)
     throw std::invalid_argument("addWhorls: world is null");
+  checkTrack(world->track, "addWhorls");
   checkInterval(spec.heights, "addWhorls: heights", 0.0, true);
   checkInterval(spec.spacing, "addWhorls: spacing", 0.0, false);
   checkInterval(spec.dead_length, "addWhorls: dead_length", 0.0, true);
@@ -591,6 +623,7 @@ void checkSpec(const UnderstorySpec& spec, const ForestWorld* world)
     throw std::invalid_argument("addUnderstory: clearance must be finite and >= 0");
   if (!(world->min_x < world->max_x) || !(world->min_y < world->max_y))
     throw std::invalid_argument("addUnderstory: world bounds must have min < max");
+  checkTrack(world->track, "addUnderstory");
 }
 
 double draw(Random* random, const Interval& v)
@@ -608,6 +641,22 @@ FoliageSpec foliageAt(const Ground& ground, const Eigen::Vector2d& foot, const E
   f.radius = radius;
   f.mean_free_path = mean_free_path;
   return f;
+}
+
+/**
+ * Whether a branch on a stem reaches into the track: some of it (from the bark, @p to_bark from its point on the
+ * axis, to its tip, and its tuft of radius @p tuft) is lower than the track's headroom and within its clearance of a
+ * route. Such a branch is not grown (the machines that keep the track open break it off).
+ */
+bool intoTrack(const TrackSpec& track, const StubSpec& stub, const Eigen::Vector2d& to_bark, double tuft)
+{
+  if (track.routes.empty())
+    return false;
+  const double reach = std::max(stub.radius, tuft);
+  if (std::min(stub.a.z(), stub.b.z()) - reach >= track.headroom)
+    return false;
+  const Eigen::Vector2d bark = stub.a.head<2>() + to_bark;
+  return trackGap(track, Footprint{ bark, stub.b.head<2>(), reach }) < track.clearance;
 }
 
 /** One whorl at @p height above the foot of @p trunk: its branches, and the tufts of the live ones. */
@@ -636,9 +685,13 @@ void addWhorl(const WhorlSpec& spec, const TrunkSpec& trunk, double height, cons
     stub.foot = foot;
     stub.radius = 0.5 * draw(random, spec.thickness);
     stub.live = live;
+    const double tuft = live ? draw(random, spec.tuft_radius) : 0.0;
+    // Drawn in full either way, so that a track changes no other branch.
+    if (intoTrack(world->track, stub, stem_radius * dir.head<2>(), tuft))
+      continue;
     world->stubs.push_back(stub);
     if (live)
-      world->foliage.push_back(foliageAt(ground, foot, stub.b, draw(random, spec.tuft_radius), kTuftMeanFreePath));
+      world->foliage.push_back(foliageAt(ground, foot, stub.b, tuft, kTuftMeanFreePath));
   }
 }
 
@@ -705,8 +758,14 @@ void addUnderstory(const UnderstorySpec& spec, ForestWorld* world)
     const double crown = draw(&random, spec.sapling_crown_radius);
     const double lean = random.uniform(0.0, std::tan(kMaxSaplingLean));
     const double lean_direction = random.uniform(0.0, 2.0 * kPi);
+    // What the sapling occupies: its crown's widest radius about its axis, from the foot to the top.
+    const Eigen::Vector2d to_top = lean * height * Eigen::Vector2d(std::cos(lean_direction), std::sin(lean_direction));
+    const auto leaning = [&placer, &to_top, crown]() {
+      const Eigen::Vector2d p = placer.uniformPoint();
+      return Footprint{ p, p + to_top, crown };
+    };
     Footprint f;
-    if (!placer.place(height, roundFootprint(crown), &f))
+    if (!placer.place(height, leaning, &f))
       return false;
     TrunkSpec stem;
     stem.x = f.a.x();

@@ -7,12 +7,15 @@
 #include <fstream>
 #include <limits>
 #include <locale>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include <yaml-cpp/yaml.h>
+
+#include "rbpf_slam/sim/waypoints_file.h"
 
 namespace rbpf_slam
 {
@@ -739,6 +742,85 @@ bool treeExtent(const std::vector<sim::TrunkSpec>& trunks, sim::ForestWorld* wor
   return true;
 }
 
+/**
+ * The track: its drives (named, or waypoint files relative to the world file's folder) taken from the start frame
+ * of `start` (x, y, yaw in degrees; the simulator's default start) into the world.
+ */
+sim::TrackSpec readTrack(const YamlReader& reader, const YAML::Node& node)
+{
+  sim::TrackSpec track;
+  std::vector<double> start = { 0.0, 15.0, 0.0 };
+  YAML::Node drives;
+  for (const auto& entry : reader.entries(node, "track", { "start", "drives", "clearance", "headroom" }))
+  {
+    const std::string key = YamlReader::qualified("track", entry.first);
+    if (entry.first == "start")
+      start = reader.numbers(entry.second, key, 3, 3, "[x, y, yaw_deg]");
+    else if (entry.first == "clearance")
+      track.clearance = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else if (entry.first == "headroom")
+      track.headroom = reader.numberAtLeast(entry.second, key, 0.0, true);
+    else
+      drives = entry.second;
+  }
+  if (!drives.IsSequence() || drives.size() == 0)
+    reader.fail(drives.IsNull() ? node : drives,
+                "'track.drives' must be a list of drives (straight, loop or a waypoint file), at least one");
+  const double c = std::cos(start[2] * kPi / 180.0), s = std::sin(start[2] * kPi / 180.0);
+  for (std::size_t i = 0; i < drives.size(); ++i)
+  {
+    const std::string key = "track.drives[" + std::to_string(i) + "]";
+    if (!drives[i].IsScalar() || drives[i].Scalar().empty())
+      reader.fail(drives[i], "'" + key + "' must name a drive (straight, loop or a waypoint file)");
+    const std::string& name = drives[i].Scalar();
+    const bool as_is = name == "straight" || name == "loop" || name[0] == '/';
+    std::string error;
+    const std::vector<Eigen::Vector2d> waypoints =
+        sim::namedDrive(as_is ? name : folderOf(reader.path()) + name, &error);
+    if (waypoints.empty())
+      reader.fail(drives[i], "'" + key + "': " + error);
+    std::vector<Eigen::Vector2d> route;
+    for (const Eigen::Vector2d& p : waypoints)
+      route.emplace_back(start[0] + c * p.x() - s * p.y(), start[1] + s * p.x() + c * p.y());
+    track.routes.push_back(route);
+  }
+  return track;
+}
+
+/** The top-level sections of a world file by name (an unknown or repeated one is an error); 'trees' is required. */
+std::map<std::string, YAML::Node> readSections(const YamlReader& reader, const YAML::Node& root)
+{
+  const std::vector<std::string> names = { "trees", "boxes", "bounds", "tree", "ground", "clutter", "whorls",
+                                           "understory", "track" };
+  std::map<std::string, YAML::Node> sections;
+  for (const auto& entry : reader.entries(root, "", names))
+    sections[entry.first] = entry.second;
+  if (!sections.count("trees"))
+    reader.fail("'trees' is required (a tree list file or a list of trees)");
+  return sections;
+}
+
+/** The stand bounds: the section's, or the tree extent + 2 m. */
+void readBounds(const YamlReader& reader, const std::map<std::string, YAML::Node>& sections, sim::ForestWorld* world)
+{
+  const auto bounds = sections.find("bounds");
+  if (bounds != sections.end())
+  {
+    const YAML::Node& node = bounds->second;
+    const std::vector<double> b = reader.numbers(node, "bounds", 4, 4, "[min_x, min_y, max_x, max_y]");
+    if (!(b[0] < b[2]) || !(b[1] < b[3]))
+      reader.fail(node, "'bounds' [min_x, min_y, max_x, max_y] must have min < max");
+    world->min_x = b[0];
+    world->min_y = b[1];
+    world->max_x = b[2];
+    world->max_y = b[3];
+  }
+  else if (!treeExtent(world->trunks, world))
+  {
+    reader.fail("no trees and no 'bounds': the stand has no extent");
+  }
+}
+
 sim::ForestWorld loadYamlWorld(const std::string& path)
 {
   const YamlReader reader(path);
@@ -759,75 +841,26 @@ sim::ForestWorld loadYamlWorld(const std::string& path)
   if (root.IsNull())
     reader.fail("empty world file ('trees' is required)");
 
-  YAML::Node trees_node, bounds_node, tree_node, ground_node, clutter_node, boxes_node, whorls_node, understory_node;
-  bool has_trees = false;
-  bool has_bounds = false;
-  bool has_whorls = false;
-  bool has_understory = false;
-  const std::vector<std::string> sections = { "trees", "boxes", "bounds", "tree", "ground", "clutter", "whorls",
-                                              "understory" };
-  for (const auto& entry : reader.entries(root, "", sections))
-  {
-    if (entry.first == "whorls")
-    {
-      whorls_node = entry.second;
-      has_whorls = true;
-    }
-    else if (entry.first == "understory")
-    {
-      understory_node = entry.second;
-      has_understory = true;
-    }
-    else if (entry.first == "boxes")
-      boxes_node = entry.second;
-    else if (entry.first == "trees")
-    {
-      trees_node = entry.second;
-      has_trees = true;
-    }
-    else if (entry.first == "bounds")
-    {
-      bounds_node = entry.second;
-      has_bounds = true;
-    }
-    else if (entry.first == "tree")
-      tree_node = entry.second;
-    else if (entry.first == "ground")
-      ground_node = entry.second;
-    else
-      clutter_node = entry.second;
-  }
-  if (!has_trees)
-    reader.fail("'trees' is required (a tree list file or a list of trees)");
-
-  const std::vector<TreeRow> rows = readTrees(reader, trees_node);
+  std::map<std::string, YAML::Node> sections = readSections(reader, root);
+  const bool has_whorls = sections.count("whorls") > 0;
+  const bool has_understory = sections.count("understory") > 0;
+  const std::vector<TreeRow> rows = readTrees(reader, sections["trees"]);
+  const YAML::Node boxes_node = sections["boxes"];
   const std::vector<sim::BoxSpec> boxes =
       boxes_node.IsDefined() && !boxes_node.IsNull() ? readBoxes(reader, boxes_node) : std::vector<sim::BoxSpec>();
-  const TreeDefaults tree = readTreeDefaults(reader, tree_node);
+  const TreeDefaults tree = readTreeDefaults(reader, sections["tree"]);
   sim::ForestWorld world;
   world.boxes = boxes;
-  world.ground = readGround(reader, ground_node);
-  const sim::ClutterSpec clutter = readClutter(reader, clutter_node);
+  world.ground = readGround(reader, sections["ground"]);
+  const sim::ClutterSpec clutter = readClutter(reader, sections["clutter"]);
   const sim::UnderstorySpec understory =
-      has_understory ? readUnderstory(reader, understory_node) : sim::UnderstorySpec();
-  const sim::WhorlSpec whorls = has_whorls ? readWhorls(reader, whorls_node) : sim::WhorlSpec();
+      has_understory ? readUnderstory(reader, sections["understory"]) : sim::UnderstorySpec();
+  const sim::WhorlSpec whorls = has_whorls ? readWhorls(reader, sections["whorls"]) : sim::WhorlSpec();
+  if (sections.count("track"))
+    world.track = readTrack(reader, sections["track"]);
 
   world.trunks = makeTrunks(reader, rows, tree);
-
-  if (has_bounds)
-  {
-    const std::vector<double> b = reader.numbers(bounds_node, "bounds", 4, 4, "[min_x, min_y, max_x, max_y]");
-    if (!(b[0] < b[2]) || !(b[1] < b[3]))
-      reader.fail(bounds_node, "'bounds' [min_x, min_y, max_x, max_y] must have min < max");
-    world.min_x = b[0];
-    world.min_y = b[1];
-    world.max_x = b[2];
-    world.max_y = b[3];
-  }
-  else if (!treeExtent(world.trunks, &world))
-  {
-    reader.fail("no trees and no 'bounds': the stand has no extent");
-  }
+  readBounds(reader, sections, &world);
 
   try
   {

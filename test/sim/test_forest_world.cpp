@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -22,6 +23,8 @@ using rbpf_slam::sim::ForestWorld;
 using rbpf_slam::sim::Ground;
 using rbpf_slam::sim::GroundSpec;
 using rbpf_slam::sim::RockSpec;
+using rbpf_slam::sim::TrackSpec;
+using rbpf_slam::sim::trackDistance;
 using rbpf_slam::sim::TrunkSpec;
 
 namespace
@@ -435,6 +438,133 @@ TEST(Understory, SaplingsAndShrubsWithinTheirRanges)
   EXPECT_EQ(shrubs, 30u);
   EXPECT_GE(crown_spheres, 20u);
   EXPECT_LE(crown_spheres, 120u);
+}
+
+/**
+ * How near the nearest route of @p routes (polylines) comes to the disc of @p radius about @p c, or to the segment
+ * a-b widened by @p radius: sampled finely, independent of the code under test.
+ */
+double routeGap(const std::vector<std::vector<Eigen::Vector2d>>& routes, const Eigen::Vector2d& a,
+                const Eigen::Vector2d& b, double radius)
+{
+  double best = 1e300;
+  for (const auto& route : routes)
+    for (std::size_t i = 1; i < route.size(); ++i)
+      best = std::min(best, segmentDistance(a, b, route[i - 1], route[i]));
+  return best - radius;
+}
+
+/** What the follower would steer round that comes within @p clearance of @p routes; the worst gap in @p worst. */
+int itemsOnTheTrack(const ForestWorld& world, const std::vector<std::vector<Eigen::Vector2d>>& routes,
+                    double clearance, double headroom, double* worst)
+{
+  int on = 0;
+  *worst = 1e300;
+  const auto check = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double radius) {
+    const double gap = routeGap(routes, a, b, radius);
+    *worst = std::min(*worst, gap);
+    on += gap < clearance - 1e-6 ? 1 : 0;
+  };
+  // Foliage low enough to be in the way (bushes, shrubs, sapling crowns, tufts; the ground is flat here).
+  for (const FoliageSpec& f : world.foliage)
+    if (f.center.z() - f.radius < headroom)
+      check(f.center.head<2>(), f.center.head<2>(), f.radius);
+  for (const RockSpec& r : world.rocks)
+    check(r.center.head<2>(), r.center.head<2>(), r.radius);
+  for (const TrunkSpec& s : world.saplings)
+  {
+    const double axis_norm = std::sqrt(1.0 + s.lean_x * s.lean_x + s.lean_y * s.lean_y);
+    const Eigen::Vector3d top = trunkAxisAt(s, 0.0, s.height / axis_norm, nullptr);
+    check(Eigen::Vector2d(s.x, s.y), top.head<2>(), s.radius);
+  }
+  // A branch on a stem from its tip to where it leaves the bark (at most the stem's ground radius from the axis).
+  for (const StubSpec& b : world.stubs)
+  {
+    if (std::min(b.a.z(), b.b.z()) - b.radius >= headroom)
+      continue;
+    const Eigen::Vector2d dir = (b.b - b.a).head<2>().normalized();
+    const TrunkSpec* stem = nullptr;
+    for (const TrunkSpec& t : world.trunks)
+      if (b.foot == Eigen::Vector2d(t.x, t.y))
+        stem = &t;
+    check(b.a.head<2>() + stem->radius * dir, b.b.head<2>(), b.radius);
+  }
+  return on;
+}
+
+TEST(Track, UnderstoryBushesRocksAndLowBranchesKeepOffTheRoutes)
+{
+  // Two routes between the rows and columns of the sparse stand (trunks 3 m from each): along y = 12, and a bend.
+  const std::vector<std::vector<Eigen::Vector2d>> routes = {
+    { Eigen::Vector2d(0.0, 12.0), Eigen::Vector2d(30.0, 12.0) },
+    { Eigen::Vector2d(18.0, 0.0), Eigen::Vector2d(18.0, 24.0), Eigen::Vector2d(30.0, 24.0) }
+  };
+  UnderstorySpec understory;
+  understory.saplings = 25;
+  understory.shrubs = 35;
+  understory.seed = 5;
+  WhorlSpec whorls;
+  const auto make = [&](bool with_track) {
+    ForestWorld world = sparseStand();
+    world.ground.amplitude = 0.0;
+    if (with_track)
+    {
+      world.track.routes = routes;
+      world.track.clearance = 1.5;
+      world.track.headroom = 3.0;
+    }
+    addClutter(clutterSpec(2, 12, 6, 10), &world);
+    addUnderstory(understory, &world);
+    addWhorls(whorls, &world);
+    return world;
+  };
+  const ForestWorld open = make(false), tracked = make(true);
+  double worst = 0.0;
+  // Without a track the same seeds put some of it on the routes (so that the check below can fail).
+  EXPECT_GT(itemsOnTheTrack(open, routes, 1.5, 3.0, &worst), 5);
+  EXPECT_LT(worst, 0.0);
+  EXPECT_EQ(itemsOnTheTrack(tracked, routes, 1.5, 3.0, &worst), 0);
+  EXPECT_GE(worst, 1.5 - 1e-6);
+  // Everything asked for is there, off the track: the understory, the bushes and rocks, the fallen wood (which may
+  // cross a route).
+  EXPECT_EQ(tracked.saplings.size(), 25u);
+  EXPECT_EQ(tracked.rocks.size(), 6u);
+  EXPECT_EQ(tracked.branches.size(), 10u);
+  EXPECT_EQ(open.saplings.size(), 25u);
+  // The branches that would reach into the track are the only ones left out: the others are as without it.
+  EXPECT_LT(tracked.stubs.size(), open.stubs.size());
+  std::size_t kept = 0;
+  for (const StubSpec& b : open.stubs)
+    for (const StubSpec& c : tracked.stubs)
+      kept += b.a == c.a && b.b == c.b ? 1 : 0;
+  EXPECT_EQ(kept, tracked.stubs.size());
+  // The library's own distance agrees with the sampled one.
+  const Eigen::Vector2d p(5.0, 14.0);
+  EXPECT_NEAR(trackDistance(tracked.track, p, 0.5), 1.5, 1e-12);
+  EXPECT_EQ(trackDistance(TrackSpec(), p, 0.5), std::numeric_limits<double>::infinity());
+}
+
+TEST(Track, NoRoutesChangeNothing)
+{
+  ForestWorld a = sparseStand(), b = sparseStand();
+  b.track.clearance = 5.0;  // without routes the clearance keeps nothing off
+  for (ForestWorld* w : { &a, &b })
+  {
+    addClutter(clutterSpec(3, 10, 5, 5), w);
+    UnderstorySpec spec;
+    spec.saplings = 10;
+    spec.shrubs = 10;
+    addUnderstory(spec, w);
+    addWhorls(WhorlSpec(), w);
+  }
+  ASSERT_EQ(a.foliage.size(), b.foliage.size());
+  for (std::size_t i = 0; i < a.foliage.size(); ++i)
+    EXPECT_EQ(a.foliage[i].center, b.foliage[i].center);
+  EXPECT_EQ(a.stubs.size(), b.stubs.size());
+  b.track.clearance = -1.0;
+  EXPECT_THROW(addUnderstory(UnderstorySpec(), &b), std::invalid_argument);
+  EXPECT_THROW(addWhorls(WhorlSpec(), &b), std::invalid_argument);
+  EXPECT_THROW(addClutter(ClutterSpec(), &b), std::invalid_argument);
 }
 
 TEST(Understory, RejectsInvalidSpecs)

@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "rbpf_slam/sim/path_follower.h"
+#include "rbpf_slam/sim/waypoints_file.h"
 #include "rbpf_slam/sim/world_file.h"
 #include "io/temp_files.h"
 
@@ -424,6 +426,48 @@ TEST_F(WorldFileTest, YamlRealisticStandKeysAreValidated)
       << loadError(thin);
 }
 
+TEST_F(WorldFileTest, YamlTrackTakesTheDrivesIntoTheWorld)
+{
+  write("bend.txt", "# start frame\n0 0\n10 0\n10 5\n");
+  const ForestWorld world = loadForestWorld(
+      write("track.yaml", "trees: [[20, 20, 0.2]]\nbounds: [0, 0, 40, 40]\n"
+                          "track: {start: [2, 3, 90], drives: [straight, bend.txt], clearance: 1.2, headroom: 2.5}\n"));
+  ASSERT_EQ(world.track.routes.size(), 2u);
+  EXPECT_EQ(world.track.clearance, 1.2);
+  EXPECT_EQ(world.track.headroom, 2.5);
+  // From the start frame (at (2, 3) heading +y) into the world.
+  const std::vector<Eigen::Vector2d>& straight = world.track.routes[0];
+  ASSERT_EQ(straight.size(), rbpf_slam::sim::straightDrive().size());
+  EXPECT_NEAR((straight.front() - Eigen::Vector2d(2, 3)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((straight.back() - Eigen::Vector2d(2, 33)).norm(), 0.0, 1e-12);
+  const std::vector<Eigen::Vector2d>& bend = world.track.routes[1];
+  ASSERT_EQ(bend.size(), 3u);
+  EXPECT_NEAR((bend[2] - Eigen::Vector2d(-3, 13)).norm(), 0.0, 1e-12);
+  // The defaults: the simulator's start, 2 m, 3 m; without the section, no track.
+  const ForestWorld plain = loadForestWorld(write("plain.yaml", "trees: [[20, 20, 0.2]]\ntrack: {drives: [loop]}\n"));
+  ASSERT_EQ(plain.track.routes.size(), 1u);
+  EXPECT_NEAR((plain.track.routes[0].front() - Eigen::Vector2d(0, 15)).norm(), 0.0, 1e-12);
+  EXPECT_EQ(plain.track.clearance, 2.0);
+  EXPECT_EQ(plain.track.headroom, 3.0);
+  EXPECT_TRUE(loadForestWorld(write("none.yaml", "trees: [[20, 20, 0.2]]\n")).track.routes.empty());
+  // Errors name the file, the line and the key.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+    { "track: {drives: []}\n", "'track.drives' must be a list of drives" },
+    { "track: {clearance: 1}\n", "'track.drives' must be a list of drives" },
+    { "track: {drives: [nowhere.txt]}\n", "'track.drives[0]': drive '" },
+    { "track: {drives: [loop], clearance: -1}\n", "'track.clearance' must be >= 0" },
+    { "track: {drives: [loop], start: [0, 15]}\n", "'track.start' must be [x, y, yaw_deg]" },
+    { "track: {drives: [loop], width: 4}\n", "unknown key 'track.width'" },
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i)
+  {
+    const std::string path = write("bad" + std::to_string(i) + ".yaml", "trees: [[20, 20, 0.2]]\n" + cases[i].first);
+    const std::string error = loadError(path);
+    EXPECT_EQ(error.find(path + ":2"), 0u) << cases[i].first << " -> " << error;
+    EXPECT_NE(error.find(cases[i].second), std::string::npos) << cases[i].first << " -> " << error;
+  }
+}
+
 TEST_F(WorldFileTest, YamlTreeFileErrorsNameTheTreeFile)
 {
   const std::string trees = write("broken.trees.txt", "1 2 0.2\n1 2\n");
@@ -596,6 +640,101 @@ TEST(ShippedWorlds, RealisticVariantsKeepTheCleanStandsTrees)
     }
     EXPECT_GT(real.foliage.size(), clean.foliage.size() + real.saplings.size()) << name;
     EXPECT_GE(real.branches.size(), clean.branches.size()) << name;
+  }
+}
+
+/** The horizontal distance from the segment a-b to the nearest route, sampled (independent of the code under test). */
+double routeDistance(const std::vector<std::vector<Eigen::Vector2d>>& routes, const Eigen::Vector2d& a,
+                     const Eigen::Vector2d& b)
+{
+  double best = 1e300;
+  for (int k = 0; k <= 20; ++k)
+  {
+    const Eigen::Vector2d p = a + (b - a) * (k / 20.0);
+    for (const auto& route : routes)
+      for (std::size_t i = 1; i < route.size(); ++i)
+      {
+        const Eigen::Vector2d u = route[i] - route[i - 1];
+        const double t = std::max(0.0, std::min(1.0, (p - route[i - 1]).dot(u) / u.squaredNorm()));
+        best = std::min(best, (p - route[i - 1] - t * u).norm());
+      }
+  }
+  return best;
+}
+
+/** Whether foliage @p f is a sapling's crown sphere (its centre on the sapling's axis). */
+bool onASapling(const ForestWorld& world, const rbpf_slam::sim::FoliageSpec& f)
+{
+  for (const TrunkSpec& s : world.saplings)
+  {
+    const Eigen::Vector2d d = f.center.head<2>() - Eigen::Vector2d(s.x, s.y), lean(s.lean_x, s.lean_y);
+    const double t = lean.squaredNorm() > 0.0 ? d.dot(lean) / lean.squaredNorm() : 0.0;
+    if ((d - t * lean).norm() < 1e-9)
+      return true;
+  }
+  return false;
+}
+
+TEST(ShippedWorlds, RealisticStandsKeepTheirUnderstoryOffTheDrives)
+{
+  struct Stand
+  {
+    const char* name;
+    std::size_t saplings;
+    std::size_t low_foliage;  ///< bushes and shrubs (the world file's counts)
+  };
+  // Every sapling and shrub the world files ask for; the dense stand has room off the track for 11 of its 12 bushes.
+  const std::vector<Stand> stands = { { "paper_forest", 25, 12 + 35 },    { "dense_forest", 15, 11 + 20 },
+                                      { "clumped", 45, 21 + 60 },         { "plantation_rows", 30, 21 + 40 },
+                                      { "sparse_stand", 110, 40 + 140 }, { "touching_pairs", 25, 12 + 35 } };
+  for (const Stand& stand : stands)
+  {
+    const std::string name = stand.name;
+    EXPECT_TRUE(loadForestWorld(kWorldDir + name + ".yaml").track.routes.empty()) << name;  // the clean stand
+    const ForestWorld world = loadForestWorld(kWorldDir + name + "_realistic.yaml");
+    // The straight drive and the loop from the simulator's start (0, 15) heading +x, the sparse stand's square too.
+    std::vector<std::vector<Eigen::Vector2d>> routes = { rbpf_slam::sim::straightDrive(),
+                                                         rbpf_slam::sim::loopDrive() };
+    if (name == "sparse_stand")
+      routes.push_back(rbpf_slam::sim::readWaypoints(kSourceDir + "/config/sim/sparse_loop.txt"));
+    for (auto& route : routes)
+      for (Eigen::Vector2d& p : route)
+        p.y() += 15.0;
+    ASSERT_EQ(world.track.routes.size(), routes.size()) << name;
+    for (std::size_t r = 0; r < routes.size(); ++r)
+      EXPECT_NEAR((world.track.routes[r].back() - routes[r].back()).norm(), 0.0, 1e-9) << name;
+    const double clearance = 2.0, headroom = 3.0;
+    EXPECT_EQ(world.track.clearance, clearance) << name;
+    EXPECT_EQ(world.track.headroom, headroom) << name;
+    EXPECT_EQ(world.saplings.size(), stand.saplings) << name;
+    for (const TrunkSpec& s : world.saplings)
+      EXPECT_GE(routeDistance(routes, Eigen::Vector2d(s.x, s.y), Eigen::Vector2d(s.x, s.y)), clearance) << name;
+    for (const auto& r : world.rocks)
+      EXPECT_GE(routeDistance(routes, r.center.head<2>(), r.center.head<2>()) - r.radius, clearance) << name;
+    // Branches lower than the headroom (with their tufts) keep off; a tuft is checked with its branch.
+    std::vector<Eigen::Vector2d> tips;
+    for (const auto& b : world.stubs)
+    {
+      double reach = b.radius;
+      for (const auto& f : world.foliage)
+        if (b.live && (f.center.head<2>() - b.b.head<2>()).norm() < 1e-9)
+          reach = std::max(reach, f.radius);
+      tips.push_back(b.b.head<2>());
+      if (std::min(b.a.z(), b.b.z()) - reach < headroom)
+      {
+        EXPECT_GE(routeDistance(routes, b.b.head<2>(), b.b.head<2>()) - reach, clearance) << name;
+      }
+    }
+    // Bushes, shrubs and sapling crowns (the other foliage lower than the crowns of the trees, from 5 m up).
+    std::size_t low_foliage = 0;
+    for (const auto& f : world.foliage)
+    {
+      if (std::find(tips.begin(), tips.end(), f.center.head<2>()) != tips.end() || f.center.z() - f.radius >= 4.0)
+        continue;
+      EXPECT_GE(routeDistance(routes, f.center.head<2>(), f.center.head<2>()) - f.radius, clearance - 1e-6) << name;
+      low_foliage += onASapling(world, f) ? 0 : 1;
+    }
+    EXPECT_EQ(low_foliage, stand.low_foliage) << name;
   }
 }
 

@@ -165,6 +165,22 @@ struct UnderstorySpec
   std::uint64_t seed = 1;
 };
 
+/**
+ * @brief A track through the stand: the routes a robot drives (polylines in world coordinates), kept clear of what the
+ * path follower would steer around: bushes and rocks (addClutter), saplings and shrubs (addUnderstory) and the
+ * branches on the stems lower than the headroom (addWhorls). Fallen branches lie below the follower's obstacle band
+ * and may cross it; trunks stand where their tree list puts them. The sensors do not see the track.
+ */
+struct TrackSpec
+{
+  std::vector<std::vector<Eigen::Vector2d>> routes;  ///< [m] world coordinates; none: no track
+  double clearance = 2.0;                            ///< [m] from every route to the footprint of each item
+  double headroom = 3.0;  ///< [m] above the ground: a stem's branch wholly above it may reach over the track
+};
+
+/** @brief Horizontal distance from the circle of @p radius about @p center to the nearest route (+inf without). */
+double trackDistance(const TrackSpec& track, const Eigen::Vector2d& center, double radius);
+
 /** @brief Everything the ray caster sees. Coordinates are world (stand) coordinates. */
 struct ForestWorld
 {
@@ -177,6 +193,7 @@ struct ForestWorld
   std::vector<TrunkSpec> saplings;    ///< understory stems (their crowns are in foliage); not trees of the stand
   GroundSpec ground;
   double min_x = 0.0, min_y = 0.0, max_x = 30.0, max_y = 30.0;  ///< [m] stand bounds (for clutter)
+  TrackSpec track;  ///< routes that clutter and understory keep off (not seen by the sensors)
 };
 
 /**
@@ -185,12 +202,17 @@ struct ForestWorld
  */
 Eigen::Vector3d trunkAxisAt(const TrunkSpec& trunk, double ground_z, double height, double* radius);
 
-/** @brief Adds crowns, bushes, rocks and branches to @p world as @p spec asks (deterministic). */
+/**
+ * @brief Adds crowns, bushes, rocks and branches to @p world as @p spec asks (deterministic). Bushes and rocks keep
+ * world->track.clearance from the routes of world->track (fallen branches may cross them).
+ */
 void addClutter(const ClutterSpec& spec, ForestWorld* world);
 
 /**
  * @brief Adds branch whorls to every trunk of @p world as @p spec asks (deterministic for spec.seed): StubSpecs,
- * and a foliage tuft at the tip of each live branch. Whorls stop below a trunk's top.
+ * and a foliage tuft at the tip of each live branch. Whorls stop below a trunk's top. A branch (with its tuft) that
+ * would come within world->track.clearance of a route of world->track lower than its headroom is left out; the
+ * others are drawn as without a track.
  * @throws std::invalid_argument for a spec out of range (intervals with lo > hi, negative sizes, shares outside
  * [0, 1], spacing.lo <= 0)
  */
@@ -199,7 +221,8 @@ void addWhorls(const WhorlSpec& spec, ForestWorld* world);
 /**
  * @brief Adds saplings and shrubs to @p world as @p spec asks (deterministic for spec.seed), placed at random inside
  * the stand bounds, at least spec.clearance from trunk surfaces, boxes, ground clutter (bushes, rocks, fallen
- * branches) and each other; an item that does not fit after a bounded number of tries is left out, as in addClutter.
+ * branches) and each other, and at least world->track.clearance from the routes of world->track; an item that does
+ * not fit after a bounded number of tries is left out, as in addClutter.
  * A sapling is a cone-shaped stem (its radius reaches 0 at its top) leaning up to 4 degrees, with a conical crown of
  * stacked foliage spheres from its crown base to its top; a shrub is one foliage sphere whose top is drawn from
  * spec.shrub_top (a low, wide shrub is partly below the ground).

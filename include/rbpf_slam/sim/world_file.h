@@ -52,6 +52,7 @@ std::vector<sim::BoxSpec> loadBoxList(const std::string& path);
  *              saplings: {count: 0, dbh: [0.01, 0.05], height: [1.5, 4], crown_base: [0.5, 2],
  *                         crown_radius: [0.3, 0.8]},
  *              shrubs: {count: 0, radius: [0.3, 1.0], top: [0.5, 2.0]}}
+ * track: {start: [0, 15, 0], drives: [straight, loop], clearance: 2.0, headroom: 3.0}
  * @endcode
  * Only `trees` is required; the values shown are the defaults (whorls and understory: none without their
  * section). tree.height is given to trunks without their own height; each trunk leans by lean_x, lean_y ~
@@ -63,12 +64,17 @@ std::vector<sim::BoxSpec> loadBoxList(const std::string& path);
  * the ground radius following from the lean and the taper. ground.slope adds a plane (sim::GroundSpec). Clutter
  * is added with sim::addClutter, which keeps the clutter clear of the boxes as of the trunks, then the
  * understory (sim::addUnderstory) and the whorls (sim::addWhorls). A [lo, hi] may be one number (lo = hi).
+ * track (none without the section; `drives` is required in it) gives sim::ForestWorld::track: each drive
+ * (sim::namedDrive: straight, loop or a waypoint file, relative to the YAML file's folder) taken from the start frame
+ * of start [x, y, yaw_deg] into the world; bushes, rocks, saplings and shrubs keep clearance [m] from every route and
+ * no branch on a stem comes within it lower than headroom [m] (sim::TrackSpec).
  *
  * @throws std::runtime_error naming the file (and the line where known) for a file that cannot be read
  *         or parsed, an unknown or duplicate key, a value of the wrong type (naming the key, e.g.
  *         'ground.amplitude') or out of range (amplitude, wavelength, radius, height, counts, clearance,
  *         lean < 0 or not finite; bounds with min >= max; no trees and no bounds; an interval with lo > hi;
- *         a slope steeper than 1; lean_sigma_deg with lean_deg; a sapling height <= 1.3 m).
+ *         a slope steeper than 1; lean_sigma_deg with lean_deg; a sapling height <= 1.3 m; a track without drives
+ *         or with a drive that cannot be read).
  */
 sim::ForestWorld loadForestWorld(const std::string& path);
 
