@@ -77,8 +77,14 @@ public:
     // tilted ring's height changes across a stem; its elevation hardly does.
     std::vector<std::pair<double, int>> order;
     order.reserve(pts_.size());
+    elevation_.resize(pts_.size());
+    azimuth_.resize(pts_.size());
     for (std::size_t i = 0; i < pts_.size(); ++i)
-      order.emplace_back(std::atan2(pts_[i].z(), pts_[i].head<2>().norm()), static_cast<int>(i));
+    {
+      elevation_[i] = std::atan2(pts_[i].z(), pts_[i].head<2>().norm());
+      azimuth_[i] = std::atan2(pts_[i].y(), pts_[i].x());
+      order.emplace_back(elevation_[i], static_cast<int>(i));
+    }
     std::sort(order.begin(), order.end());
     slice_.resize(pts_.size());
     int max_slice = 0;
@@ -124,7 +130,7 @@ public:
    * points. The score counts the inliers, each weighted by its slice's share (a column of consistent
    * cross-sections), less the points inside the bark.
    */
-  Support support(const Cylinder& cyl)
+  Support support(const Cylinder& cyl, double bound = -std::numeric_limits<double>::infinity())
   {
     Support s;
     const std::size_t ns = slice_count_.size();
@@ -133,6 +139,8 @@ public:
     slice_hi_.assign(ns, -std::numeric_limits<double>::infinity());
     slice_elevation_.assign(ns, 0.0);
     slice_z_.assign(ns, 0.0);
+    const bool upright = cyl.lean.isZero();
+    const double axis_azimuth = std::atan2(cyl.center.y(), cyl.center.x());
     for (std::size_t i = 0; i < pts_.size(); ++i)
     {
       if (!active_[i])
@@ -146,8 +154,13 @@ public:
         const std::size_t k = static_cast<std::size_t>(slice_[i]);
         ++slice_count_[k];
         // Bearing relative to the axis' (no wrap-around: both lie within a trunk's width).
-        const double rel = std::atan2(axis.x() * p.y() - axis.y() * p.x(), axis.dot(p.head<2>()));
-        slice_elevation_[k] += std::atan2(p.z(), p.head<2>().norm());
+        double rel = upright ? azimuth_[i] - axis_azimuth
+                             : std::atan2(axis.x() * p.y() - axis.y() * p.x(), axis.dot(p.head<2>()));
+        if (rel > kPi)
+          rel -= 2.0 * kPi;
+        else if (rel < -kPi)
+          rel += 2.0 * kPi;
+        slice_elevation_[k] += elevation_[i];
         slice_z_[k] += p.z();
         slice_lo_[k] = std::min(slice_lo_[k], rel);
         slice_hi_[k] = std::max(slice_hi_[k], rel);
@@ -169,10 +182,20 @@ public:
       weighted += share * n;
     }
     s.coverage = s.slices > 0 ? sum / s.slices : 0.0;
-    if (occluders_)
+    // The beams through the silhouette only lower the score: not counted where it cannot exceed @p bound.
+    if (occluders_ && weighted - s.interior > bound)
       countSeeThrough(cyl, &s);
     s.score = weighted - s.interior - s.see_through;
     return s;
+  }
+
+  /** The active points within the threshold of @p cyl (an upper bound of support()'s score). */
+  int countInliers(const Cylinder& cyl) const
+  {
+    int n = 0;
+    for (std::size_t i = 0; i < pts_.size(); ++i)
+      n += active_[i] && std::abs(cyl.residual(pts_[i])) <= cfg_.ransac_threshold ? 1 : 0;
+    return n;
   }
 
   /** RANSAC over upright circles of three nearby points; false when no hypothesis has a trunk's radius. */
@@ -203,7 +226,10 @@ public:
       if (!circleThrough(a.head<2>(), bc[0]->head<2>(), bc[1]->head<2>(), &cyl.center, &cyl.radius) ||
           cyl.radius < cfg_.min_radius || cyl.radius > cfg_.max_radius)
         continue;
-      const Support s = support(cyl);
+      // score <= inliers: a hypothesis with no more inliers than the best score cannot beat it.
+      if (best_support.inliers > 0 && countInliers(cyl) <= best_support.score)
+        continue;
+      const Support s = support(cyl, best_support.score);
       if (s.score > best_support.score)
       {
         best_support = s;
@@ -403,14 +429,20 @@ public:
       const double half = std::asin(cyl.radius / d) - step;
       const double bearing = std::atan2(axis.y(), axis.x());
       const double elevation = slice_elevation_[k] / n;
+      // sin and cos of a by rotating through the steps.
+      const double cos_step = std::cos(step), sin_step = std::sin(step);
+      double cos_a = std::cos(-half + 0.5 * step), sin_a = std::sin(-half + 0.5 * step);
       for (double a = -half + 0.5 * step; a < half; a += step)
       {
+        const double c = cos_a, sn = sin_a;
+        cos_a = c * cos_step - sn * sin_step;
+        sin_a = sn * cos_step + c * sin_step;
         const double nearest = occluders_->nearest(elevation, bearing + a);
         if (!std::isfinite(nearest))
           continue;
         ++s->silhouette_cells;
-        const double across = d * std::sin(a);
-        const double front = d * std::cos(a) - std::sqrt(std::max(0.0, cyl.radius * cyl.radius - across * across));
+        const double across = d * sn;
+        const double front = d * c - std::sqrt(std::max(0.0, cyl.radius * cyl.radius - across * across));
         if (nearest > front + 2.0 * cfg_.ransac_threshold)
           ++s->see_through;
       }
@@ -544,6 +576,7 @@ private:
   const NearestReturns* occluders_;
   std::vector<bool> active_;
   std::vector<int> slice_;
+  std::vector<double> elevation_, azimuth_;  // each point's elevation and azimuth angles from the sensor
   std::vector<int> slice_count_;
   std::vector<double> slice_lo_, slice_hi_, slice_elevation_, slice_z_;
 };
@@ -670,7 +703,9 @@ NearestReturns::NearestReturns(double elevation_cell, double azimuth_cell)
 
 std::int64_t NearestReturns::key(double elevation, double azimuth) const
 {
-  const double a = std::remainder(azimuth, 2.0 * kPi);
+  double a = azimuth;
+  if (a < -kPi || a >= kPi)
+    a -= 2.0 * kPi * std::floor((a + kPi) / (2.0 * kPi));
   const auto ie = static_cast<std::int64_t>(std::floor(elevation / elevation_cell_));
   const auto ia = static_cast<std::int64_t>(std::floor((a + kPi) / azimuth_cell_));
   return ie * 1000003 + ia;

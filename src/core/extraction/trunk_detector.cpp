@@ -92,13 +92,14 @@ std::vector<StemAxisFit> stemsOfCluster(const std::vector<Eigen::Vector3d>& leve
 }
 
 /**
- * The stems of every candidate (fitStemAxes()) into @p out, after levelling the points by the small tilt @p tilt (the
- * shift of a vertical axis per metre up in the sensor's frame, removed by a rotation: x += tilt.x z, y += tilt.y z,
+ * The stems of every candidate (fitStemAxes()), each with its cluster's point count in @p cluster_points, after
+ * levelling the points by the small tilt @p tilt (the shift of a vertical axis per metre up in the sensor's frame,
+ * removed by a rotation: x += tilt.x z, y += tilt.y z,
  * z -= tilt . (x, y)); rejections into @p st when given. @p max_lean overrides config.max_stem_lean.
  */
 std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candidates,
                                         const std::vector<Eigen::Vector3d>& sweep, const Eigen::Vector2d& tilt,
-                                        TrunkDetectorConfig cfg, double max_lean, std::vector<TrunkObservation>* out,
+                                        TrunkDetectorConfig cfg, double max_lean, std::vector<int>* cluster_points,
                                         TrunkDetectorStats* st)
 {
   cfg.max_stem_lean = max_lean;
@@ -122,8 +123,7 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
     const std::vector<StemAxisFit> stems = stemsOfCluster(levelled, cfg, &rng, &why, &occluders);
     for (const auto& s : stems)
     {
-      if (out)
-        out->push_back(toTrunkObservation(s, static_cast<int>(levelled.size())));
+      cluster_points->push_back(static_cast<int>(levelled.size()));
       all.push_back(s);
     }
     if (!st)
@@ -154,17 +154,13 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
 constexpr std::size_t kMinTiltStems = 3;
 
 /**
- * The sensor's residual tilt from the stems: each stem's axis fitted with a lean of up to config.max_tilt +
- * config.max_stem_lean, the tilt the median of their leans per axis (the stems' own leans scatter about the
- * vertical; the median keeps a few bent or misfitted ones from pulling it). @p start with fewer than kMinTiltStems
- * stems.
+ * The sensor's residual tilt from @p stems fitted after levelling by @p start (with a lean of up to twice
+ * config.max_stem_lean): the median of their leans per axis (the stems' own leans scatter about
+ * the vertical; the median keeps a few bent or misfitted ones from pulling it). @p start with fewer than
+ * kMinTiltStems stems.
  */
-Eigen::Vector2d tiltFromStemAxes(const std::vector<TrunkCandidate>& candidates,
-                                 const std::vector<Eigen::Vector3d>& sweep, const TrunkDetectorConfig& cfg,
-                                 const Eigen::Vector2d& start)
+Eigen::Vector2d tiltFromStemAxes(const std::vector<StemAxisFit>& stems, const Eigen::Vector2d& start)
 {
-  const std::vector<StemAxisFit> stems =
-      fitStemColumns(candidates, sweep, start, cfg, 2.0 * cfg.max_stem_lean, nullptr, nullptr);
   if (stems.size() < kMinTiltStems)
     return start;
   std::vector<double> lx, ly;
@@ -183,6 +179,45 @@ Eigen::Vector2d tiltFromStemAxes(const std::vector<TrunkCandidate>& candidates,
   };
   // A stem leaning by a after levelling by start is upright after the further correction -a.
   return start - Eigen::Vector2d(median(&lx), median(&ly));
+}
+
+/**
+ * @p stem fitted after levelling by one tilt, as levelled by a further @p delta (x += delta.x z, y += delta.y z,
+ * z -= delta . (x, y), to first order): its axis leans by delta more, its centre and heights move with it.
+ */
+void levelStem(const Eigen::Vector2d& delta, StemAxisFit* stem)
+{
+  const double dz = -delta.dot(stem->center);
+  stem->center += delta * stem->height;
+  stem->lean += delta;
+  stem->height += dz;
+  stem->z_lo += dz;
+  stem->z_hi += dz;
+}
+
+/**
+ * The stems of every candidate as columns (fitStemColumns()) into @p out, in one fit: levelled by the trunks' tilt
+ * @p start, the stems may lean twice as much as max_stem_lean; with config.level_by_trunks the median of their axes
+ * (tiltFromStemAxes()) then levels the stems themselves, and those leaning more than max_stem_lean are dropped. The
+ * tilt used.
+ */
+Eigen::Vector2d stemColumns(const std::vector<TrunkCandidate>& candidates, const std::vector<Eigen::Vector3d>& sweep,
+                            const Eigen::Vector2d& start, const TrunkDetectorConfig& cfg,
+                            std::vector<TrunkObservation>* out, TrunkDetectorStats* st)
+{
+  const double max_lean = cfg.level_by_trunks ? 2.0 * cfg.max_stem_lean : cfg.max_stem_lean;
+  std::vector<int> cluster_points;
+  std::vector<StemAxisFit> stems = fitStemColumns(candidates, sweep, start, cfg, max_lean, &cluster_points, st);
+  const Eigen::Vector2d tilt = cfg.level_by_trunks ? tiltFromStemAxes(stems, start) : start;
+  for (std::size_t i = 0; i < stems.size(); ++i)
+  {
+    levelStem(tilt - start, &stems[i]);
+    if (stems[i].lean.norm() > std::tan(cfg.max_stem_lean))
+      ++st->rejected_shape;
+    else
+      out->push_back(toTrunkObservation(stems[i], cluster_points[i]));
+  }
+  return tilt;
 }
 
 TiltEstimatorParams tiltParams(const TrunkDetectorConfig& cfg)
@@ -350,20 +385,16 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   const std::vector<TrunkCandidate> candidates = selectTrunkCandidates(band, clusters, cfg, st);
   timer.lap(&st->ms_cluster);
 
+  const bool columns = cfg.column_fit && cfg.method == TrunkMethod::kCircle;
   Eigen::Vector2d tilt = Eigen::Vector2d::Zero();
   if (cfg.level_by_trunks && cfg.method == TrunkMethod::kCircle)
-  {
     tilt = estimateTiltFromTrunks(candidates, tiltParams(cfg));
-    if (cfg.column_fit)
-      tilt = tiltFromStemAxes(candidates, pts, cfg, tilt);
-  }
+  timer.lap(&st->ms_tilt);
+  if (columns)
+    tilt = stemColumns(candidates, pts, tilt, cfg, &out, st);
   st->tilt_pitch = std::atan(tilt.x());
   st->tilt_roll = -std::atan(tilt.y());
-  timer.lap(&st->ms_tilt);
 
-  const bool columns = cfg.column_fit && cfg.method == TrunkMethod::kCircle;
-  if (columns)
-    fitStemColumns(candidates, pts, tilt, cfg, cfg.max_stem_lean, &out, st);
   std::vector<Eigen::Vector2d>& p2 = impl_->projected;
   for (const auto& c : candidates)
   {

@@ -163,7 +163,7 @@ struct TrunkDetectorStats
   double ms_band = 0.0;     ///< ground estimate and height band
   double ms_cluster = 0.0;  ///< clustering and candidate selection
   double ms_tilt = 0.0;     ///< tilt from the trunks
-  double ms_fit = 0.0;      ///< circle fits and rejection
+  double ms_fit = 0.0;      ///< circle or column fits (with the tilt from the stems' axes) and rejection
 };
 
 /**
