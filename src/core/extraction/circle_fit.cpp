@@ -62,6 +62,20 @@ bool fitCircleAlgebraicXY(const std::vector<Point>& points, Eigen::Vector2d* cen
 }
 }  // namespace
 
+bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, Eigen::Vector2d* center,
+                   double* radius)
+{
+  const Eigen::Vector2d ab = b - a, ac = c - a;
+  const double det = 2.0 * (ab.x() * ac.y() - ab.y() * ac.x());
+  if (std::abs(det) < 1e-12)
+    return false;
+  const double ab2 = ab.squaredNorm(), ac2 = ac.squaredNorm();
+  const Eigen::Vector2d off((ac.y() * ab2 - ab.y() * ac2) / det, (ab.x() * ac2 - ac.x() * ab2) / det);
+  *center = a + off;
+  *radius = off.norm();
+  return std::isfinite(*radius);
+}
+
 bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vector2d* center, double* radius)
 {
   return fitCircleAlgebraicXY(points, center, radius);

@@ -38,19 +38,15 @@ struct Cylinder
   double residual(const Eigen::Vector3d& p) const { return (p.head<2>() - axisAt(p.z())).norm() - radius; }
 };
 
-/** The circle through three points of the plane; false when they are (nearly) collinear. */
-bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, Eigen::Vector2d* center,
-                   double* radius)
+/** The cylinder of @p fit. */
+Cylinder cylinderOf(const StemAxisFit& fit)
 {
-  const Eigen::Vector2d ab = b - a, ac = c - a;
-  const double d = 2.0 * (ab.x() * ac.y() - ab.y() * ac.x());
-  if (std::abs(d) < 1e-12)
-    return false;
-  const double ab2 = ab.squaredNorm(), ac2 = ac.squaredNorm();
-  const Eigen::Vector2d off((ac.y() * ab2 - ab.y() * ac2) / d, (ab.x() * ac2 - ac.x() * ab2) / d);
-  *center = a + off;
-  *radius = off.norm();
-  return std::isfinite(*radius);
+  Cylinder cyl;
+  cyl.center = fit.center;
+  cyl.lean = fit.lean;
+  cyl.z0 = fit.height;
+  cyl.radius = fit.radius;
+  return cyl;
 }
 
 /** What a cylinder explains among the points still in play. */
@@ -348,7 +344,8 @@ public:
   /** Counts and spans of @p cyl's inliers into @p fit. */
   void describe(const Cylinder& cyl, StemAxisFit* fit)
   {
-    const Support s = support(cyl);
+    described_ = support(cyl);
+    const Support& s = described_;
     fit->members = inliersOf(cyl);
     fit->inliers = static_cast<int>(fit->members.size());
     fit->slices = s.slices;
@@ -449,30 +446,25 @@ public:
     }
   }
 
-  /** The share of @p fit's silhouette cells where the sweep saw through it (countSeeThrough()); 0 without any. */
-  double seeThroughShare(const StemAxisFit& fit)
+  /**
+   * The share of the silhouette cells of the stem last described (describe()) where the sweep saw through it
+   * (countSeeThrough()); 0 without any.
+   */
+  double seeThroughShare() const
   {
-    Cylinder cyl;
-    cyl.center = fit.center;
-    cyl.lean = fit.lean;
-    cyl.z0 = fit.height;
-    cyl.radius = fit.radius;
-    const Support s = support(cyl);
+    const Support& s = described_;
     return s.silhouette_cells > 0 ? static_cast<double>(s.see_through) / s.silhouette_cells : 0.0;
   }
 
   /**
    * Like Support::coverage, but the part of the silhouette outside a slice's inliers where the sweep returned from
    * nearer than the stem's front (occluders_) counts as shown. Equal to @p fit's coverage without occluders.
+   * @p fit must be the stem last described (describe()): its slices are those support() left.
    */
-  double visibleCoverage(const StemAxisFit& fit)
+  double visibleCoverage(const StemAxisFit& fit) const
   {
-    Cylinder cyl;
-    cyl.center = fit.center;
-    cyl.lean = fit.lean;
-    cyl.z0 = fit.height;
-    cyl.radius = fit.radius;
-    const Support s = support(cyl);
+    const Cylinder cyl = cylinderOf(fit);
+    const Support& s = described_;
     if (!occluders_ || s.slices == 0)
       return s.coverage;
     const double step = occluders_->azimuthCell();
@@ -579,6 +571,7 @@ private:
   std::vector<double> elevation_, azimuth_;  // each point's elevation and azimuth angles from the sensor
   std::vector<int> slice_count_;
   std::vector<double> slice_lo_, slice_hi_, slice_elevation_, slice_z_;
+  Support described_;  // support() of the stem last described
 };
 
 /** Whether @p fit overlaps a stem of @p stems: two stems stand side by side, their bark at most touching. */
@@ -594,7 +587,7 @@ bool overlapsAny(const StemAxisFit& fit, const std::vector<StemAxisFit>& stems, 
 }
 
 /** Why @p fit is no stem (kNone: it is one). */
-StemAxisRejection judge(const StemAxisFit& fit, AxisSearch& search, const TrunkDetectorConfig& cfg)
+StemAxisRejection judge(const StemAxisFit& fit, const AxisSearch& search, const TrunkDetectorConfig& cfg)
 {
   // min_radius tells a tree from a sapling and holds for the fit; max_radius bounds the stems looked for, and a fit
   // within two of its standard deviations above it may be of a stem within.
@@ -611,7 +604,7 @@ StemAxisRejection judge(const StemAxisFit& fit, AxisSearch& search, const TrunkD
     return StemAxisRejection::kShape;
   if (cfg.seen_from_all_sides ? fit.interior > cfg.max_interior_share * fit.inliers :
                                  (search.shadowedPoints(fit) > cfg.max_interior_share * fit.inliers ||
-                                  search.seeThroughShare(fit) > cfg.max_see_through))
+                                  search.seeThroughShare() > cfg.max_see_through))
     return StemAxisRejection::kClutter;
   // One sensor sees at most the half of a stem facing it. At the silhouette the beam grazes the bark, so range
   // noise moves a point along the bark's tangent, as far as it stays within the inlier band b (sqrt(2 r b + b^2)),
@@ -736,20 +729,15 @@ double NearestReturns::nearest(double elevation, double azimuth) const
 
 TrunkObservation toTrunkObservation(const StemAxisFit& fit, int num_points)
 {
-  TrunkObservation o;
-  o.center = fit.center;
-  o.radius = fit.radius;
-  o.radius_variance = fit.covariance(2, 2);
-  o.range = fit.center.norm();
-  o.bearing = std::atan2(fit.center.y(), fit.center.x());
-  o.covariance = fit.covariance.topLeftCorner<2, 2>();
-  o.num_points = num_points;
-  o.num_inliers = fit.inliers;
-  const double ratio = num_points > 0 ? static_cast<double>(fit.inliers) / num_points : 0.0;
-  o.score = ratio * (0.5 + 0.5 * std::min(1.0, fit.arc_angle / (0.5 * kPi)));
-  o.method = TrunkMethod::kCircle;
-  o.height = fit.height;
-  return o;
+  TrunkFit t;
+  t.ok = fit.ok;
+  t.center = fit.center;
+  t.radius = fit.radius;
+  t.covariance = fit.covariance;
+  t.inliers = fit.inliers;
+  t.arc_angle = fit.arc_angle;
+  t.method = TrunkMethod::kCircle;
+  return toTrunkObservation(t, num_points, fit.height);
 }
 
 }  // namespace core

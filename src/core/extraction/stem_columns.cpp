@@ -403,20 +403,6 @@ CircleSupport support(const SortedPoints& pts, const Eigen::Vector2d& c, double 
   return s;
 }
 
-bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
-                   Eigen::Vector2d* centre, double* radius)
-{
-  const Eigen::Vector2d ab = b - a, ac = c - a;
-  const double det = 2.0 * (ab.x() * ac.y() - ab.y() * ac.x());
-  if (std::abs(det) < 1e-12)
-    return false;
-  const double ab2 = ab.squaredNorm(), ac2 = ac.squaredNorm();
-  const Eigen::Vector2d off((ac.y() * ab2 - ab.y() * ac2) / det, (ab.x() * ac2 - ac.x() * ab2) / det);
-  *centre = a + off;
-  *radius = off.norm();
-  return true;
-}
-
 /** @brief The best RANSAC circle among the active points: inliers less twice the points inside the ring. */
 bool ransacStemCircle(const SortedPoints& pts, const std::vector<std::size_t>& active, const StemColumnsConfig& cfg,
                       Random* rng, Eigen::Vector2d* centre, double* radius)

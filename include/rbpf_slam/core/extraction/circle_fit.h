@@ -18,6 +18,10 @@ namespace core
  */
 bool fitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points, Eigen::Vector2d* center, double* radius);
 
+/** @brief The circle through three points; false when they are (nearly) collinear. */
+bool circleThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, Eigen::Vector2d* center,
+                   double* radius);
+
 /** @brief fitCircleAlgebraic() on the points' horizontal projection (z ignored). */
 bool fitCircleAlgebraicProjected(const std::vector<Eigen::Vector3d>& points, Eigen::Vector2d* center,
                                  double* radius);
