@@ -65,6 +65,7 @@ struct Result
   int spurious_within10 = 0;
   double stage_ms[4] = { 0.0, 0.0, 0.0, 0.0 };
   int split_clusters = 0;  // clusters split into two touching trunks
+  std::vector<double> tilt_error_deg;  // per sweep: the estimated tilt against the true attitude's
 };
 
 /** CPU time of the calling thread [ms]: what a cloud costs, whatever else runs on a shared machine. */
@@ -219,6 +220,14 @@ std::vector<core::TrunkObservation> detect(core::TrunkMethod method, const sim::
   res->stage_ms[3] += stats.ms_fit;
   res->split_clusters += stats.split_clusters;
   res->times_ms.push_back(threadCpuMs() - t0);
+  if (!g_true_level)
+  {
+    // The true tilt: the shift per metre up of a vertical axis in the sensor's frame, removed (x += tilt.x z).
+    const Eigen::Vector3d up = view.sensor.linear().transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector2d truth = -up.head<2>() / up.z();
+    const Eigen::Vector2d estimate(std::tan(stats.tilt_pitch), -std::tan(stats.tilt_roll));
+    res->tilt_error_deg.push_back(std::atan((estimate - truth).norm()) * 180.0 / M_PI);
+  }
   return obs;
 }
 
@@ -542,7 +551,8 @@ void printClassRow(const char* group, const ClassStats& s)
               cm(std::sqrt(s.sum_dbh2 / n)).c_str(), cm(s.sum_dbh / n).c_str());
 }
 
-void printByClass(const std::string& name, const sim::ForestWorld& world, const ClassResult& res)
+void printByClass(const std::string& name, const sim::ForestWorld& world, const ClassResult& res,
+                  const std::vector<double>& tilt_error_deg)
 {
   std::printf("\n== %s: %d sweeps (%.0f points each), %zu trees, %zu saplings, %zu branches on stems, "
               "%zu foliage spheres\n\n",
@@ -567,6 +577,16 @@ void printByClass(const std::string& name, const sim::ForestWorld& world, const 
               "it), %d on saplings, %d on shrubs and other low foliage, %d elsewhere\n",
               spurious, res.sweeps ? static_cast<double>(spurious) / res.sweeps : 0.0, k.stem, k.sapling, k.foliage,
               k.other);
+  if (tilt_error_deg.empty())
+    return;
+  double ss = 0.0;
+  for (double e : tilt_error_deg)
+    ss += e * e;
+  std::vector<double> sorted = tilt_error_deg;
+  std::sort(sorted.begin(), sorted.end());
+  std::printf("sensor tilt estimated against the true attitude, per sweep: median %.2f deg, RMS %.2f deg, "
+              "95 %% %.2f deg\n",
+              median(sorted), std::sqrt(ss / sorted.size()), sorted[(sorted.size() * 95) / 100]);
 }
 
 void runByClass(const std::string& name, const sim::ForestWorld& world, double step)
@@ -584,7 +604,7 @@ void runByClass(const std::string& name, const sim::ForestWorld& world, double s
     const std::vector<core::TrunkObservation> obs = detect(core::TrunkMethod::kCircle, sim_config, view, &timing);
     scoreByClass(obs, matchTrunks(obs, view, trunks), view, trunks, hits, world, &res);
   }
-  printByClass(name, world, res);
+  printByClass(name, world, res, timing.tilt_error_deg);
 }
 }  // namespace
 

@@ -150,18 +150,16 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
   return all;
 }
 
-/// Stems whose median lean the tilt takes: with fewer, a stem's own lean (a few degrees) would be read as tilt.
-constexpr std::size_t kMinTiltStems = 3;
-
 /**
  * The sensor's residual tilt from @p stems fitted after levelling by @p start (with a lean of up to twice
- * config.max_stem_lean): the median of their leans per axis (the stems' own leans scatter about
- * the vertical; the median keeps a few bent or misfitted ones from pulling it). @p start with fewer than
- * kMinTiltStems stems.
+ * config.max_stem_lean): the median of their leans per axis (the stems' own leans scatter about the vertical; the
+ * median keeps a few bent or misfitted ones from pulling it). Even one stem's axis gives the tilt better than the
+ * trunk clusters' start: a stem leans a few degrees, while a cluster's axis through branches and foliage often errs
+ * by more (docs/trunk_extraction.md). @p start without stems.
  */
 Eigen::Vector2d tiltFromStemAxes(const std::vector<StemAxisFit>& stems, const Eigen::Vector2d& start)
 {
-  if (stems.size() < kMinTiltStems)
+  if (stems.empty())
     return start;
   std::vector<double> lx, ly;
   for (const auto& s : stems)
