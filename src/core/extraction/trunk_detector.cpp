@@ -92,10 +92,20 @@ std::vector<StemAxisFit> stemsOfCluster(const std::vector<Eigen::Vector3d>& leve
 }
 
 /**
+ * The rotation that levels a sweep tilted by @p tilt (the shift of a vertical axis per metre up in the sensor's
+ * frame): the vertical's direction (-tilt.x, -tilt.y, 1) turned onto +z, without yaw. To first order x += tilt.x z,
+ * y += tilt.y z, z -= tilt . (x, y); the shear alone would stretch ranges by tilt^2 / 2 (4 cm at 10 m and 5 deg).
+ */
+Eigen::Matrix3d levelling(const Eigen::Vector2d& tilt)
+{
+  return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d(-tilt.x(), -tilt.y(), 1.0), Eigen::Vector3d::UnitZ())
+      .toRotationMatrix();
+}
+
+/**
  * The stems of every candidate (fitStemAxes()), each with its cluster's point count in @p cluster_points, after
- * levelling the points by the small tilt @p tilt (the shift of a vertical axis per metre up in the sensor's frame,
- * removed by a rotation: x += tilt.x z, y += tilt.y z,
- * z -= tilt . (x, y)); rejections into @p st when given. @p max_lean overrides config.max_stem_lean.
+ * levelling the points by the small tilt @p tilt (levelling()); rejections into @p st when given. @p max_lean
+ * overrides config.max_stem_lean.
  */
 std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candidates,
                                         const std::vector<Eigen::Vector3d>& sweep, const Eigen::Vector2d& tilt,
@@ -104,11 +114,11 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
 {
   cfg.max_stem_lean = max_lean;
   Random rng(cfg.seed);
+  const Eigen::Matrix3d level = levelling(tilt);
   std::vector<Eigen::Vector3d> all_levelled;
   all_levelled.reserve(sweep.size());
   for (const auto& q : sweep)
-    all_levelled.emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z(),
-                              q.z() - tilt.x() * q.x() - tilt.y() * q.y());
+    all_levelled.push_back(level * q);
   NearestReturns occluders;
   occluders.build(all_levelled);
   std::vector<StemAxisFit> all;
@@ -117,8 +127,7 @@ std::vector<StemAxisFit> fitStemColumns(const std::vector<TrunkCandidate>& candi
   {
     levelled.clear();
     for (const auto& q : c.points)
-      levelled.emplace_back(q.x() + tilt.x() * q.z(), q.y() + tilt.y() * q.z(),
-                            q.z() - tilt.x() * q.x() - tilt.y() * q.y());
+      levelled.push_back(level * q);
     StemAxisRejection why = StemAxisRejection::kNone;
     const std::vector<StemAxisFit> stems = stemsOfCluster(levelled, cfg, &rng, &why, &occluders);
     for (const auto& s : stems)
@@ -175,20 +184,24 @@ Eigen::Vector2d tiltFromStemAxes(const std::vector<StemAxisFit>& stems, const Ei
       med = 0.5 * (med + *std::max_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(m)));
     return med;
   };
-  // A stem leaning by a after levelling by start is upright after the further correction -a.
-  return start - Eigen::Vector2d(median(&lx), median(&ly));
+  // The stems' median axis is the vertical: in the sensor's frame (-tilt, 1) points along it.
+  const Eigen::Vector3d up = levelling(start).transpose() * Eigen::Vector3d(median(&lx), median(&ly), 1.0);
+  return -up.head<2>() / up.z();
 }
 
 /**
- * @p stem fitted after levelling by one tilt, as levelled by a further @p delta (x += delta.x z, y += delta.y z,
- * z -= delta . (x, y), to first order): its axis leans by delta more, its centre and heights move with it.
+ * @p stem fitted in a frame levelled by @p start, in the frame levelled by @p tilt instead (levelling()): its
+ * centre, axis and heights turned by the rotation between the two.
  */
-void levelStem(const Eigen::Vector2d& delta, StemAxisFit* stem)
+void levelStem(const Eigen::Vector2d& start, const Eigen::Vector2d& tilt, StemAxisFit* stem)
 {
-  const double dz = -delta.dot(stem->center);
-  stem->center += delta * stem->height;
-  stem->lean += delta;
-  stem->height += dz;
+  const Eigen::Matrix3d turn = levelling(tilt) * levelling(start).transpose();
+  const Eigen::Vector3d centre = turn * Eigen::Vector3d(stem->center.x(), stem->center.y(), stem->height);
+  const Eigen::Vector3d axis = turn * Eigen::Vector3d(stem->lean.x(), stem->lean.y(), 1.0);
+  const double dz = centre.z() - stem->height;
+  stem->center = centre.head<2>();
+  stem->lean = axis.head<2>() / axis.z();
+  stem->height = centre.z();
   stem->z_lo += dz;
   stem->z_hi += dz;
 }
@@ -209,7 +222,7 @@ Eigen::Vector2d stemColumns(const std::vector<TrunkCandidate>& candidates, const
   const Eigen::Vector2d tilt = cfg.level_by_trunks ? tiltFromStemAxes(stems, start) : start;
   for (std::size_t i = 0; i < stems.size(); ++i)
   {
-    levelStem(tilt - start, &stems[i]);
+    levelStem(start, tilt, &stems[i]);
     if (stems[i].lean.norm() > std::tan(cfg.max_stem_lean))
       ++st->rejected_shape;
     else
