@@ -16,6 +16,7 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
     throw std::runtime_error("method must be \"centroid\" or \"circle\", not \"" + method + "\"");
   p.get("ground_cell", &c->ground_cell);
   p.get("ground_max_slope", &c->ground_max_slope);
+  p.get("ground_relief", &c->ground_relief);
   p.get("sensor_height", &c->sensor_height);
   p.get("min_height", &c->min_height);
   p.get("max_height", &c->max_height);
@@ -37,6 +38,7 @@ void readTrunkDetectorConfig(const ParamSource& p, core::TrunkDetectorConfig* c)
   p.get("slice_height", &c->slice_height);
   p.get("min_slices", &c->min_slices);
   p.get("max_stem_lean", &c->max_stem_lean);
+  p.get("stem_lean_sigma", &c->stem_lean_sigma);
   p.get("max_interior_share", &c->max_interior_share);
   p.get("max_see_through", &c->max_see_through);
   p.get("min_silhouette_coverage", &c->min_silhouette_coverage);

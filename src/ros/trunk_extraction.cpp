@@ -331,7 +331,9 @@ void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<
       << " clusters=" << stats.clusters << " rejected_size=" << stats.rejected_size
       << " rejected_radius=" << stats.rejected_radius << " rejected_inliers=" << stats.rejected_inliers
       << " rejected_shape=" << stats.rejected_shape << " trunks=" << out->trunks.size()
-      << " tilt_roll=" << stats.tilt_roll << " tilt_pitch=" << stats.tilt_pitch << " inputs=" << inputs_
+      << " tilt_roll=" << stats.tilt_roll << " tilt_pitch=" << stats.tilt_pitch
+      << " tilt_from=" << (stats.tilt_from_ground ? "ground" : "stems") << " ground_roll=" << stats.ground_roll
+      << " ground_pitch=" << stats.ground_pitch << " inputs=" << inputs_
       << " markers_published=" << markers_published_ << " dropped=" << dropped_;
     auto text = boost::make_shared<std_msgs::String>();
     text->data = s.str();

@@ -2,12 +2,13 @@
 // the true trunks, per range band, circle against centroid. Prints a table; not a test.
 //
 //   rosrun rbpf_slam trunk_benchmark [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class]
-//                                    [--cluster-fit]
+//                                    [--cluster-fit] [--no-ground-plane]
 // --no-level: no tilt estimation from the trunks; --true-level: the cloud is levelled with the true sensor
 // attitude first (what an IMU or a tilt-aware TF tree gives a robot). --by-class: the circle method's per-sweep
 // figures by range band (1-4, 4-7, 7-10 m) and DBH class (< 10, 10-20, 20-30, >= 30 cm) as a Markdown table, with
 // what the spurious detections stand on; the sensor stands where a robot can (clear of saplings and low foliage).
 // --cluster-fit: one circle per cluster instead of the stems as columns (column_fit false), for comparison.
+// --no-ground-plane: the ground from the lowest points under the slope's cap alone (ground_relief 0), for comparison.
 #include <time.h>
 
 #include <algorithm>
@@ -23,6 +24,7 @@
 #include "rbpf_slam/sim/forest_simulator.h"
 #include "rbpf_slam/core/filter/random.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
+#include "rbpf_slam/core/extraction/ground_model.h"
 #include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
@@ -66,6 +68,8 @@ struct Result
   double stage_ms[4] = { 0.0, 0.0, 0.0, 0.0 };
   int split_clusters = 0;  // clusters split into two touching trunks
   std::vector<double> tilt_error_deg;  // per sweep: the estimated tilt against the true attitude's
+  std::vector<double> ground_tilt_error_deg;  // per sweep: the seen ground's plane as the tilt, against the same
+  int ground_tilt_used = 0;                   // sweeps whose tilt is the ground's (TrunkDetectorStats)
 };
 
 /** CPU time of the calling thread [ms]: what a cloud costs, whatever else runs on a shared machine. */
@@ -101,6 +105,7 @@ void add(BandStats* b, bool visible, bool matched, double err, double rad_err)
 bool g_level = true;
 bool g_true_level = false;  // level with the true sensor attitude (what a good IMU or TF gives)
 bool g_column_fit = true;  // stems as columns of consistent cross-sections (TrunkDetectorConfig::column_fit)
+bool g_ground_plane = true;  // the seen ground's plane where the ground is hidden (TrunkDetectorConfig::ground_relief)
 
 std::vector<TrueTrunk> trueTrunks(const sim::ForestWorld& world)
 {
@@ -198,16 +203,24 @@ std::vector<int> trunkHits(const SweepView& view, const std::vector<TrueTrunk>& 
   return hits;
 }
 
-/** Runs the detector of @p method on the sweep, timing it. */
-std::vector<core::TrunkObservation> detect(core::TrunkMethod method, const sim::SimulatorConfig& sim_config,
-                                           const SweepView& view, Result* res)
+/** The detector's settings of @p method for the benchmark's options. */
+core::TrunkDetectorConfig detectorConfig(core::TrunkMethod method, const sim::SimulatorConfig& sim_config)
 {
   core::TrunkDetectorConfig cfg;
   cfg.method = method;
   cfg.sensor_height = sim_config.lidar3d.mount.z;  // from TF on a robot
   cfg.level_by_trunks = g_level;
   cfg.column_fit = g_column_fit;
-  core::TrunkDetector detector(cfg);
+  if (!g_ground_plane)
+    cfg.ground_relief = 0.0;
+  return cfg;
+}
+
+/** Runs the detector of @p method on the sweep, timing it. */
+std::vector<core::TrunkObservation> detect(core::TrunkMethod method, const sim::SimulatorConfig& sim_config,
+                                           const SweepView& view, Result* res)
+{
+  core::TrunkDetector detector(detectorConfig(method, sim_config));
   const double t0 = threadCpuMs();
   core::TrunkDetectorStats stats;
   Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
@@ -227,6 +240,12 @@ std::vector<core::TrunkObservation> detect(core::TrunkMethod method, const sim::
     const Eigen::Vector2d truth = -up.head<2>() / up.z();
     const Eigen::Vector2d estimate(std::tan(stats.tilt_pitch), -std::tan(stats.tilt_roll));
     res->tilt_error_deg.push_back(std::atan((estimate - truth).norm()) * 180.0 / M_PI);
+    if (g_ground_plane)
+    {
+      const Eigen::Vector2d ground(std::tan(stats.ground_pitch), -std::tan(stats.ground_roll));
+      res->ground_tilt_error_deg.push_back(std::atan((ground - truth).norm()) * 180.0 / M_PI);
+      res->ground_tilt_used += stats.tilt_from_ground ? 1 : 0;
+    }
   }
   return obs;
 }
@@ -400,6 +419,7 @@ struct SpuriousKinds
 struct ClassResult
 {
   ClassStats band[kNumClassBands];
+  std::vector<double> ground_error[kNumClassBands];  ///< [m] the detector's ground at each tree's foot less the truth
   ClassStats dbh[kNumDbhClasses];
   ClassStats all;
   SpuriousKinds spurious;
@@ -552,7 +572,7 @@ void printClassRow(const char* group, const ClassStats& s)
 }
 
 void printByClass(const std::string& name, const sim::ForestWorld& world, const ClassResult& res,
-                  const std::vector<double>& tilt_error_deg)
+                  const Result& tilt)
 {
   std::printf("\n== %s: %d sweeps (%.0f points each), %zu trees, %zu saplings, %zu branches on stems, "
               "%zu foliage spheres\n\n",
@@ -577,16 +597,64 @@ void printByClass(const std::string& name, const sim::ForestWorld& world, const 
               "it), %d on saplings, %d on shrubs and other low foliage, %d elsewhere\n",
               spurious, res.sweeps ? static_cast<double>(spurious) / res.sweeps : 0.0, k.stem, k.sapling, k.foliage,
               k.other);
-  if (tilt_error_deg.empty())
+  const auto print = [](const char* what, const std::vector<double>& errors) {
+    if (errors.empty())
+      return;
+    double ss = 0.0;
+    for (double e : errors)
+      ss += e * e;
+    std::vector<double> sorted = errors;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("%s against the true attitude, per sweep: median %.2f deg, RMS %.2f deg, 95 %% %.2f deg\n", what,
+                median(sorted), std::sqrt(ss / sorted.size()), sorted[(sorted.size() * 95) / 100]);
+  };
+  std::string feet;
+  for (int b = 0; b < kNumClassBands; ++b)
+  {
+    std::vector<double> e = res.ground_error[b];
+    if (e.empty())
+      continue;
+    std::sort(e.begin(), e.end());
+    char text[96];
+    std::snprintf(text, sizeof(text), "%s%.0f-%.0f m %+.2f (%+.2f / %+.2f)", feet.empty() ? "" : ", ", kClassBands[b],
+                  kClassBands[b + 1], median(e), e[e.size() / 10], e[(e.size() * 9) / 10]);
+    feet += text;
+  }
+  if (!feet.empty())
+    std::printf("ground at the true trees' feet, estimate less truth [m], median (10 %% / 90 %%): %s\n", feet.c_str());
+  print("sensor tilt estimated", tilt.tilt_error_deg);
+  if (tilt.ground_tilt_error_deg.empty())
     return;
-  double ss = 0.0;
-  for (double e : tilt_error_deg)
-    ss += e * e;
-  std::vector<double> sorted = tilt_error_deg;
-  std::sort(sorted.begin(), sorted.end());
-  std::printf("sensor tilt estimated against the true attitude, per sweep: median %.2f deg, RMS %.2f deg, "
-              "95 %% %.2f deg\n",
-              median(sorted), std::sqrt(ss / sorted.size()), sorted[(sorted.size() * 95) / 100]);
+  const std::string ground = "tilt of the seen ground's plane (used in " +
+                             std::to_string(100 * tilt.ground_tilt_used / static_cast<int>(tilt.ground_tilt_error_deg.size())) +
+                             " % of sweeps)";
+  print(ground.c_str(), tilt.ground_tilt_error_deg);
+}
+
+/**
+ * The ground the detector estimates (its GroundModel with its settings, on the sweep unlevelled) at the foot of every
+ * true tree 1-10 m away, less the true height there, into @p res by range band.
+ */
+void groundAtFeet(const SweepView& view, const std::vector<TrueTrunk>& trunks, const sim::SimulatorConfig& sim_config,
+                  ClassResult* res)
+{
+  const core::TrunkDetectorConfig cfg = detectorConfig(core::TrunkMethod::kCircle, sim_config);
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(view.pts.size());
+  for (const auto& p : view.pts)
+    if (p.allFinite())
+      pts.push_back(p.cast<double>());
+  core::GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope, cfg.ground_relief, cfg.max_range);
+  ground.build(pts);
+  const Eigen::Isometry3d to_sensor = view.sensor.inverse();
+  for (const auto& t : trunks)
+  {
+    const Eigen::Vector3d foot = to_sensor * t.base;
+    const int band = classOf(foot.head<2>().norm(), kClassBands, kNumClassBands);
+    const double g = band >= 0 ? ground.heightAt(foot.x(), foot.y()) : NAN;
+    if (std::isfinite(g))
+      res->ground_error[band].push_back(g - foot.z());
+  }
 }
 
 void runByClass(const std::string& name, const sim::ForestWorld& world, double step)
@@ -602,9 +670,11 @@ void runByClass(const std::string& name, const sim::ForestWorld& world, double s
     ++res.sweeps;
     const std::vector<int> hits = trunkHits(view, trunks);
     const std::vector<core::TrunkObservation> obs = detect(core::TrunkMethod::kCircle, sim_config, view, &timing);
+    if (!g_true_level)
+      groundAtFeet(view, trunks, sim_config, &res);
     scoreByClass(obs, matchTrunks(obs, view, trunks), view, trunks, hits, world, &res);
   }
-  printByClass(name, world, res, timing.tilt_error_deg);
+  printByClass(name, world, res, timing);
 }
 }  // namespace
 
@@ -625,6 +695,8 @@ int main(int argc, char** argv)
       g_true_level = true;
     else if (arg == "--cluster-fit")
       g_column_fit = false;
+    else if (arg == "--no-ground-plane")
+      g_ground_plane = false;
     else if (arg == "--by-class")
       by_class = true;
     else if (arg == "--step" && i + 1 < argc)
@@ -632,7 +704,8 @@ int main(int argc, char** argv)
     else
     {
       std::fprintf(stderr,
-                   "usage: %s [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class] [--cluster-fit]\n",
+                   "usage: %s [--world FILE]... [--step M] [--no-level] [--true-level] [--by-class] [--cluster-fit]\n"
+                   "          [--no-ground-plane]\n",
                    argv[0]);
       return 2;
     }

@@ -290,7 +290,7 @@ class TrunkExtractionCheck(unittest.TestCase):
         client = Client(self.node, timeout=30)
         try:
             current = client.get_configuration(timeout=10)
-            # The test sets min_height 0.45 (the .cfg default is 0.5): the server must keep the parameter.
+            # The test sets min_height 0.45 (the .cfg default is 0.8): the server must keep the parameter.
             self.assertAlmostEqual(current['min_height'], rospy.get_param(self.node + '/min_height'))
             self.assertAlmostEqual(current['min_height'], 0.45)
             self.assertEqual(current['method'], 'circle')

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Dense>
+
 namespace rbpf_slam
 {
 namespace core
@@ -24,9 +26,88 @@ std::int64_t cellIndex(double v, double cell)
 }
 }  // namespace
 
-GroundModel::GroundModel(double cell, double sensor_height, double max_slope)
-  : cell_(cell), sensor_height_(sensor_height), max_slope_(max_slope)
+GroundModel::GroundModel(double cell, double sensor_height, double max_slope, double relief, double radius)
+  : cell_(cell), sensor_height_(sensor_height), max_slope_(max_slope), relief_(relief), radius_(radius)
 {
+}
+
+bool GroundModel::groundPlane(Eigen::Vector2d* slope) const
+{
+  if (plane_ && slope)
+    *slope = slope_;
+  return plane_;
+}
+
+void GroundModel::fitPlane()
+{
+  plane_ = sensor_height_ > 0.0 && relief_ > 0.0;
+  slope_.setZero();
+  if (!plane_)
+    return;
+  // Each cell's lowest point at the cell's centre, relative to the ground under the sensor (the prior).
+  std::vector<Eigen::Vector3d> low;
+  const auto add = [&](std::int64_t ix, std::int64_t iy, float z) {
+    const double x = (static_cast<double>(ix) + 0.5) * cell_, y = (static_cast<double>(iy) + 0.5) * cell_;
+    if (std::isfinite(z) && std::hypot(x, y) <= radius_)
+      low.emplace_back(x, y, static_cast<double>(z) + sensor_height_);
+  };
+  if (dense_)
+  {
+    for (std::int64_t iy = 0; iy < ny_; ++iy)
+      for (std::int64_t ix = 0; ix < nx_; ++ix)
+        add(ix0_ + ix, iy0_ + iy, lowest_grid_[static_cast<std::size_t>(iy * nx_ + ix)]);
+  }
+  else
+  {
+    for (const auto& kv : lowest_)
+      add(static_cast<std::int32_t>(static_cast<std::uint64_t>(kv.first) >> 32),
+          static_cast<std::int32_t>(static_cast<std::uint64_t>(kv.first) & 0xffffffffULL), kv.second);
+  }
+  // The plane through the ground under the sensor that most seen cells lie on (within the relief), found over a
+  // grid of slopes up to max_slope: a cell whose lowest point lies more than the relief below a plane rules it out
+  // (ground seen beneath it), one above it shows a stem or a shrub and says nothing. The slope's prior costs a
+  // slope of max_slope as much as four cells, so a bush's top alone does not tilt it. Then least squares over the
+  // best plane's cells.
+  const auto score = [&](const Eigen::Vector2d& s) {
+    double n = -4.0 * s.squaredNorm() / std::max(max_slope_ * max_slope_, 1e-12);
+    for (const auto& p : low)
+    {
+      const double e = p.z() - s.dot(p.head<2>());
+      if (std::abs(e) <= relief_)
+        n += 1.0;
+      else if (e < -relief_)
+        n -= 2.0;
+    }
+    return n;
+  };
+  double best = score(slope_);
+  const int steps = 10;
+  const double step = max_slope_ / steps;
+  for (int i = -steps; i <= steps && step > 0.0; ++i)
+    for (int k = -steps; k <= steps; ++k)
+    {
+      const Eigen::Vector2d s(i * step, k * step);
+      if (s.norm() > max_slope_ + 1e-12 || (i == 0 && k == 0))
+        continue;
+      const double n = score(s);
+      if (n > best)
+      {
+        best = n;
+        slope_ = s;
+      }
+    }
+  const double prior = (relief_ * relief_) / std::max(max_slope_ * max_slope_, 1e-12);
+  Eigen::Matrix2d a = prior * Eigen::Matrix2d::Identity();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (const auto& p : low)
+    if (std::abs(p.z() - slope_.dot(p.head<2>())) <= relief_)
+    {
+      a += p.head<2>() * p.head<2>().transpose();
+      b += p.head<2>() * p.z();
+    }
+  slope_ = a.ldlt().solve(b);
+  if (slope_.norm() > max_slope_)
+    slope_ *= max_slope_ / std::max(slope_.norm(), 1e-12);
 }
 
 void GroundModel::build(const std::vector<Eigen::Vector3d>& points)
@@ -68,6 +149,7 @@ void GroundModel::build(const std::vector<Eigen::Vector3d>& points)
                                                             (point_cell_[2 * i] - ix0_))];
       lowest = std::min(lowest, static_cast<float>(points[i].z()));
     }
+    fitPlane();
     return;
   }
   lowest_.reserve(points.size() / 4 + 16);
@@ -81,6 +163,7 @@ void GroundModel::build(const std::vector<Eigen::Vector3d>& points)
       it->second = static_cast<float>(points[i].z());
   }
   ground_.reserve(lowest_.size());
+  fitPlane();
 }
 
 double GroundModel::heightAt(double x, double y)
@@ -131,6 +214,13 @@ double GroundModel::heightOfCell(std::int64_t ix, std::int64_t iy, double x, dou
   {
     const double cap = -sensor_height_ + max_slope_ * std::hypot(x, y);
     g = std::min(g, cap);
+  }
+  if (plane_)
+  {
+    // No ground seen here, or only a stem's or a shrub's lowest return: the plane of the ground seen elsewhere.
+    const double plane = slope_.x() * x + slope_.y() * y - sensor_height_;
+    if (!(g <= plane + relief_))
+      g = plane;
   }
   if (cached)
     *cached = static_cast<float>(g);

@@ -219,8 +219,9 @@ public:
       if (!bc[1])
         continue;
       Cylinder cyl;
+      // Three points of a thin stem give a rough circle: down to half min_radius it may be of a stem within.
       if (!circleThrough(a.head<2>(), bc[0]->head<2>(), bc[1]->head<2>(), &cyl.center, &cyl.radius) ||
-          cyl.radius < cfg_.min_radius || cyl.radius > cfg_.max_radius)
+          cyl.radius < 0.5 * cfg_.min_radius || cyl.radius > cfg_.max_radius)
         continue;
       // score <= inliers: a hypothesis with no more inliers than the best score cannot beat it.
       if (best_support.inliers > 0 && countInliers(cyl) <= best_support.score)
@@ -589,10 +590,11 @@ bool overlapsAny(const StemAxisFit& fit, const std::vector<StemAxisFit>& stems, 
 /** Why @p fit is no stem (kNone: it is one). */
 StemAxisRejection judge(const StemAxisFit& fit, const AxisSearch& search, const TrunkDetectorConfig& cfg)
 {
-  // min_radius tells a tree from a sapling and holds for the fit; max_radius bounds the stems looked for, and a fit
-  // within two of its standard deviations above it may be of a stem within.
+  // min_radius tells a tree from a sapling and max_radius bounds the stems looked for; a fit within two of its
+  // standard deviations below the one or above the other may be of a stem within (a stem of 8 cm DBH seen over a
+  // few points a ring fits 3.5-4.5 cm).
   const double radius_margin = 2.0 * std::sqrt(std::max(0.0, fit.covariance(2, 2)));
-  if (fit.radius < cfg.min_radius || fit.radius - radius_margin > cfg.max_radius)
+  if (fit.radius + radius_margin < cfg.min_radius || fit.radius - radius_margin > cfg.max_radius)
     return StemAxisRejection::kRadius;
   const double range = fit.center.norm();
   if (range < cfg.min_range || range > cfg.max_range)

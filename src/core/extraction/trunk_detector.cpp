@@ -207,19 +207,42 @@ void levelStem(const Eigen::Vector2d& start, const Eigen::Vector2d& tilt, StemAx
 }
 
 /**
+ * The tilt from the seen ground's plane @p ground (nullptr: none) or from the stems' median axis @p stems_tilt
+ * (tiltFromStemAxes()) of @p n stems: the ground's, unless the stems depart from it by more than their own leans
+ * explain (config.stem_lean_sigma per axis; the median's variance pi/2 sigma^2 / n; chi-square of 2 degrees at 95 %).
+ * On level ground the ground's plane is the more precise (hundreds of cells against a few stems that lean); on a slope
+ * the robot stands on, the ground is level in the sensor's frame whatever gravity says, and the stems tell.
+ */
+Eigen::Vector2d chooseTilt(const Eigen::Vector2d* ground, const Eigen::Vector2d& stems_tilt, std::size_t n,
+                           const TrunkDetectorConfig& cfg, TrunkDetectorStats* st)
+{
+  st->tilt_from_ground = false;
+  if (!ground || !(cfg.stem_lean_sigma > 0.0))
+    return stems_tilt;
+  constexpr double kChi2Dof2P95 = 5.991;
+  const double var = 0.5 * M_PI * cfg.stem_lean_sigma * cfg.stem_lean_sigma / std::max<double>(1.0, n);
+  if (n > 0 && (stems_tilt - *ground).squaredNorm() / var > kChi2Dof2P95)
+    return stems_tilt;
+  st->tilt_from_ground = true;
+  return *ground;
+}
+
+/**
  * The stems of every candidate as columns (fitStemColumns()) into @p out, in one fit: levelled by the trunks' tilt
- * @p start, the stems may lean twice as much as max_stem_lean; with config.level_by_trunks the median of their axes
- * (tiltFromStemAxes()) then levels the stems themselves, and those leaning more than max_stem_lean are dropped. The
- * tilt used.
+ * @p start, the stems may lean twice as much as max_stem_lean; with config.level_by_trunks the tilt of the seen
+ * ground @p ground (nullptr: none) or the median of their axes (chooseTilt()) then levels the stems themselves, and
+ * those leaning more than max_stem_lean are dropped. The tilt used.
  */
 Eigen::Vector2d stemColumns(const std::vector<TrunkCandidate>& candidates, const std::vector<Eigen::Vector3d>& sweep,
-                            const Eigen::Vector2d& start, const TrunkDetectorConfig& cfg,
-                            std::vector<TrunkObservation>* out, TrunkDetectorStats* st)
+                            const Eigen::Vector2d& start, const Eigen::Vector2d* ground,
+                            const TrunkDetectorConfig& cfg, std::vector<TrunkObservation>* out,
+                            TrunkDetectorStats* st)
 {
   const double max_lean = cfg.level_by_trunks ? 2.0 * cfg.max_stem_lean : cfg.max_stem_lean;
   std::vector<int> cluster_points;
   std::vector<StemAxisFit> stems = fitStemColumns(candidates, sweep, start, cfg, max_lean, &cluster_points, st);
-  const Eigen::Vector2d tilt = cfg.level_by_trunks ? tiltFromStemAxes(stems, start) : start;
+  const Eigen::Vector2d tilt =
+      cfg.level_by_trunks ? chooseTilt(ground, tiltFromStemAxes(stems, start), stems.size(), cfg, st) : start;
   for (std::size_t i = 0; i < stems.size(); ++i)
   {
     levelStem(start, tilt, &stems[i]);
@@ -276,6 +299,8 @@ std::string TrunkDetectorConfig::validate() const
     return "ground_cell must be > 0";
   if (!(ground_max_slope >= 0.0))
     return "ground_max_slope must be >= 0";
+  if (!(ground_relief >= 0.0))
+    return "ground_relief must be >= 0";
   if (!std::isfinite(min_height) || !std::isfinite(max_height) || !(max_height > min_height))
     return "max_height must be > min_height";
   if (!(voxel_size >= 0.0))
@@ -308,6 +333,8 @@ std::string TrunkDetectorConfig::validate() const
     return "min_slices must be >= 1";
   if (!positive(max_stem_lean) || !(max_stem_lean < 0.5 * M_PI))
     return "max_stem_lean must be in (0, pi/2) rad";
+  if (!(stem_lean_sigma >= 0.0) || !(stem_lean_sigma < 0.5 * M_PI))
+    return "stem_lean_sigma must be in [0, pi/2) rad";
   if (!(max_interior_share >= 0.0))
     return "max_interior_share must be >= 0";
   if (!(max_see_through >= 0.0 && max_see_through <= 1.0))
@@ -379,8 +406,15 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
   StageTimer timer;
 
   // Ground, and the band above it where trunks are clear of ground vegetation and below the crowns.
-  GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope);
+  GroundModel ground(cfg.ground_cell, cfg.sensor_height, cfg.ground_max_slope, cfg.ground_relief, cfg.max_range);
   ground.build(pts);
+  Eigen::Vector2d slope;
+  const bool plane = ground.groundPlane(&slope);
+  if (plane)
+  {
+    st->ground_pitch = std::atan(slope.x());
+    st->ground_roll = -std::atan(slope.y());
+  }
   std::vector<Eigen::Vector3f> band = selectHeightBand(pts, &ground, cfg.min_height, cfg.max_height);
   detectorReach(cfg, cfg.sensor_reach > 0.0 || cfg.azimuth_resolution > 0.0 ? NAN : estimateAzimuthStep(band),
                 &st->reach, &st->reach_source, &st->azimuth_step);
@@ -402,7 +436,7 @@ std::vector<TrunkObservation> TrunkDetector::detect(const std::vector<Eigen::Vec
     tilt = estimateTiltFromTrunks(candidates, tiltParams(cfg));
   timer.lap(&st->ms_tilt);
   if (columns)
-    tilt = stemColumns(candidates, pts, tilt, cfg, &out, st);
+    tilt = stemColumns(candidates, pts, tilt, plane ? &slope : nullptr, cfg, &out, st);
   st->tilt_pitch = std::atan(tilt.x());
   st->tilt_roll = -std::atan(tilt.y());
 

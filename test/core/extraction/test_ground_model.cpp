@@ -123,3 +123,79 @@ TEST(GroundModel, AFarOffPointGivesTheSameGroundNearTheSensor)
     EXPECT_EQ(grid.heightAt(x, 0.3 * x), sparse.heightAt(x, 0.3 * x)) << x;
   EXPECT_EQ(sparse.heightAt(4000.2, -2999.9), 50.0f);
 }
+
+namespace
+{
+/**
+ * A sensor 1.8 m up on ground rising 0.1 m per metre along x (seen as the lidar sees it: no ground within 7 m), a
+ * stem 3 m ahead whose lowest return is 1 m up, and shrubs whose tops are all the sensor sees in a few cells.
+ */
+std::vector<Eigen::Vector3d> groundHiddenNearTheSensor()
+{
+  const auto h = [](double x, double) { return -1.8 + 0.1 * x; };
+  std::vector<Eigen::Vector3d> pts;
+  for (double a = 0.0; a < 2.0 * M_PI; a += 0.01)
+    for (double r = 7.0; r < 16.0; r += 0.5)
+    {
+      const double x = r * std::cos(a), y = r * std::sin(a);
+      if (!(x > 8.0 && x < 12.0 && std::abs(y) < 2.0))  // under the shrub and around it
+        pts.emplace_back(x, y, h(x, y));
+    }
+  for (double z = 1.0; z < 3.0; z += 0.1)
+    for (double a = -1.0; a < 1.0; a += 0.2)
+      pts.emplace_back(3.0 + 0.15 * std::cos(a + M_PI), 0.15 * std::sin(a + M_PI), h(3.0, 0.0) + z);
+  for (double x = 9.0; x < 11.0; x += 0.1)
+    for (double y = -1.0; y < 1.0; y += 0.1)
+      pts.emplace_back(x, y, h(x, y) + 0.9);  // a shrub's top hides the ground under it
+  return pts;
+}
+}  // namespace
+
+TEST(GroundModel, TheSeenGroundsPlaneGivesTheGroundWhereTheSensorSeesNone)
+{
+  const std::vector<Eigen::Vector3d> pts = groundHiddenNearTheSensor();
+  GroundModel plane(1.0, 1.8, 0.35, 0.5);
+  plane.build(pts);
+  Eigen::Vector2d slope;
+  ASSERT_TRUE(plane.groundPlane(&slope));
+  EXPECT_NEAR(slope.x(), 0.1, 0.01);
+  EXPECT_NEAR(slope.y(), 0.0, 0.01);
+  // Under the stem, under the shrub and where nothing is seen: the ground, not the lowest return.
+  EXPECT_NEAR(plane.heightAt(3.0, 0.0), -1.5, 0.05);
+  EXPECT_NEAR(plane.heightAt(10.0, 0.0), -0.8, 0.05);
+  EXPECT_NEAR(plane.heightAt(-2.0, 1.0), -2.0, 0.05);
+  // Where the ground is seen, it is kept (the lowest of the 3 x 3 cells around).
+  EXPECT_NEAR(plane.heightAt(12.0, 5.0), -1.8 + 0.1 * 11.0, 0.15);
+  // Without the plane, the stem's lowest return is the ground at its foot (under the slope's cap, 1.05 m up).
+  GroundModel capped(1.0, 1.8, 0.35);
+  capped.build(pts);
+  EXPECT_FALSE(capped.groundPlane(&slope));
+  EXPECT_GT(capped.heightAt(3.0, 0.0), -0.8);
+}
+
+TEST(GroundModel, NoPlaneWithoutTheSensorsHeight)
+{
+  GroundModel ground(1.0, 0.0, 0.35, 0.5);
+  ground.build(groundHiddenNearTheSensor());
+  Eigen::Vector2d slope(7.0, 7.0);
+  EXPECT_FALSE(ground.groundPlane(&slope));
+  EXPECT_EQ(slope, Eigen::Vector2d(7.0, 7.0));
+  EXPECT_TRUE(std::isinf(ground.heightAt(30.0, 30.0)));
+}
+
+TEST(GroundModel, WithNoGroundSeenThePlaneIsTheMountsLevel)
+{
+  // Only a bush's top (about 1 m above the ground at -1.8): the plane stays level through the ground under the
+  // sensor, and the bush does not lift it.
+  std::vector<Eigen::Vector3d> bush;
+  for (double x = 5.0; x < 7.0; x += 0.1)
+    for (double y = -1.0; y < 1.0; y += 0.1)
+      bush.emplace_back(x, y, -0.6 + 0.2 * std::cos(x + y));
+  GroundModel ground(1.0, 1.8, 0.1, 0.5);
+  ground.build(bush);
+  Eigen::Vector2d slope;
+  ASSERT_TRUE(ground.groundPlane(&slope));
+  EXPECT_NEAR(slope.norm(), 0.0, 1e-9);
+  EXPECT_NEAR(ground.heightAt(6.0, 0.0), -1.8, 1e-6);
+  EXPECT_NEAR(ground.heightAt(20.0, 0.0), -1.8, 1e-6);
+}

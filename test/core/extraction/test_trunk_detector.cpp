@@ -211,6 +211,96 @@ TEST(TrunkDetector, TiltedSensorIsLevelledByTheTrunks)
     EXPECT_NEAR(o.radius, 0.2, 0.02);
 }
 
+namespace
+{
+/**
+ * A sensor 1.8 m above ground that slopes by @p slope_deg along the world's x, the sensor pitched by @p pitch_deg (a
+ * robot on that slope: both equal), and vertical stems at @p centres (world x, y) on the ground: the points in the
+ * sensor's frame, and the true tilt (the shift per metre up of a vertical axis in that frame).
+ */
+std::vector<Eigen::Vector3f> stemsOnASlope(double slope_deg, double pitch_deg,
+                                           const std::vector<Eigen::Vector2d>& centres, Random& rnd,
+                                           Eigen::Vector2d* true_tilt)
+{
+  const double s = std::tan(slope_deg * M_PI / 180.0);
+  const auto ground = [&](double x) { return -kSensorHeight + s * x; };
+  std::vector<Eigen::Vector3f> world;
+  for (double r = 2.0; r < 20.0; r += 0.5)
+    for (double a = -M_PI; a < M_PI; a += 0.02)
+      world.emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)),
+                         static_cast<float>(ground(r * std::cos(a))));
+  for (const auto& c : centres)
+    addTrunk(&world, c.x(), c.y(), 0.2, 100.0, rnd, 0.01, ground(c.x()), ground(c.x()) + 3.0);
+  // The sensor's x axis pitched up by the slope: a world point p is R^T p in its frame.
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(-pitch_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  std::vector<Eigen::Vector3f> pts;
+  for (const auto& p : world)
+    pts.push_back((r.transpose() * p.cast<double>()).cast<float>());
+  const Eigen::Vector3d up = r.transpose() * Eigen::Vector3d::UnitZ();
+  *true_tilt = -up.head<2>() / up.z();
+  return pts;
+}
+
+Eigen::Vector2d estimatedTilt(const TrunkDetectorStats& st)
+{
+  return Eigen::Vector2d(std::tan(st.tilt_pitch), -std::tan(st.tilt_roll));
+}
+}  // namespace
+
+TEST(TrunkDetector, OnLevelGroundALeaningStemIsNotTheSensorsTilt)
+{
+  // One stem leaning 4 deg on level ground: the ground's plane is the vertical (the stem's lean departs from it by
+  // less than stems lean), so the stem keeps its lean and the sweep is not turned by it.
+  Random rnd(21);
+  std::vector<Eigen::Vector3f> pts;
+  addGround(&pts);
+  addTrunk(&pts, 6.0, 1.0, 0.2, 100.0, rnd, 0.01, -kSensorHeight, 1.0, std::tan(4.0 * M_PI / 180.0));
+  TrunkDetectorStats st;
+  const auto obs = TrunkDetector(config()).detect(pts, Eigen::Matrix3d::Identity(), &st);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_TRUE(st.tilt_from_ground);
+  EXPECT_LT(estimatedTilt(st).norm(), std::tan(0.3 * M_PI / 180.0));
+  // With the ground left out (stem_lean_sigma 0), the stem's lean is taken for the sensor's tilt.
+  TrunkDetectorConfig stems_only = config();
+  stems_only.stem_lean_sigma = 0.0;
+  TrunkDetectorStats st2;
+  ASSERT_EQ(TrunkDetector(stems_only).detect(pts, Eigen::Matrix3d::Identity(), &st2).size(), 1u);
+  EXPECT_FALSE(st2.tilt_from_ground);
+  EXPECT_GT(estimatedTilt(st2).norm(), std::tan(3.0 * M_PI / 180.0));
+}
+
+TEST(TrunkDetector, OnASlopeTheRobotStandsOnTheStemsGiveTheTilt)
+{
+  // A robot pitched 8 deg on an 8 deg slope sees the ground level; six vertical stems show the tilt.
+  Random rnd(22);
+  Eigen::Vector2d truth;
+  const std::vector<Eigen::Vector2d> centres{ { 6, 3 }, { 8, -2 }, { 4, -4 }, { -5, 4 }, { -7, -2 }, { 3, 6 } };
+  const auto pts = stemsOnASlope(8.0, 8.0, centres, rnd, &truth);
+  TrunkDetectorStats st;
+  const auto obs = TrunkDetector(config()).detect(pts, Eigen::Matrix3d::Identity(), &st);
+  EXPECT_EQ(obs.size(), centres.size());
+  EXPECT_FALSE(st.tilt_from_ground);
+  EXPECT_LT(std::atan((estimatedTilt(st) - truth).norm()), 1.0 * M_PI / 180.0);
+  // The ground's plane alone would say level.
+  EXPECT_LT(std::hypot(st.ground_pitch, st.ground_roll), 1.0 * M_PI / 180.0);
+}
+
+TEST(TrunkDetector, ALevelSensorBesideAHillsideKeepsItsLevel)
+{
+  // A level sensor on a flat patch, the ground it sees rising 8 deg ahead (a hillside), six vertical stems: the
+  // stems depart from the ground's plane by more than their lean explains, and the tilt stays level.
+  Random rnd(23);
+  Eigen::Vector2d truth;
+  const std::vector<Eigen::Vector2d> centres{ { 6, 3 }, { 8, -2 }, { 4, -4 }, { -5, 4 }, { -7, -2 }, { 3, 6 } };
+  const auto pts = stemsOnASlope(8.0, 0.0, centres, rnd, &truth);
+  TrunkDetectorStats st;
+  const auto obs = TrunkDetector(config()).detect(pts, Eigen::Matrix3d::Identity(), &st);
+  EXPECT_EQ(obs.size(), centres.size());
+  EXPECT_FALSE(st.tilt_from_ground);
+  EXPECT_LT(std::atan(estimatedTilt(st).norm()), 1.0 * M_PI / 180.0);
+  EXPECT_NEAR(std::tan(st.ground_pitch), std::tan(8.0 * M_PI / 180.0), 0.02);
+}
+
 TEST(TrunkDetector, TrunksInEveryQuadrantAreFound)
 {
   // Ground and band cells left of and behind the sensor have negative indices (their hash keys too).
@@ -1085,6 +1175,21 @@ TEST(TrunkDetectorColumnFit, PorousFoliageIsNoTrunkWhereTheClusterFitTakesIt)
   ASSERT_EQ(obs.size(), 1u);
   EXPECT_LT((obs[0].center - Eigen::Vector2d(5.0, -1.5)).norm(), 0.03);
   EXPECT_NEAR(obs[0].radius, 0.15, 0.015);
+}
+
+TEST(TrunkDetectorColumnFit, AStemOf8CmDbhIsFoundAt3m)
+{
+  // A stem of 8 cm DBH (4 cm radius, min_radius) 3 m away through a 16-ring lidar 1.8 m up with 1 cm range noise,
+  // about 7 points a ring: one trunk, centre within 2 cm, radius within 1 cm (a fit just under min_radius, within two
+  // of its standard deviations, is kept). Further out, with 4-5 points a ring, the fit's radius comes out 2-3 cm and
+  // the stem is taken for a sapling (docs/trunk_extraction.md).
+  Random rnd(30);
+  RingSweep sweep;
+  sweep.cast([&](const Eigen::Vector3d& d) { return hitCylinder(d, 3.0, 0.5, 0.04); }, 0.0, 0.5, 0.01, rnd);
+  const auto obs = TrunkDetector(columnConfig()).detect(sweep.points);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_LT((obs[0].center - Eigen::Vector2d(3.0, 0.5)).norm(), 0.02);
+  EXPECT_NEAR(obs[0].radius, 0.04, 0.01);
 }
 
 TEST(TrunkDetectorColumnFit, FullRingsAreAcceptedOnlyFromAllSides)

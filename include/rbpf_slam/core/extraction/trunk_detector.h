@@ -38,9 +38,12 @@ struct TrunkDetectorConfig
   // --- 3D: ground and height band -------------------------------------------------------------------
   double ground_cell = 1.0;       ///< [m] grid cell of the ground estimate (lowest points per cell)
   double ground_max_slope = 0.35; ///< [-] ground rises at most this much per metre between cells
+  /// [m] the seen ground departs at most this much from the plane through the ground under the sensor; higher
+  /// lowest points and places with no point take the plane's height (needs sensor_height); 0 = no plane
+  double ground_relief = 0.5;
   double sensor_height = 0.0;     ///< [m] sensor above the ground under it (e.g. from TF); 0 = unknown
-  double min_height = 0.5;        ///< [m] band above the local ground kept for trunks
-  double max_height = 2.0;        ///< [m]
+  double min_height = 0.8;        ///< [m] band above the local ground kept for trunks (from 0.5 m below breast
+  double max_height = 2.3;        ///< [m] height, over most shrubs' bulk, to 1 m above it)
   double voxel_size = 0.0;        ///< [m] voxel downsampling of the band; 0 = off
   bool level_by_trunks = true;    ///< estimate the sensor's tilt from the verticality of the trunks
 
@@ -72,6 +75,10 @@ struct TrunkDetectorConfig
   double slice_height = 0.1;        ///< [m] 3D: slices of a cluster that show a stem's continuity (about a ring)
   int min_slices = 3;               ///< 3D: a stem holds at least two points on each of this many slices
   double max_stem_lean = 0.15;      ///< [rad] 3D: a stem's axis leans at most this much after levelling
+  /// [rad] 3D: the scatter of stems' own leans about the vertical, per axis. The seen ground's plane gives the tilt
+  /// (ground_relief) unless the stems' median axis departs from it by more than this scatter explains at 95 %
+  /// (sloping ground: the robot stands on the slope it sees); 0 = the stems' axes always
+  double stem_lean_sigma = 0.04;
   /// 3D: points a stem's bark would hide (inside it by more than ransac_threshold, or, in one sweep, behind it within
   /// its silhouette), as a share of its inliers, at most: foliage and bushes return from inside and behind any
   /// circle fitted to their front, bark from its surface only
@@ -155,6 +162,11 @@ struct TrunkDetectorStats
   int trunks = 0;
   double tilt_roll = 0.0;   ///< [rad] sensor tilt estimated (3D)
   double tilt_pitch = 0.0;  ///< [rad]
+  /// [rad] 3D: the tilt of the seen ground's plane (GroundModel::groundPlane(); 0 without one): the sensor's tilt
+  /// against the terrain it stands on, not against gravity (trunks are levelled by tilt_roll and tilt_pitch)
+  double ground_roll = 0.0;
+  double ground_pitch = 0.0;  ///< [rad]
+  bool tilt_from_ground = false;  ///< 3D column fit: tilt_roll and tilt_pitch are the ground's (else the stems')
   /// [m] 3D: how far a trunk of arc_radius_prior still gives min_points on one ring of this cloud (NaN: unknown)
   double reach = NAN;
   ReachSource reach_source = ReachSource::kUnknown;  ///< where reach comes from
