@@ -219,9 +219,8 @@ public:
       if (!bc[1])
         continue;
       Cylinder cyl;
-      // Three points of a thin stem give a rough circle: down to half min_radius it may be of a stem within.
       if (!circleThrough(a.head<2>(), bc[0]->head<2>(), bc[1]->head<2>(), &cyl.center, &cyl.radius) ||
-          cyl.radius < 0.5 * cfg_.min_radius || cyl.radius > cfg_.max_radius)
+          cyl.radius < cfg_.min_radius || cyl.radius > cfg_.max_radius)
         continue;
       // score <= inliers: a hypothesis with no more inliers than the best score cannot beat it.
       if (best_support.inliers > 0 && countInliers(cyl) <= best_support.score)
