@@ -208,10 +208,12 @@ void levelStem(const Eigen::Vector2d& start, const Eigen::Vector2d& tilt, StemAx
 
 /**
  * The tilt from the seen ground's plane @p ground (nullptr: none) or from the stems' median axis @p stems_tilt
- * (tiltFromStemAxes()) of @p n stems: the ground's, unless the stems depart from it by more than their own leans
- * explain (config.stem_lean_sigma per axis; the median's variance pi/2 sigma^2 / n; chi-square of 2 degrees at 95 %).
- * On level ground the ground's plane is the more precise (hundreds of cells against a few stems that lean); on a slope
- * the robot stands on, the ground is level in the sensor's frame whatever gravity says, and the stems tell.
+ * (tiltFromStemAxes()) of @p n stems: the ground's when at least kMinStemsForGround stems agree with it, that is
+ * depart from it by no more than their own leans explain (config.stem_lean_sigma per axis; the median's variance
+ * pi/2 sigma^2 / n; chi-square of 2 degrees at 95 %). On level ground the ground's plane is the more precise (hundreds
+ * of cells against a few stems that lean); on a slope the robot stands on, the ground is level in the sensor's frame
+ * whatever gravity says, and the stems tell. One or two stems cannot tell a 10 % slope from their own lean (one must
+ * depart by 7 deg before the test sees it): then their axes give the tilt; without stems, the ground does.
  */
 Eigen::Vector2d chooseTilt(const Eigen::Vector2d* ground, const Eigen::Vector2d& stems_tilt, std::size_t n,
                            const TrunkDetectorConfig& cfg, TrunkDetectorStats* st)
@@ -220,8 +222,9 @@ Eigen::Vector2d chooseTilt(const Eigen::Vector2d* ground, const Eigen::Vector2d&
   if (!ground || !(cfg.stem_lean_sigma > 0.0))
     return stems_tilt;
   constexpr double kChi2Dof2P95 = 5.991;
+  constexpr std::size_t kMinStemsForGround = 3;
   const double var = 0.5 * M_PI * cfg.stem_lean_sigma * cfg.stem_lean_sigma / std::max<double>(1.0, n);
-  if (n > 0 && (stems_tilt - *ground).squaredNorm() / var > kChi2Dof2P95)
+  if ((n > 0 && n < kMinStemsForGround) || (stems_tilt - *ground).squaredNorm() / var > kChi2Dof2P95)
     return stems_tilt;
   st->tilt_from_ground = true;
   return *ground;

@@ -247,26 +247,41 @@ Eigen::Vector2d estimatedTilt(const TrunkDetectorStats& st)
 }
 }  // namespace
 
-TEST(TrunkDetector, OnLevelGroundALeaningStemIsNotTheSensorsTilt)
+TEST(TrunkDetector, OnLevelGroundLeaningStemsAreNotTheSensorsTilt)
 {
-  // One stem leaning 4 deg on level ground: the ground's plane is the vertical (the stem's lean departs from it by
-  // less than stems lean), so the stem keeps its lean and the sweep is not turned by it.
+  // Three stems leaning 3 deg the same way (a wind-bent stand) on level ground: the ground's plane is the vertical
+  // (their lean departs from it by less than stems lean), so the stems keep their lean and the sweep is not turned.
   Random rnd(21);
   std::vector<Eigen::Vector3f> pts;
   addGround(&pts);
-  addTrunk(&pts, 6.0, 1.0, 0.2, 100.0, rnd, 0.01, -kSensorHeight, 1.0, std::tan(4.0 * M_PI / 180.0));
+  const double lean = std::tan(3.0 * M_PI / 180.0);
+  for (const auto& c : { Eigen::Vector2d(6.0, 1.0), Eigen::Vector2d(-5.0, 4.0), Eigen::Vector2d(3.0, -7.0) })
+    addTrunk(&pts, c.x(), c.y(), 0.2, 100.0, rnd, 0.01, -kSensorHeight, 1.0, lean);
   TrunkDetectorStats st;
   const auto obs = TrunkDetector(config()).detect(pts, Eigen::Matrix3d::Identity(), &st);
-  ASSERT_EQ(obs.size(), 1u);
+  ASSERT_EQ(obs.size(), 3u);
   EXPECT_TRUE(st.tilt_from_ground);
   EXPECT_LT(estimatedTilt(st).norm(), std::tan(0.3 * M_PI / 180.0));
-  // With the ground left out (stem_lean_sigma 0), the stem's lean is taken for the sensor's tilt.
+  // With the ground left out (stem_lean_sigma 0), their lean is taken for the sensor's tilt.
   TrunkDetectorConfig stems_only = config();
   stems_only.stem_lean_sigma = 0.0;
   TrunkDetectorStats st2;
-  ASSERT_EQ(TrunkDetector(stems_only).detect(pts, Eigen::Matrix3d::Identity(), &st2).size(), 1u);
+  ASSERT_EQ(TrunkDetector(stems_only).detect(pts, Eigen::Matrix3d::Identity(), &st2).size(), 3u);
   EXPECT_FALSE(st2.tilt_from_ground);
-  EXPECT_GT(estimatedTilt(st2).norm(), std::tan(3.0 * M_PI / 180.0));
+  EXPECT_GT(estimatedTilt(st2).norm(), std::tan(2.0 * M_PI / 180.0));
+}
+
+TEST(TrunkDetector, OneStemCannotTellASlopeFromItsLean)
+{
+  // A robot pitched 6 deg on a 6 deg slope sees one vertical stem: one stem cannot confirm the ground's plane (level
+  // in the sensor's frame), so its axis gives the tilt.
+  Random rnd(24);
+  Eigen::Vector2d truth;
+  const auto pts = stemsOnASlope(6.0, 6.0, { Eigen::Vector2d(6.0, 1.0) }, rnd, &truth);
+  TrunkDetectorStats st;
+  ASSERT_EQ(TrunkDetector(config()).detect(pts, Eigen::Matrix3d::Identity(), &st).size(), 1u);
+  EXPECT_FALSE(st.tilt_from_ground);
+  EXPECT_LT(std::atan((estimatedTilt(st) - truth).norm()), 1.0 * M_PI / 180.0);
 }
 
 TEST(TrunkDetector, OnASlopeTheRobotStandsOnTheStemsGiveTheTilt)
