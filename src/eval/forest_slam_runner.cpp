@@ -193,9 +193,10 @@ void recordUpdate(const PipelineUpdate& u, const PipelineFeed& feed, VariantTall
   res.update_stats.push_back(u.stats);
   if (u.stats.has_cloud)
   {
+    // The region the robot is told: the published estimate with its covariance.
     ++tally->cover_updates;
-    tally->cover_inside +=
-        insideRegion95(Eigen::Vector2d(truth.x, truth.y), u.stats.cloud_mean, u.stats.cloud_covariance);
+    tally->cover_inside += insideRegion95(Eigen::Vector2d(truth.x, truth.y), Eigen::Vector2d(u.estimate.x, u.estimate.y),
+                                          u.covariance.topLeftCorner<2, 2>());
   }
   if (u.health.level == HealthLevel::kWarn)
     ++res.health_warnings;

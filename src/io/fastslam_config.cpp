@@ -81,7 +81,10 @@ void readFastSlamConfig(const ParamSource& p, core::TrunkSlamConfig* c)
   p.get("loop_closure/loop_radius_share", &lc.smoother.loop_radius_share);
   p.get("loop_closure/loop_quantile", &lc.smoother.loop_quantile);
   p.get("loop_closure/max_iterations", &lc.smoother.max_iterations);
-  p.get("loop_closure/time_budget", &lc.smoother.time_budget);
+  p.get("loop_closure/max_factors", &lc.smoother.max_factors);
+  p.get("loop_closure/apply_after", &lc.apply_after);
+  p.get("loop_closure/drift_quantile", &lc.drift_quantile);
+  p.get("loop_closure/smooth_interval", &lc.smooth_interval);
   p.getSeed("seed", &c->seed);
   const std::string error = c->validate();
   if (!error.empty())

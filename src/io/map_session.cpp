@@ -47,7 +47,7 @@ std::string FastSlamMapSession::startDescription() const
   return "starting from " + start_.map_file + ": " + text;
 }
 
-ForestMap FastSlamMapSession::currentMap() const
+ForestMap FastSlamMapSession::currentMap(const core::SmoothedRun* smoothed) const
 {
   ForestMap map;
   map.anchor = pipeline_->anchor();
@@ -55,8 +55,8 @@ ForestMap FastSlamMapSession::currentMap() const
   if (pipeline_->initialized())
   {
     // With loop closure the map is the smoothed one (every loop closed, the path and trees smoothed together).
-    const core::SmoothedRun smoothed = pipeline_->smoothed();
-    map.trees = smoothed.ok ? smoothed.trees : pipeline_->filter().bestTrees();
+    const core::SmoothedRun run = smoothed ? *smoothed : pipeline_->smoothed();
+    map.trees = run.ok ? run.trees : pipeline_->filter().bestTrees();
   }
   return map;
 }
@@ -68,9 +68,10 @@ std::vector<core::TreeChange> FastSlamMapSession::changes(const std::vector<core
   return core::detectChanges(saved_.trees, now, core::ChangeConfig(), saved_.viewpoints);
 }
 
-std::vector<FileContent> FastSlamMapSession::mapFiles(const std::string& path, std::string* summary) const
+std::vector<FileContent> FastSlamMapSession::mapFiles(const std::string& path, std::string* summary,
+                                                      const core::SmoothedRun* smoothed) const
 {
-  const ForestMap map = currentMap();
+  const ForestMap map = currentMap(smoothed);
   const std::string stem = withoutExtension(path);
   std::vector<FileContent> files;
   files.emplace_back(path, forestMapCsv(map));

@@ -33,8 +33,9 @@ FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_table
   for (std::ostringstream* s : { &estimate_, &odometry_, &table_, &loops_ })
     s->precision(12);
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
-            "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop\n";
-  loops_ << "stamp,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,reason\n";
+            "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop,estimate_x,estimate_y,"
+            "estimate_xx,estimate_xy,estimate_yy\n";
+  loops_ << "stamp,found,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,reason\n";
 }
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
@@ -72,7 +73,7 @@ void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
     ++searching_;
     return;
   }
-  addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health, u.loop);
+  addUpdate(u.stamp, u.timeline, u.estimate, u.odometry, u.stats, u.health, u.loop, &u.covariance);
 }
 
 std::string FastSlamRunRecord::loopSummary() const
@@ -123,7 +124,8 @@ std::string FastSlamRunRecord::relocalizationSummary() const
 
 void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2& estimate,
                                   const core::Pose2& odometry, const core::FastSlamUpdateStats& st,
-                                  const core::HealthStatus& health, const core::LoopEvent& loop)
+                                  const core::HealthStatus& health, const core::LoopEvent& loop,
+                                  const Eigen::Matrix3d* covariance)
 {
   if (loop.kind != core::LoopEvent::Kind::kNone)
   {
@@ -131,7 +133,7 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
     max_loop_seconds_ = std::max(max_loop_seconds_, loop.seconds);
     std::string reason = loop.reason;
     std::replace(reason.begin(), reason.end(), ',', ';');
-    loops_ << stampText(stamp) << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
+    loops_ << stampText(stamp) << ',' << stampText(loop.found) << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
            << loop.seconds << ',' << loop.seconds_covariance << ',' << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
            << reason << '\n';
   }
@@ -156,7 +158,11 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
              << st.cloud_covariance(0, 1) << ',' << st.cloud_covariance(1, 1);
     else
       table_ << ",,,,,";
-    table_ << ',' << core::toString(loop.kind) << '\n';
+    table_ << ',' << core::toString(loop.kind) << ',' << estimate.x << ',' << estimate.y;
+    if (covariance && covariance->allFinite() && (*covariance)(0, 0) > 0.0)
+      table_ << ',' << (*covariance)(0, 0) << ',' << (*covariance)(0, 1) << ',' << (*covariance)(1, 1) << '\n';
+    else
+      table_ << ",,,\n";
   }
   if (health.level == core::HealthLevel::kWarn)
   {
@@ -217,10 +223,10 @@ std::vector<FileContent> FastSlamRunRecord::files(const std::string& dir, const 
 }
 
 std::vector<FileContent> FastSlamRunRecord::folder(const std::string& dir, const core::TrunkSlamPipeline& pipeline,
-                                                   int sweeps, int updates) const
+                                                   int sweeps, int updates, const core::SmoothedRun* smoothed) const
 {
-  const core::SmoothedRun smoothed = pipeline.smoothed();
-  std::vector<FileContent> out = files(dir, pipeline.filter(), &smoothed);
+  const core::SmoothedRun run = smoothed ? *smoothed : pipeline.smoothed();
+  std::vector<FileContent> out = files(dir, pipeline.filter(), &run);
   const core::FastSlamConfig& fc = pipeline.filter().config();
   out.emplace_back(dir + "/timing.json", timingJson(sweeps, updates, pipeline.secondsExtraction(),
                                                     pipeline.secondsFilter(), fc.particles, fc.seed));

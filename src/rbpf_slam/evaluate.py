@@ -789,29 +789,33 @@ CHI2_2DOF_95 = 5.991
 def read_updates_csv(path):
     """The run's updates.csv (slam_bag --out, the node's run folder): a dict of columns (numpy arrays) with
     'stamp', 'health' (strings) and, where the run wrote them, the particle cloud's 'cloud_x', 'cloud_y',
-    'cloud_xx', 'cloud_xy', 'cloud_yy' (NaN for updates that took no sweep). None when the file is missing."""
+    'cloud_xx', 'cloud_xy', 'cloud_yy' (NaN for updates that took no sweep) and the published estimate's
+    'estimate_x', 'estimate_y', 'estimate_xx', 'estimate_xy', 'estimate_yy' (NaN where not written). None when
+    the file is missing."""
     if not os.path.exists(path):
         return None
     with open(path, newline='') as f:
         rows = list(csv.DictReader(f))
     out = {'stamp': np.array([float(r['stamp']) for r in rows]),
            'health': [r.get('health', '') for r in rows]}
-    for k in ('cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy'):
+    for k in ('cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy',
+              'estimate_x', 'estimate_y', 'estimate_xx', 'estimate_xy', 'estimate_yy'):
         out[k] = np.array([float(r[k]) if r.get(k) not in (None, '') else float('nan') for r in rows])
     return out
 
 
-def coverage_95(updates, ref_t, ref_xy, r=None, t=None):
-    """Share of the reference positions that lie inside the 95 % region of the particle cloud of the update
-    nearest in time (its position mean and covariance, moved by the rigid fit r, t when given). Returns
-    (share, compared) or (None, 0) when the run wrote no cloud."""
-    if updates is None or not np.isfinite(updates['cloud_xx']).any():
+def coverage_95(updates, ref_t, ref_xy, r=None, t=None, region='estimate'):
+    """Share of the reference positions that lie inside the 95 % region of the update nearest in time (its position
+    and covariance, moved by the rigid fit r, t when given): the published estimate's (region 'estimate', what the
+    robot is told: its pose and the covariance published with it) or the particle cloud's ('cloud'). Returns
+    (share, compared) or (None, 0) when the run wrote no such region."""
+    if updates is None or region + '_xx' not in updates or not np.isfinite(updates[region + '_xx']).any():
         return None, 0
-    ok = np.isfinite(updates['cloud_xx'])
+    ok = np.isfinite(updates[region + '_xx'])
     st = updates['stamp'][ok]
-    mean = np.column_stack([updates['cloud_x'][ok], updates['cloud_y'][ok]])
-    cov = np.stack([np.column_stack([updates['cloud_xx'][ok], updates['cloud_xy'][ok]]),
-                    np.column_stack([updates['cloud_xy'][ok], updates['cloud_yy'][ok]])], axis=1)
+    mean = np.column_stack([updates[region + '_x'][ok], updates[region + '_y'][ok]])
+    cov = np.stack([np.column_stack([updates[region + '_xx'][ok], updates[region + '_xy'][ok]]),
+                    np.column_stack([updates[region + '_xy'][ok], updates[region + '_yy'][ok]])], axis=1)
     r = np.eye(2) if r is None else np.asarray(r)
     t = np.zeros(2) if t is None else np.asarray(t)
     inside = 0

@@ -107,10 +107,11 @@ def table(summary):
         lines += _map_lines(m, label)
         if no_fit is not None and 'map' in no_fit:
             lines += _map_lines(no_fit['map'], 'map (no fit)')
-    if 'coverage_95' in summary:
-        c = summary['coverage_95']
-        lines.append('truth inside the particle cloud\'s 95 %% region: %.1f %% of %d reference poses (fitted), %.1f %% '
-                     '(no fit)' % (100 * c['fitted'], c['compared'], 100 * c['no_fit']))
+    for key, what in (('coverage_95', 'the published estimate\'s'), ('coverage_95_cloud', 'the particle cloud\'s')):
+        if key in summary:
+            c = summary[key]
+            lines.append('truth inside %s 95 %% region: %.1f %% of %d reference poses (fitted), %.1f %% (no fit)'
+                         % (what, 100 * c['fitted'], c['compared'], 100 * c['no_fit']))
     if 'health_warned_updates' in summary:
         lines.append('health warned in %d of %d updates' % tuple(summary['health_warned_updates']))
     if 'seconds_processing' in summary:
@@ -230,10 +231,12 @@ def _main(argv):
         if ref['t'] is not None and 'estimate' in transforms:
             rt, rxy = compared
             r, t = transforms['estimate'][:2]
-            share, n = ev.coverage_95(updates, rt, rxy, r, t)
-            share_nf, _ = ev.coverage_95(updates, rt, rxy)
-            if share is not None:
-                summary['coverage_95'] = {'fitted': share, 'no_fit': share_nf, 'compared': n}
+            # The published estimate's region (what the robot is told), and the particle cloud's beside it.
+            for region, key in (('estimate', 'coverage_95'), ('cloud', 'coverage_95_cloud')):
+                share, n = ev.coverage_95(updates, rt, rxy, r, t, region)
+                share_nf, _ = ev.coverage_95(updates, rt, rxy, region=region)
+                if share is not None:
+                    summary[key] = {'fitted': share, 'no_fit': share_nf, 'compared': n}
     text = table(summary)  # before any output, so that a failure leaves nothing behind
     atomic.write_json(os.path.join(args.run, 'evaluation.json'), summary, indent=2)
     if not args.no_plot:

@@ -16,6 +16,9 @@
 
 #include <sys/stat.h>
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include <boost/make_shared.hpp>
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -114,7 +117,9 @@ FastSlamRos::FastSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
     tf_guard_.start(nh_, config_.map_frame, config_.odom_frame, name_);
   gps_sub_ = nh_.subscribe("gps/fix", 10, &FastSlamRos::onFix, this);
   odom_sub_ = nh_.subscribe("odom", 200, &FastSlamRos::onOdometry, this);
-  trunks_sub_ = nh_.subscribe("trunks", 20, &FastSlamRos::onTrunks, this);
+  // A queue that holds several seconds of sweeps: an update that waits for a solve beside it (loop closure, at a
+  // fixed later update) loses none.
+  trunks_sub_ = nh_.subscribe("trunks", 200, &FastSlamRos::onTrunks, this);
   timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &FastSlamRos::onTimer, this);
 
   ROS_INFO("%s: FastSLAM with %d particles (seed %llu) on %s and %s; frames %s -> %s -> %s", name_.c_str(),
@@ -136,7 +141,35 @@ FastSlamRos::~FastSlamRos()
     ROS_ERROR("%s: run folder: %s", name_.c_str(), message.c_str());
 }
 
-bool FastSlamRos::writeRunFolder(std::string* message)
+namespace
+{
+/** @brief Gives the memory a save's solve freed back to the system (glibc keeps freed pages otherwise). */
+void releaseFreedMemory()
+{
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
+}  // namespace
+
+core::SmoothedRun FastSlamRos::smoothBesideFilter(bool* same_timeline)
+{
+  std::function<core::SmoothedRun()> job;
+  int timeline = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    job = pipeline_->smoothingJob();
+    timeline = pipeline_->restarts();
+  }
+  // The solve works on copies: the filter goes on taking messages meanwhile.
+  core::SmoothedRun run = job();
+  job = nullptr;
+  std::lock_guard<std::mutex> lock(mutex_);
+  *same_timeline = pipeline_->restarts() == timeline;
+  return run;
+}
+
+bool FastSlamRos::writeRunFolder(std::string* message, const core::SmoothedRun* smoothed)
 {
   if (!record_.keepsTables())
   {
@@ -155,7 +188,8 @@ bool FastSlamRos::writeRunFolder(std::string* message)
     if (!io::makeDirectories(dir))
       throw std::runtime_error(dir + ": cannot create the folder (" + std::strerror(errno) + ")");
     // What slam_bag writes, the run smoothed at its end and timing.json included.
-    io::writeFilesAtomic(record_.folder(dir, *pipeline_, static_cast<int>(sweeps_), static_cast<int>(updates_)));
+    io::writeFilesAtomic(
+        record_.folder(dir, *pipeline_, static_cast<int>(sweeps_), static_cast<int>(updates_), smoothed));
   }
   catch (const std::exception& e)
   {
@@ -168,8 +202,13 @@ bool FastSlamRos::writeRunFolder(std::string* message)
 
 bool FastSlamRos::onSaveRun(std_srvs::Trigger::Request& /*req*/, std_srvs::Trigger::Response& res)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  res.success = writeRunFolder(&res.message);
+  {
+    bool same = false;
+    const core::SmoothedRun smoothed = smoothBesideFilter(&same);
+    std::lock_guard<std::mutex> lock(mutex_);
+    res.success = writeRunFolder(&res.message, same ? &smoothed : nullptr);
+  }
+  releaseFreedMemory();
   if (res.success)
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   else
@@ -319,7 +358,7 @@ void FastSlamRos::processPending()
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publishHealth(u);
-    publish(ros::Time(u.stamp), u.odometry, u.estimate);
+    publish(ros::Time(u.stamp), u.odometry, u.estimate, u.covariance);
   }
 }
 
@@ -328,11 +367,12 @@ void FastSlamRos::publishLoop(const core::PipelineUpdate& u)
   if (u.loop.kind == core::LoopEvent::Kind::kNone)
     return;
   if (u.loop.kind == core::LoopEvent::Kind::kClosed)
-    ROS_INFO("%s: loop closed at %.3f s: %d trees matched, the smoothed path moved the robot by %.2f m (solve %.3f s, "
-             "%d keyframes)", name_.c_str(), u.stamp, u.loop.matched, u.loop.shift, u.loop.seconds, u.loop.keyframes);
+    ROS_INFO("%s: loop found at %.3f s closed at %.3f s: %d trees matched, the smoothed path moved the robot by %.2f m "
+             "(solve %.3f s beside the filter, %d keyframes)", name_.c_str(), u.loop.found, u.stamp, u.loop.matched,
+             u.loop.shift, u.loop.seconds, u.loop.keyframes);
   else
-    ROS_WARN("%s: a loop found at %.3f s (%d trees matched) was refused: %s", name_.c_str(), u.stamp, u.loop.matched,
-             u.loop.reason.c_str());
+    ROS_WARN("%s: a loop found at %.3f s (%d trees matched) was refused: %s", name_.c_str(), u.loop.found,
+             u.loop.matched, u.loop.reason.c_str());
   loop_markers_.markers.push_back(
       loopMarker(ros::Time(u.stamp), config_.map_frame, u.loop, static_cast<int>(loop_markers_.markers.size())));
   loops_pub_.publish(loop_markers_);
@@ -425,13 +465,15 @@ void FastSlamRos::publishScope(const ros::Time& stamp)
         scopeMarker(stamp, config_.base_frame, pipeline_->filter().scope(), sensor_pose_)));
 }
 
-void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate)
+void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate,
+                          const Eigen::Matrix3d& covariance)
 {
   const core::FastSlam& filter = pipeline_->filter();
   const core::Particle& best = filter.best();
-  // The pipeline's estimate: the filter's (the weighted mean, or the best particle chosen before resampling) at an
-  // update, followed by the odometry from it at a sweep that waited for a new view; never the first of an
-  // equal-weight set, so that the pose and map -> odom do not jump at a resampling.
+  // The pipeline's estimate: the latest smoothing of the run carried on by the filter's motion since (with loop
+  // closure), else the filter's (the weighted mean, or the best particle chosen before resampling) at an update,
+  // followed by the odometry from it at a sweep that waited for a new view; never the first of an equal-weight set,
+  // so that the pose and map -> odom do not jump at a resampling.
   publishScope(stamp);
 
   if (config_.publish_tf && tf_guard_.owned())
@@ -440,7 +482,7 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, 
                                                   estimate * odom_pose.inverse()));
 
   pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
-      poseWithCovariance(stamp, config_.map_frame, estimate, filter.poseCovariance())));
+      poseWithCovariance(stamp, config_.map_frame, estimate, covariance)));
   if (particles_pub_.getNumSubscribers() > 0)
     particles_pub_.publish(
         boost::make_shared<geometry_msgs::PoseArray>(particleCloud(stamp, config_.map_frame, filter.particles())));
@@ -463,10 +505,15 @@ void FastSlamRos::publish(const ros::Time& stamp, const core::Pose2& odom_pose, 
 bool FastSlamRos::onSave(const std::string& key, const std::string& fallback, bool with_report,
                          std_srvs::Trigger::Response& res)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string path = fallback;
-  pnh_.getParam(key, path);  // may have changed since the start
-  res.success = writeMap(path, with_report, &res.message);
+  {
+    bool same = false;
+    const core::SmoothedRun smoothed = smoothBesideFilter(&same);
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::string path = fallback;
+    pnh_.getParam(key, path);  // may have changed since the start
+    res.success = writeMap(path, with_report, &res.message, same ? &smoothed : nullptr);
+  }
+  releaseFreedMemory();
   if (res.success)
     ROS_INFO("%s: %s", name_.c_str(), res.message.c_str());
   else
@@ -528,7 +575,8 @@ void FastSlamRos::saveEndedMaps()
   }
 }
 
-bool FastSlamRos::writeMap(const std::string& path, bool with_report, std::string* message)
+bool FastSlamRos::writeMap(const std::string& path, bool with_report, std::string* message,
+                           const core::SmoothedRun* smoothed)
 {
   const std::string target = io::expandHome(path);
   const std::size_t slash = target.rfind('/');
@@ -538,11 +586,11 @@ bool FastSlamRos::writeMap(const std::string& path, bool with_report, std::strin
       throw std::runtime_error("cannot create the directory of " + target + ": " + std::strerror(errno));
     if (with_report && pipeline_->localized())
     {
-      io::writeFilesAtomic(session_->mapFiles(target, message));
+      io::writeFilesAtomic(session_->mapFiles(target, message, smoothed));
       return true;
     }
     // The inventory: the tree table (and the anchor) alone.
-    io::ForestMap inventory = session_->currentMap();
+    io::ForestMap inventory = session_->currentMap(smoothed);
     inventory.viewpoints.clear();
     io::writeForestMap(target, inventory);
     *message = std::to_string(inventory.trees.size()) + " trees written to " + target;

@@ -81,7 +81,8 @@ TEST(FastSlamConfigFile, ShippedConfigMatchesTheBuiltInDefaults)
   EXPECT_EQ(read.gnss.enabled, defaults.gnss.enabled);
   EXPECT_EQ(read.loop_closure.enabled, defaults.loop_closure.enabled);
   EXPECT_EQ(read.loop_closure.search_interval, defaults.loop_closure.search_interval);
-  EXPECT_EQ(read.loop_closure.smoother.time_budget, defaults.loop_closure.smoother.time_budget);
+  EXPECT_EQ(read.loop_closure.smoother.max_factors, defaults.loop_closure.smoother.max_factors);
+  EXPECT_EQ(read.loop_closure.apply_after, defaults.loop_closure.apply_after);
   // The keys the nodelet reads itself (frames, timing, inventory) are the only ones this reader leaves.
   for (const io::YamlParamSource* source : { &advanced, &params })
     for (const auto& k : source->unusedKeys())

@@ -169,8 +169,14 @@ def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(b
         rows = [line.strip().split(',') for line in f]
     assert header == ['stamp', 'neff', 'resampled', 'landmarks', 'observations', 'matched', 'new', 'deleted',
                       'ignored', 'matched_confirmed', 'recreated', 'pose_spread', 'relocalizing', 'health',
-                      'cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy', 'loop']
+                      'cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy', 'loop', 'estimate_x', 'estimate_y',
+                      'estimate_xx', 'estimate_xy', 'estimate_yy']
     assert len(rows) == len(est)
+    # The published estimate's region: its position is the estimate's, its covariance positive definite.
+    region = np.array([[float(v) for v in r[20:25]] for r in rows if r[22] != ''])
+    assert len(region) >= len(est) // 2
+    assert np.allclose(region[:, 0:2], est[[i for i, r in enumerate(rows) if r[22] != ''], 1:3], atol=1e-6)
+    assert ((region[:, 2] > 0) & (region[:, 4] > 0) & (region[:, 2] * region[:, 4] > region[:, 3] ** 2)).all()
     neff = np.array([float(r[1]) for r in rows if r[14] != ''])  # the filter's updates
     assert len(neff) == len(hist) and ((neff > 0) & (neff <= 100.0 + 1e-9)).all()
     assert int(rows[-1][3]) == len(ev.read_landmarks_csv(os.path.join(out, 'map.csv'))['x'])

@@ -62,15 +62,17 @@ public:
   std::string startDescription() const;
 
   /** @brief The map now: the trees (TrunkSlamPipeline::smoothed() with loop closure, else the best particle's; none
-   * before the first update), the anchor, the viewpoints. */
-  ForestMap currentMap() const;
+   * before the first update), the anchor, the viewpoints. @p smoothed: the smoothed run when the caller has it
+   * already (TrunkSlamPipeline::smoothingJob(), solved without holding the pipeline). */
+  ForestMap currentMap(const core::SmoothedRun* smoothed = nullptr) const;
   /** @brief The changes of the trees @p now since the saved map (none without one). */
   std::vector<core::TreeChange> changes(const std::vector<core::Landmark>& now) const;
   /**
    * @brief The files of the current map saved as @p path (see the class); @p summary gets what was written, in
    * words (the trees and, from a saved map, the counts of the changes).
    */
-  std::vector<FileContent> mapFiles(const std::string& path, std::string* summary = nullptr) const;
+  std::vector<FileContent> mapFiles(const std::string& path, std::string* summary = nullptr,
+                                    const core::SmoothedRun* smoothed = nullptr) const;
   /** @brief The maps that restarts ended since the last call, as files beside @p path (FILE.restartN.csv). */
   std::vector<MapFile> endedMapFiles(const std::string& path);
 

@@ -47,10 +47,11 @@ public:
    * files() then has no trajectory or table to give. */
   explicit FastSlamRunRecord(bool keep_tables = true);
   bool keepsTables() const { return keep_tables_; }
-  /** @brief One filter update; a new @p timeline (a restart) starts the best history over. */
+  /** @brief One filter update; a new @p timeline (a restart) starts the best history over. @p covariance: the
+   * estimate's as published (updates.csv's estimate_xx, _xy, _yy; empty without). */
   void addUpdate(double stamp, int timeline, const core::Pose2& estimate, const core::Pose2& odometry,
                  const core::FastSlamUpdateStats& stats, const core::HealthStatus& health,
-                 const core::LoopEvent& loop = core::LoopEvent());
+                 const core::LoopEvent& loop = core::LoopEvent(), const Eigen::Matrix3d* covariance = nullptr);
   /** @brief One pipeline update (as above); while the pipeline searches a saved map (not localized) only the search
    * is recorded (relocalizationSummary), no pose. */
   void addUpdate(const core::PipelineUpdate& u);
@@ -76,10 +77,11 @@ public:
   /**
    * @brief The whole run folder @p dir, as the node (~run_folder, save_run) and slam_bag (--out) write it: files()
    * with @p pipeline's filter and the run smoothed at its end, and timing.json (@p sweeps sensor messages used,
-   * @p updates pipeline updates, the pipeline's processing seconds).
+   * @p updates pipeline updates, the pipeline's processing seconds). @p smoothed: the run smoothed when the caller
+   * has it already (solved without holding the pipeline).
    */
   std::vector<FileContent> folder(const std::string& dir, const core::TrunkSlamPipeline& pipeline, int sweeps,
-                                  int updates) const;
+                                  int updates, const core::SmoothedRun* smoothed = nullptr) const;
 
 private:
   bool keep_tables_ = true;

@@ -91,8 +91,12 @@ private:
    * report beside it.
    */
   bool onSave(const std::string& key, const std::string& fallback, bool with_report, std_srvs::Trigger::Response& res);
-  /** @brief Writes the run folder (~run_folder) atomically; false with @p message saying why. Lock held. */
-  bool writeRunFolder(std::string* message);
+  /** @brief Writes the run folder (~run_folder) atomically; false with @p message saying why. Lock held.
+   * @p smoothed: the run smoothed already (else smoothed here, under the lock). */
+  bool writeRunFolder(std::string* message, const core::SmoothedRun* smoothed = nullptr);
+  /** @brief The run smoothed as it stands, solved without holding the lock (copies taken under it), so that no
+   * message waits for a save; @p same_timeline: false when the filter restarted meanwhile. Lock not held. */
+  core::SmoothedRun smoothBesideFilter(bool* same_timeline);
 
   /** @brief Runs the pipeline on what odometry covers (or what waited ~odom_timeout) and publishes. Lock held. */
   void processPending();
@@ -100,13 +104,16 @@ private:
   bool toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sweep);
   /** @brief sensor -> base_link (planar) from TF, cached per frame; false when unavailable. */
   bool sensorPose(const std::string& frame, core::Pose2* pose);
-  /** @brief The estimate @p estimate (map frame) and odometry @p odom_pose at @p stamp: TF, pose, path, map. */
-  void publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate);
+  /** @brief The estimate @p estimate (map frame, its @p covariance) and odometry @p odom_pose at @p stamp: TF,
+   * pose, path, map. */
+  void publish(const ros::Time& stamp, const core::Pose2& odom_pose, const core::Pose2& estimate,
+               const Eigen::Matrix3d& covariance);
   /** @brief The visibility scope (min and max range, field of view) as a marker on base_frame (when subscribed). */
   void publishScope(const ros::Time& stamp);
   /** @brief The map's files as the session names them (@p with_report: the GeoJSON and the changes beside it; else
    * the tree table alone, the inventory) at @p path. */
-  bool writeMap(const std::string& path, bool with_report, std::string* message);
+  bool writeMap(const std::string& path, bool with_report, std::string* message,
+                const core::SmoothedRun* smoothed = nullptr);
   /** @brief Says what the pipeline's stamp rule made of a message: drops (the first of each kind, then throttled)
    * and restarts. Lock held. */
   void report(core::StampVerdict verdict, const char* stream, const ros::Time& stamp);

@@ -59,26 +59,22 @@ struct OdometryFactor
   }
 };
 
-/** @brief Range-bearing factor: a tree seen from a sensor at @p sensor on the keyframe's base_link. */
-struct RangeBearingFactor
+/** @brief A tree seen from a keyframe: its position in the keyframe's base_link frame against the observed one
+ * (the keyframe's observations of the tree fused). */
+struct PointFactor
 {
-  Pose2 sensor;
   Eigen::Vector2d z;
   Eigen::Matrix2d whiten;
   template <typename T>
   bool operator()(const T* pose, const T* tree, T* residual) const
   {
-    using std::atan2;
     using std::cos;
     using std::sin;
-    using std::sqrt;
     const T c = cos(pose[2]), s = sin(pose[2]);
-    const T sx = pose[0] + c * T(sensor.x) - s * T(sensor.y);
-    const T sy = pose[1] + s * T(sensor.x) + c * T(sensor.y);
-    const T dx = tree[0] - sx, dy = tree[1] - sy;
+    const T dx = tree[0] - pose[0], dy = tree[1] - pose[1];
     Eigen::Matrix<T, 2, 1> e;
-    e(0) = sqrt(dx * dx + dy * dy + T(1e-12)) - T(z(0));
-    e(1) = wrap(T(atan2(dy, dx) - pose[2] - T(sensor.theta) - T(z(1))));
+    e(0) = c * dx + s * dy - T(z(0));
+    e(1) = -s * dx + c * dy - T(z(1));
     const Eigen::Matrix<T, 2, 1> w = whiten.cast<T>() * e;
     residual[0] = w(0);
     residual[1] = w(1);
@@ -206,18 +202,17 @@ long nearestTree(const TreeGrid& grid, const std::vector<Landmark>& trees, const
   return best_j;
 }
 
-ceres::Solver::Options solverOptions(int max_iterations, double budget, std::chrono::steady_clock::time_point t0)
+ceres::Solver::Options solverOptions(int max_iterations)
 {
   ceres::Solver::Options options;
   // Sparse Cholesky of the whole normal equations: faster here than eliminating the trees first (the path is a
   // chain, and most trees are seen from a few keyframes), with the same solution.
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.num_threads = 1;
+  // The solve's work is bounded by its iterations (and the graph's size by max_factors), never by a clock: the
+  // same run gives the same answer on any computer, however busy.
   options.max_num_iterations = max_iterations;
-  // The budget bounds the solve itself (what is left of it after building the graph): a solve stopped there is
-  // refused, so that no loop stalls the filter for longer.
-  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  options.max_solver_time_in_seconds = std::max(1e-3, budget - spent);
+  options.max_solver_time_in_seconds = 1e9;
   // Converged when an iteration changes the cost by less than 1e-4 of it: by then the path moves by millimetres.
   options.function_tolerance = 1e-4;
   options.logging_type = ceres::SILENT;
@@ -226,17 +221,13 @@ ceres::Solver::Options solverOptions(int max_iterations, double budget, std::chr
 }
 
 /** @brief Whether the solve ended without converging (then why, in @p out's reason). */
-bool solverFailed(const ceres::Solver::Summary& summary, double budget, int max_iterations, SmoothedRun* out)
+bool solverFailed(const ceres::Solver::Summary& summary, int max_iterations, SmoothedRun* out)
 {
   if (summary.termination_type == ceres::CONVERGENCE)
     return false;
-  if (summary.termination_type == ceres::NO_CONVERGENCE && out->seconds >= budget - 1e-3)
-    out->reason = "the smoother took " + std::to_string(out->seconds) + " s, beyond its budget of " +
-                  std::to_string(budget) + " s";
-  else
-    out->reason = summary.termination_type == ceres::NO_CONVERGENCE ?
-                      "the smoother did not converge in " + std::to_string(max_iterations) + " iterations" :
-                      "the smoother failed: " + summary.message;
+  out->reason = summary.termination_type == ceres::NO_CONVERGENCE ?
+                    "the smoother did not converge in " + std::to_string(max_iterations) + " iterations" :
+                    "the smoother failed: " + summary.message;
   return true;
 }
 
@@ -287,8 +278,8 @@ std::string SmootherConfig::validate() const
     return "loop_quantile must lie in (0, 1)";
   if (max_iterations < 1)
     return "max_iterations must be >= 1";
-  if (!(time_budget > 0.0))
-    return "time_budget must be > 0";
+  if (max_factors < 1)
+    return "max_factors must be >= 1";
   if (!(spread_floor_xy >= 0.0) || !(spread_floor_theta >= 0.0))
     return "spread_floor_xy and spread_floor_theta must be >= 0";
   return "";
@@ -353,6 +344,20 @@ Eigen::Matrix3d TrunkSmoother::odometryCovariance(std::size_t a, std::size_t b) 
   // A floor: a keyframe the odometry did not move from is still not known to the micrometre.
   cov += Eigen::Vector3d(1e-6, 1e-6, 1e-8).asDiagonal();
   return cov;
+}
+
+Eigen::Matrix3d TrunkSmoother::driftSince(double stamp, Pose2* odometry_then) const
+{
+  if (records_.size() < 2)
+  {
+    *odometry_then = lastOdometry();
+    return Eigen::Matrix3d::Zero();
+  }
+  const auto after = std::upper_bound(records_.begin(), records_.end(), stamp,
+                                      [](double t, const Record& r) { return t < r.stamp; });
+  const std::size_t a = after == records_.begin() ? 0 : static_cast<std::size_t>(after - records_.begin()) - 1;
+  *odometry_then = records_[a].odometry;
+  return odometryCovariance(a, records_.size() - 1);
 }
 
 // One solve's graph, its members in the order the solve fills them: the keyframes, the parameter blocks (sized
@@ -422,11 +427,32 @@ void TrunkSmoother::addOdometryFactors(Graph* g) const
 void TrunkSmoother::addObservationFactors(const std::vector<Pose2>& path, const std::vector<Landmark>& trees, Graph* g,
                                           SmoothedRun* out) const
 {
-  // Observations, each given to the tree it falls on from the particle's own pose.
+  // Observations, each given to the tree it falls on from the particle's own pose, and carried into its keyframe's
+  // frame (a point with its covariance); a keyframe's observations of one tree are fused into one factor (their
+  // information summed), so that the graph grows with keyframes and trees, not with sweeps.
+  struct Fused
+  {
+    Eigen::Matrix2d information = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
+  };
+  std::map<long, Fused> fused;  // by tree index: ordered, so that the graph is built the same way every time
+  auto flush = [&](std::size_t k) {
+    for (const auto& f : fused)
+    {
+      const Eigen::Matrix2d cov = f.second.information.inverse();
+      PointFactor factor{ cov * f.second.weighted, sqrtInformation<2>(cov) };
+      g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PointFactor, 2, 3, 2>(new PointFactor(factor)),
+                                   &g->cauchy, g->poses[k].data(), g->tree_params[f.first].data());
+      ++out->factors;
+    }
+    fused.clear();
+  };
   for (std::size_t i = 0; i < records_.size(); ++i)
   {
     const Record& r = records_[i];
     const std::size_t k = g->keyframe_of[i];
+    if (i > 0 && k != g->keyframe_of[i - 1])
+      flush(g->keyframe_of[i - 1]);
     const Pose2 sensor_in_keyframe = between(records_[g->keyframes[k]].odometry, r.odometry) * r.mount;
     const Pose2 s = path[i] * r.mount;
     for (const LandmarkObservation& o : r.observations)
@@ -439,14 +465,21 @@ void TrunkSmoother::addObservationFactors(const std::vector<Pose2>& path, const 
       const long best_j = nearestTree(g->grid, trees, p, C, config_.association_gate);
       if (best_j < 0)
         continue;
-      RangeBearingFactor f{ sensor_in_keyframe, Eigen::Vector2d(o.range, o.bearing), sqrtInformation<2>(o.covariance) };
-      g->problem->AddResidualBlock(
-          new ceres::AutoDiffCostFunction<RangeBearingFactor, 2, 3, 2>(new RangeBearingFactor(f)), &g->cauchy,
-          g->poses[k].data(), g->tree_params[best_j].data());
+      // The point in the keyframe's frame, and its covariance there.
+      const double pk = sensor_in_keyframe.theta + o.bearing, ck = std::cos(pk), sk = std::sin(pk);
+      const Eigen::Vector2d q(sensor_in_keyframe.x + o.range * ck, sensor_in_keyframe.y + o.range * sk);
+      Eigen::Matrix2d Jk;
+      Jk << ck, -o.range * sk, sk, o.range * ck;
+      const Eigen::Matrix2d info = (Jk * o.covariance * Jk.transpose()).inverse();
+      Fused& f = fused[best_j];
+      f.information += info;
+      f.weighted += info * q;
       g->used[best_j] = 1;
       ++out->observations;
     }
   }
+  if (!records_.empty())
+    flush(g->keyframe_of.back());
 }
 
 void TrunkSmoother::addIdentityFactors(const std::vector<Landmark>& trees,
@@ -525,9 +558,8 @@ void TrunkSmoother::storeTrees(const Graph& g, const std::vector<Pose2>& correct
 }
 
 SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
-                                 const std::vector<std::pair<int, int>>& identities, double time_budget) const
+                                 const std::vector<std::pair<int, int>>& identities) const
 {
-  const double budget = time_budget > 0.0 ? time_budget : config_.time_budget;
   const auto t0 = std::chrono::steady_clock::now();
   SmoothedRun out;
   const std::size_t n = records_.size();
@@ -558,12 +590,18 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   for (char u : g.used)
     out.trees_solved += u;
 
-  const ceres::Solver::Options options = solverOptions(config_.max_iterations, budget, t0);
+  if (out.factors + static_cast<int>(g.keyframes.size()) > config_.max_factors)
+  {
+    out.reason = "the graph has " + std::to_string(out.factors + static_cast<int>(g.keyframes.size())) +
+                 " factors, beyond max_factors " + std::to_string(config_.max_factors);
+    return out;
+  }
+  const ceres::Solver::Options options = solverOptions(config_.max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   out.iterations = static_cast<int>(summary.iterations.size());
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (solverFailed(summary, budget, config_.max_iterations, &out))
+  if (solverFailed(summary, config_.max_iterations, &out))
     return out;
 
   // Consistency: the identities' residuals after the solve.
@@ -581,12 +619,6 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   lastPoseCovariance(&problem, g.poses.back().data(), g.keyframes.size(), &out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.seconds_covariance = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_cov).count();
-  if (out.seconds > budget)
-  {
-    out.reason = "the smoother took " + std::to_string(out.seconds) + " s, beyond its budget of " +
-                 std::to_string(budget) + " s";
-    return out;
-  }
   if (out.identities > 0 && out.identity_chi2 > out.identity_bound)
   {
     out.reason = "the loop is inconsistent: its trees' residuals " + std::to_string(out.identity_chi2) +

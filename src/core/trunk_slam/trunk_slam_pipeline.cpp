@@ -39,13 +39,32 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
 
 SmoothedRun TrunkSlamPipeline::smoothed() const
 {
+  return smoothingJob()();
+}
+
+Eigen::Matrix3d TrunkSlamPipeline::estimateCovariance(const Pose2& estimate) const
+{
+  Eigen::Matrix3d c = filter_->poseCovariance();
+  if (!loops_ || has_prior_ || !loops_->publishedCovariance().allFinite())
+    return c;
+  // The smoothed pose the estimate starts from, its marginal carried to the robot: its heading's uncertainty swings
+  // the robot about it by the distance between them.
+  const Pose2 from = loops_->publishedFrom();
+  Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+  J(0, 2) = -(estimate.y - from.y);
+  J(1, 2) = estimate.x - from.x;
+  return c + J * loops_->publishedCovariance() * J.transpose();
+}
+
+std::function<SmoothedRun()> TrunkSlamPipeline::smoothingJob() const
+{
   if (!loops_ || has_prior_)
   {
     SmoothedRun none;
     none.reason = has_prior_ ? "no loop closure on a saved map" : "loop closure is disabled";
-    return none;
+    return [none]() { return none; };
   }
-  return loops_->smoothRun(*filter_);
+  return loops_->smoothingJob(*filter_);
 }
 
 void TrunkSlamPipeline::resetFilter()
@@ -205,6 +224,7 @@ PipelineUpdate TrunkSlamPipeline::unfiltered(TrunkSweep&& sweep, double t_mid, c
   u.stamp = t_mid;
   u.odometry = odom_mid;
   u.estimate = estimate;
+  u.covariance = last_covariance_;
   u.odometry_covered = covered;
   u.filtered = false;
   u.stats.observations = static_cast<int>(sweep.trunks.size());
@@ -289,8 +309,10 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   u.stamp = t_mid;
   searchWhenLost(sw, odom_mid, &u);
   u.odometry = odom_mid;
-  u.estimate = filter_->estimate();
+  u.estimate = loops_ && !has_prior_ ? loops_->published(filter_->estimate()) : filter_->estimate();
+  u.covariance = estimateCovariance(u.estimate);
   last_estimate_ = u.estimate;
+  last_covariance_ = u.covariance;
   viewpoints_.add(u.estimate * u.mount, filter_->scope());
   u.odometry_covered = covered;
   u.trunks = std::move(sweep.trunks);

@@ -46,9 +46,11 @@ struct SmootherConfig
   /// The loop is rejected when its identities' residuals after the solve exceed this quantile of the chi-square
   /// distribution (two degrees of freedom per matched tree).
   double loop_quantile = 0.999;
-  int max_iterations = 50;  ///< Levenberg-Marquardt iterations of one solve (a bound, deterministic)
-  /// [s] A solve that takes longer, or does not converge within max_iterations, leaves the filter as it was.
-  double time_budget = 2.0;
+  /// Levenberg-Marquardt iterations of one solve: a solve that does not converge within them leaves the filter as it
+  /// was. A bound on work, not on time, so that every computer gives the same answer.
+  int max_iterations = 50;
+  /// A graph of more factors (keyframes' trees and odometry) is not solved: the bound on one solve's size.
+  int max_factors = 200000;
   /// The particles are drawn again around the smoothed pose with the marginal covariance of the smoother's last
   /// pose, its standard deviations at least these [m], [rad].
   double spread_floor_xy = 0.02;
@@ -64,6 +66,18 @@ struct LoopClosureConfig
   bool enabled = true;
   double search_interval = 1.0;  ///< [s] between two searches for a revisit
   double retry_interval = 10.0;  ///< [s] after a loop the smoother refused, before the next search
+  /// The smoother solves a loop beside the filter (a worker thread); its result is applied this many filter updates
+  /// after the loop was found, however long the solve took (the update waits for it then), so that one seed gives
+  /// one result on every computer. 0: solved and applied within the update that found it.
+  int apply_after = 20;
+  /// A loop must agree with the odometry: the correction it asks of the robot's pose (x, y, heading) must lie within
+  /// this quantile of the chi-square (3 dof) of the odometry's drift since the old trees were last seen (its motion
+  /// noise class). A larger correction is a wrong match (repetitive rows, a look-alike constellation).
+  double drift_quantile = 0.999;
+  /// Every this many filter updates the run is smoothed as it stands (beside the filter, applied apply_after updates
+  /// later), and the estimate published is the smoothed pose carried on by the filter's motion since. 0: the
+  /// filter's estimate is published.
+  int smooth_interval = 50;
   LoopConfig detection;
   SmootherConfig smoother;
 

@@ -26,7 +26,8 @@ struct SmoothedRun
   bool has_covariance = false;
   int keyframes = 0;
   int trees_solved = 0;   ///< trees that observations tie to the path (the others move with their keyframe)
-  int observations = 0;   ///< range-bearing factors
+  int observations = 0;   ///< observations given to a tree
+  int factors = 0;        ///< their factors (one per keyframe and tree)
   int identities = 0;     ///< identity factors (the loop's matched trees)
   int iterations = 0;
   double identity_chi2 = 0.0;  ///< sum of the identity factors' squared whitened residuals after the solve
@@ -37,16 +38,17 @@ struct SmoothedRun
 
 /**
  * @brief A factor graph over the best particle's path and trees, solved with Ceres (Levenberg-Marquardt, sparse
- * Schur elimination of the trees, one thread: deterministic).
+ * Cholesky, one thread: deterministic).
  *
  * - Keyframes: the filter updates at about every keyframe_distance of odometry travel (or keyframe_angle of turn).
  *   Each update's observations join the keyframe before it, their sensor carried there by the odometry.
  * - Odometry factors between consecutive keyframes: the odometry's increment with the covariance of the filter's
  *   motion noise class, propagated along the updates between them in steps of motion_step (each carrying its
  *   share, as the filter's prediction does).
- * - Range-bearing factors: each observation given to the tree of the map it falls on from the particle's own pose
- *   (within association_gate); its covariance the filter's (the noise floor added, divided by the sweep's evidence
- *   share: one independent look per view, as in the filter); a Cauchy loss.
+ * - Tree factors: each observation given to the tree of the map it falls on from the particle's own pose (within
+ *   association_gate); its covariance the filter's (the noise floor added, divided by the sweep's evidence share:
+ *   one independent look per view, as in the filter); carried into its keyframe's frame as a point, and a
+ *   keyframe's points of one tree fused into one factor (information summed); a Cauchy loss.
  * - Identity factors: two trees a loop matched are one (their difference, with both covariances and loop_sigma).
  * - The first keyframe is held (the map frame).
  * ROS-free.
@@ -66,14 +68,23 @@ public:
   /**
    * @brief Solves the graph from the path @p path (one pose per recorded update, the particle's own) and its trees
    * @p trees, with the identities @p identities (tree ids: (recent, old); the old id is kept). Not ok (and nothing
-   * to apply) when the path does not match the records, the solve fails, does not converge within max_iterations,
-   * takes longer than @p time_budget [s] (0: the configuration's), or the identities' residuals exceed their chi-square
-   * bound.
+   * to apply) when the path does not match the records, the graph has more than max_factors factors, the solve fails
+   * or does not converge within max_iterations, or the identities' residuals exceed their chi-square bound. Its work
+   * is bounded by those counts, never by a clock: one input, one answer. Thread-safe (const, no shared state).
    */
   SmoothedRun solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
-                    const std::vector<std::pair<int, int>>& identities, double time_budget = 0.0) const;
+                    const std::vector<std::pair<int, int>>& identities) const;
 
   const SmootherConfig& config() const { return config_; }
+
+  /**
+   * @brief How far the odometry may have drifted since @p stamp: the covariance (x, y, theta) of its increment from
+   * the last update recorded at or before @p stamp to the last one, in the frame of the former (the motion noise
+   * class propagated along the updates); @p odometry_then gets the odometry there. Zero before two updates.
+   */
+  Eigen::Matrix3d driftSince(double stamp, Pose2* odometry_then) const;
+  /** @brief The odometry of the last update recorded (identity before the first). */
+  Pose2 lastOdometry() const { return records_.empty() ? Pose2() : records_.back().odometry; }
 
 private:
   struct Record

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <deque>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -33,7 +34,12 @@ struct PipelineUpdate
 {
   double stamp = 0.0;                 ///< [s] the sweep's middle, where the filter updated
   Pose2 odometry;                     ///< odometry at that instant
-  Pose2 estimate;                     ///< the filter's estimate of base_link in the map after the update
+  /// base_link in the map after the update, as published: the latest smoothing of the run carried on by the filter's
+  /// motion since (LoopClosing::published), else the filter's estimate
+  Pose2 estimate;
+  /// The covariance of @c estimate (x, y, theta): the smoother's marginal at the pose it starts from, carried to the
+  /// robot, plus the particle cloud's own; the cloud's alone without a smoothing (zero before the first update)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   int timeline = 0;                   ///< restarts before this update (a restart flushes the old timeline's sweeps)
   Pose2 mount;                        ///< the sensor's planar pose on base_link
   bool odometry_covered = true;       ///< false: processed after waiting, with odometry that ends before the sweep
@@ -171,6 +177,10 @@ public:
    * closure (disabled, or a saved map), before two updates, or when the solve fails.
    */
   SmoothedRun smoothed() const;
+  /** @brief The covariance of the published estimate @p estimate (PipelineUpdate::covariance). */
+  Eigen::Matrix3d estimateCovariance(const Pose2& estimate) const;
+  /** @brief smoothed() as a job to run later on any thread, without holding the pipeline (it holds copies). */
+  std::function<SmoothedRun()> smoothingJob() const;
   /** @brief Loops closed and refused in this timeline. */
   int loopsClosed() const { return loops_ ? loops_->closed() : 0; }
   int loopsRejected() const { return loops_ ? loops_->rejected() : 0; }
@@ -226,6 +236,7 @@ private:
   GnssAnchoring gnss_;
   Pose2 last_odometry_;
   Pose2 last_estimate_;
+  Eigen::Matrix3d last_covariance_ = Eigen::Matrix3d::Zero();
   double last_stamp_ = 0.0;
   double seconds_extraction_ = 0.0, seconds_filter_ = 0.0;
 };
