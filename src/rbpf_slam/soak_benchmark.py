@@ -9,6 +9,7 @@ minute against the one at the first minute; flat means within 5 %.
   soak_benchmark --filter fastslam --bag forest.bag --hours 1 --rate 4
   soak_benchmark --filter fastslam --trunk-drive loop --hours 1 --rate 4     # one drive, no restarts
   soak_benchmark --filter fastslam --trunk-drive survey --hours 1 --rate 4   # one drive over new ground
+  soak_benchmark --filter fastslam --trunk-drive loop --hours 1 --rate 4 --save-map-every 60  # saving the map
 
 --trunk-drive writes (to a temporary folder) and plays once a drive of --hours without a jump in time: odometry
 and the trunks a sensor of 1-12 m all round sees (rbpf_slam/TrunkArray), either round the same 40 m loop again and
@@ -199,7 +200,12 @@ def _main(argv):
     p.add_argument('--rate', type=float, default=20.0, help='rosbag play rate (default 20)')
     p.add_argument('--port', type=int, default=11391, help='port of the roscore it starts (default 11391)')
     p.add_argument('--out', help='write the figures and the samples as JSON')
+    p.add_argument('--save-map-every', type=float, default=0.0, metavar='S',
+                   help='FastSLAM: call ~save_map every S seconds of sensor time (0: never), to see that saving '
+                        'gives back what it takes')
     opts = p.parse_args(argv)
+    if opts.save_map_every < 0.0 or (opts.save_map_every > 0.0 and opts.filter != 'fastslam'):
+        raise UserError('--save-map-every must be >= 0 and goes with --filter fastslam')
     logdir = os.path.join('/tmp', 'rbpf_slam_soak_%d' % os.getpid())
     os.makedirs(logdir, exist_ok=True)
     stand = None
@@ -256,9 +262,15 @@ def _main(argv):
                  wall, logdir))
         samples = []
         trees_at_minute = None
+        saves, saving = 0, None
         t0 = time.time()
         while time.time() - t0 < wall:
             time.sleep(1.0)
+            if opts.save_map_every > 0.0 and (time.time() - t0) * opts.rate >= (saves + 1) * opts.save_map_every:
+                if saving is None or saving.poll() is not None:  # one call at a time
+                    saving = subprocess.Popen(['rosservice', 'call', '/fastslam/save_map'], env=env,
+                                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                    saves += 1
             if opts.filter == 'fastslam' and trees_at_minute is None and time.time() - t0 >= 60.0:
                 trees_at_minute = inventory_trees(env, inventory)
             row = {'t': round(time.time() - t0, 1)}
@@ -293,6 +305,8 @@ def _main(argv):
                                                                f['rss_final_mb'], f['growth_percent']))
         print('restarts logged (time jumped back): %d; sensor time %.2f h in %.0f s'
               % (resets, loops * duration / 3600.0, time.time() - t0))
+        if opts.save_map_every > 0.0:
+            print('save_map called %d times (every %g s of sensor time)' % (saves, opts.save_map_every))
         per_1000 = None
         if trees_at_minute is not None and trees_final is not None:
             f = figures['fastslam']

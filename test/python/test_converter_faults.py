@@ -461,9 +461,11 @@ def _partial(out_dir):
 
 
 def _default_sigint():
-    """In the child: SIGINT as a terminal gives it. A shell starts background jobs with SIGINT ignored, and Python
-    then keeps ignoring it; the tool must be tested as a user at a terminal runs it."""
+    """In the child: SIGINT and SIGHUP as a terminal gives them. A shell starts background jobs with SIGINT ignored
+    (and nohup SIGHUP), and Python then keeps ignoring them; the tool must be tested as a user at a terminal runs
+    it."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
 
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGHUP, signal.SIGINT], ids=lambda s: s.name)

@@ -42,3 +42,12 @@ def test_a_trunk_drive_needs_fastslam(capsys):
     finally:  # the run's log folder, made before the command line is checked
         shutil.rmtree(os.path.join(os.sep + 'tmp', 'rbpf_slam_soak_%d' % os.getpid()), ignore_errors=True)
     assert capsys.readouterr().err == 'soak_benchmark: --trunk-drive goes with --filter fastslam\n'
+
+
+def test_saving_the_map_needs_fastslam_and_a_period(capsys):
+    # Refused before any roscore is started or folder made.
+    assert sb.main(['--filter', 'grid', '--bag', 'any.bag', '--save-map-every', '60']) == 1
+    assert capsys.readouterr().err == \
+        'soak_benchmark: --save-map-every must be >= 0 and goes with --filter fastslam\n'
+    assert sb.main(['--filter', 'fastslam', '--bag', 'any.bag', '--save-map-every', '-1']) == 1
+    assert 'must be >= 0' in capsys.readouterr().err
