@@ -97,6 +97,7 @@ void TrunkSlamPipeline::resetFilter()
   initialized_ = false;
   last_odometry_ = Pose2();
   last_estimate_ = Pose2();
+  last_covariance_.setZero();
 }
 
 void TrunkSlamPipeline::setPriorMap(const std::vector<Landmark>& trees, const Pose2& start,
