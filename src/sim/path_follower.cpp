@@ -22,7 +22,8 @@ std::int64_t cellKey(double x, double y, double cell)
 {
   const std::int64_t ix = static_cast<std::int64_t>(std::floor(x / cell));
   const std::int64_t iy = static_cast<std::int64_t>(std::floor(y / cell));
-  return (ix << 32) ^ (iy & 0xffffffffLL);
+  // Shifted as unsigned: a negative cell index shifted as signed is undefined behaviour.
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
 }
 
 /**

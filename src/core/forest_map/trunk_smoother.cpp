@@ -170,8 +170,10 @@ using TreeGrid = std::unordered_map<long long, std::vector<std::size_t>>;
 
 long long treeCellKey(double x, double y)
 {
-  return (static_cast<long long>(std::floor(x / kTreeCell)) << 32) ^
-         (static_cast<long long>(std::floor(y / kTreeCell)) & 0xffffffffLL);
+  // Shifted as unsigned: a negative cell index shifted as signed is undefined behaviour.
+  const auto ix = static_cast<unsigned long long>(static_cast<long long>(std::floor(x / kTreeCell)));
+  const auto iy = static_cast<unsigned long long>(static_cast<long long>(std::floor(y / kTreeCell)));
+  return static_cast<long long>((ix << 32) ^ (iy & 0xffffffffULL));
 }
 
 /** @brief The tree of @p grid nearest to the point @p p of covariance @p C (Mahalanobis, below @p gate), or -1. */
