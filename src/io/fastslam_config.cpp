@@ -80,6 +80,7 @@ void readFastSlamConfig(const ParamSource& p, core::TrunkSlamConfig* c)
   p.get("loop_closure/loop_sigma", &lc.smoother.loop_sigma);
   p.get("loop_closure/loop_radius_share", &lc.smoother.loop_radius_share);
   p.get("loop_closure/loop_quantile", &lc.smoother.loop_quantile);
+  p.get("loop_closure/loop_rounds", &lc.smoother.loop_rounds);
   p.get("loop_closure/max_iterations", &lc.smoother.max_iterations);
   p.get("loop_closure/max_factors", &lc.smoother.max_factors);
   p.get("loop_closure/apply_after", &lc.apply_after);

@@ -35,7 +35,7 @@ FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_table
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
             "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop,estimate_x,estimate_y,"
             "estimate_xx,estimate_xy,estimate_yy\n";
-  loops_ << "stamp,found,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,reason\n";
+  loops_ << "stamp,found,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,dropped,reason\n";
 }
 
 void FastSlamRunRecord::addUpdate(const core::PipelineUpdate& u)
@@ -133,8 +133,9 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
     max_loop_seconds_ = std::max(max_loop_seconds_, loop.seconds);
     std::string reason = loop.reason;
     std::replace(reason.begin(), reason.end(), ',', ';');
-    loops_ << stampText(stamp) << ',' << stampText(loop.found) << ',' << core::toString(loop.kind) << ',' << loop.matched << ',' << loop.shift << ','
-           << loop.seconds << ',' << loop.seconds_covariance << ',' << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ','
+    loops_ << stampText(stamp) << ',' << stampText(loop.found) << ',' << core::toString(loop.kind) << ','
+           << loop.matched << ',' << loop.shift << ',' << loop.seconds << ',' << loop.seconds_covariance << ','
+           << loop.keyframes << ',' << loop.identity_chi2 << ',' << loop.identity_bound << ',' << loop.dropped << ','
            << reason << '\n';
   }
   if (timeline != timeline_)

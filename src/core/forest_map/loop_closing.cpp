@@ -17,6 +17,16 @@ namespace
 {
 /** @brief [m] The recent trees a loop matched fix its turn when they spread this far (RMS about their centre). */
 constexpr double kMinSpreadForTurn = 3.0;
+/** @brief Filter updates between two thinnings of the smoother's records (TrunkSmoother::thin). */
+constexpr int kThinInterval = 50;
+
+/** @brief The smoother's configuration, its minimum of a loop's pairs the search's. */
+SmootherConfig smootherConfig(const LoopClosureConfig& c)
+{
+  SmootherConfig s = c.smoother;
+  s.loop_min_trees = c.detection.constellation.min_inliers;
+  return s;
+}
 }  // namespace
 
 const char* toString(LoopEvent::Kind k)
@@ -51,7 +61,7 @@ std::string LoopClosureConfig::validate() const
 }
 
 LoopClosing::LoopClosing(const LoopClosureConfig& config, const FastSlamConfig& filter)
-  : config_(config), detector_(config.detection), smoother_(config.smoother, filter)
+  : config_(config), detector_(config.detection), smoother_(smootherConfig(config), filter)
 {
 }
 
@@ -76,6 +86,10 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   LoopEvent event;
   smoother_.add(stamp, odometry, mount, observations, share);
   ++updates_;
+  // Revisits of a place older than the trees a loop search calls recent keep no observations: the records grow with
+  // the places driven, not with the hours spent driving them.
+  if (updates_ % kThinInterval == 0)
+    smoother_.thin(filter->bestHistory(), stamp - config_.detection.recent_time, config_.detection.old_time);
   if (pending_ && updates_ >= pending_->apply_at)
   {
     std::unique_ptr<Pending> p = std::move(pending_);
@@ -289,6 +303,7 @@ LoopEvent LoopClosing::apply(FastSlam* filter, double stamp, Pending* pending)
   event.keyframes = run.keyframes;
   event.identity_chi2 = run.identity_chi2;
   event.identity_bound = run.identity_bound;
+  event.dropped = run.identities_dropped;
   if (!pending->loop)
   {
     // The run smoothed up to the update that launched it: the published estimate is the smoothed pose there, carried

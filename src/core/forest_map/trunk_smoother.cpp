@@ -278,8 +278,8 @@ std::string SmootherConfig::validate() const
     return "loop_sigma must be > 0 and loop_radius_share >= 0";
   if (!(loop_quantile > 0.0 && loop_quantile < 1.0))
     return "loop_quantile must lie in (0, 1)";
-  if (max_iterations < 1)
-    return "max_iterations must be >= 1";
+  if (max_iterations < 1 || loop_rounds < 1)
+    return "max_iterations and loop_rounds must be >= 1";
   if (max_factors < 1)
     return "max_factors must be >= 1";
   if (!(spread_floor_xy >= 0.0) || !(spread_floor_theta >= 0.0))
@@ -316,6 +316,64 @@ void TrunkSmoother::add(double stamp, const Pose2& odometry, const Pose2& mount,
     r.observations.push_back(o);
   }
   records_.push_back(std::move(r));
+}
+
+std::size_t TrunkSmoother::thin(const std::vector<Pose2>& path, double before, double pass_gap)
+{
+  if (path.size() != records_.size())
+    return 0;
+  // The first visits' updates, by the cell of their pose; oldest first, so that a place keeps its first visit (the
+  // one a loop refers to).
+  const double cell = config_.keyframe_distance;
+  auto key = [](long ix, long iy) {
+    return static_cast<long long>((static_cast<unsigned long long>(ix) << 32) ^
+                                  (static_cast<unsigned long long>(iy) & 0xffffffffULL));
+  };
+  std::unordered_map<long long, std::vector<std::size_t>> first_visits;
+  std::size_t count = 0;
+  const Record* last = nullptr;  // the last update that keeps its observations
+  for (std::size_t i = 0; i < records_.size() && records_[i].stamp < before; ++i)
+  {
+    Record& r = records_[i];
+    if (r.observations.empty())
+      continue;
+    const Pose2& p = path[i];
+    const long cx = static_cast<long>(std::floor(p.x / cell)), cy = static_cast<long>(std::floor(p.y / cell));
+    bool revisit = false;
+    for (long ix = cx - 1; ix <= cx + 1 && !revisit; ++ix)
+      for (long iy = cy - 1; iy <= cy + 1 && !revisit; ++iy)
+      {
+        const auto it = first_visits.find(key(ix, iy));
+        if (it == first_visits.end())
+          continue;
+        for (std::size_t j : it->second)
+          if (r.stamp - records_[j].stamp >= pass_gap && std::hypot(p.x - path[j].x, p.y - path[j].y) < cell &&
+              std::abs(wrapAngle(p.theta - path[j].theta)) < config_.keyframe_angle)
+          {
+            revisit = true;
+            break;
+          }
+      }
+    if (!revisit)
+    {
+      first_visits[key(cx, cy)].push_back(i);
+      last = &r;
+      continue;
+    }
+    // A revisit keeps one look per keyframe of travel, so that each of its keyframes stays tied to the trees (one
+    // with no observation would follow the odometry alone).
+    const Pose2 since = last != nullptr ? between(last->odometry, r.odometry) : Pose2();
+    if (last == nullptr || std::hypot(since.x, since.y) >= config_.keyframe_distance ||
+        std::abs(since.theta) >= config_.keyframe_angle)
+    {
+      last = &r;
+      continue;
+    }
+    std::vector<LandmarkObservation>().swap(r.observations);  // its memory given back
+    ++count;
+  }
+  thinned_ += count;
+  return count;
 }
 
 Eigen::Matrix3d TrunkSmoother::odometryCovariance(std::size_t a, std::size_t b) const
@@ -380,6 +438,7 @@ struct TrunkSmoother::Graph
   // The loop's identities, and the indices of their two trees.
   std::vector<IdentityFactor> identity_factors;
   std::vector<std::pair<std::size_t, std::size_t>> identity_trees;
+  std::vector<std::size_t> identity_of;  // each identity factor's index in the identities given
 };
 
 void TrunkSmoother::chooseKeyframes(const std::vector<Pose2>& path, Graph* g) const
@@ -488,8 +547,9 @@ void TrunkSmoother::addIdentityFactors(const std::vector<Landmark>& trees,
                                        const std::vector<std::pair<int, int>>& identities, Graph* g) const
 {
   // The loop: its trees' identities.
-  for (const auto& id : identities)
+  for (std::size_t i = 0; i < identities.size(); ++i)
   {
+    const auto& id = identities[i];
     const auto a = g->index_of.find(id.first), b = g->index_of.find(id.second);
     if (a == g->index_of.end() || b == g->index_of.end() || a->second == b->second || !g->used[a->second] ||
         !g->used[b->second])
@@ -502,6 +562,7 @@ void TrunkSmoother::addIdentityFactors(const std::vector<Landmark>& trees,
     IdentityFactor f{ sqrtInformation<2>(cov) };
     g->identity_factors.push_back(f);
     g->identity_trees.emplace_back(a->second, b->second);
+    g->identity_of.push_back(i);
     g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<IdentityFactor, 2, 2, 2>(new IdentityFactor(f)),
                                  nullptr, g->tree_params[a->second].data(), g->tree_params[b->second].data());
   }
@@ -562,6 +623,48 @@ void TrunkSmoother::storeTrees(const Graph& g, const std::vector<Pose2>& correct
 SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
                                  const std::vector<std::pair<int, int>>& identities) const
 {
+  // A loop's pair that does not fit the others once solved is a look-alike: the worst is dropped and the rest solved
+  // again, while more than half of the pairs (and loop_min_trees) remain; at most loop_rounds solves.
+  std::vector<std::pair<int, int>> kept = identities;
+  SmoothedRun out;
+  double seconds = 0.0, seconds_covariance = 0.0;
+  int tied = -1;  // the pairs tied to the path in the first solve
+  for (int round = 0;; ++round)
+  {
+    std::vector<double> chi2;
+    out = solveOnce(path, trees, kept, &chi2);
+    if (tied < 0)
+      tied = out.identities;
+    seconds += out.seconds;
+    seconds_covariance += out.seconds_covariance;
+    out.seconds = seconds;
+    out.seconds_covariance = seconds_covariance;
+    out.identities_dropped = tied - out.identities;
+    if (out.ok || out.identities == 0 || !(out.identity_chi2 > out.identity_bound) || round + 1 >= config_.loop_rounds)
+      return out;
+    // The worst pair, when it lies beyond the quantile on its own (one wrong pair spreads its pull over the others:
+    // they are judged again without it).
+    std::size_t worst = chi2.size();
+    for (std::size_t f = 0; f < chi2.size(); ++f)
+      if (std::isfinite(chi2[f]) && (worst == chi2.size() || chi2[f] > chi2[worst]))
+        worst = f;
+    const std::size_t needed = std::max(static_cast<std::size_t>(std::max(config_.loop_min_trees, 1)),
+                                        static_cast<std::size_t>(tied / 2 + 1));
+    if (worst == chi2.size() || !(chi2[worst] > chiSquareQuantile(config_.loop_quantile, 2)) ||
+        static_cast<std::size_t>(out.identities) - 1 < needed)
+      return out;
+    std::vector<std::pair<int, int>> fit;
+    for (std::size_t f = 0; f < chi2.size(); ++f)
+      if (f != worst && std::isfinite(chi2[f]))  // a pair not tied to the path is left out
+        fit.push_back(kept[f]);
+    kept = std::move(fit);
+  }
+}
+
+SmoothedRun TrunkSmoother::solveOnce(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
+                                     const std::vector<std::pair<int, int>>& identities,
+                                     std::vector<double>* identity_chi2) const
+{
   const auto t0 = std::chrono::steady_clock::now();
   SmoothedRun out;
   const std::size_t n = records_.size();
@@ -606,13 +709,15 @@ SmoothedRun TrunkSmoother::solve(const std::vector<Pose2>& path, const std::vect
   if (solverFailed(summary, config_.max_iterations, &out))
     return out;
 
-  // Consistency: the identities' residuals after the solve.
+  // Consistency: the identities' residuals after the solve (NaN: a pair not tied to the path).
+  identity_chi2->assign(identities.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t f = 0; f < g.identity_factors.size(); ++f)
   {
     double r[2];
     g.identity_factors[f](g.tree_params[g.identity_trees[f].first].data(),
                           g.tree_params[g.identity_trees[f].second].data(), r);
     out.identity_chi2 += r[0] * r[0] + r[1] * r[1];
+    (*identity_chi2)[g.identity_of[f]] = r[0] * r[0] + r[1] * r[1];
   }
   out.identity_bound = chiSquareQuantile(config_.loop_quantile, 2 * out.identities);
 

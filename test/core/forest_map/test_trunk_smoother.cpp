@@ -228,6 +228,37 @@ TEST(TrunkSmoother, RefusesALoopThatPairsTheWrongTrees)
   EXPECT_NE(run.reason.find("chi-square"), std::string::npos) << run.reason;
 }
 
+TEST(TrunkSmoother, ALookAlikePairAmongALoopsTreesIsDroppedNotTheLoop)
+{
+  const LoopDrive d = makeLoopDrive(0.01);
+  ASSERT_GE(d.identities.size(), 6u);
+  // The loop's true pairs and one look-alike: a second pass tree paired with a tree 5 places away.
+  std::vector<std::pair<int, int>> pairs = d.identities;
+  pairs.push_back(d.wrong.front());
+  SmootherConfig once;
+  once.loop_rounds = 1;
+  const SmoothedRun refused = recorded(d, FastSlamConfig(), once).solve(d.odometry, d.trees, pairs);
+  ASSERT_FALSE(refused.ok) << "with one solve, the look-alike refuses the whole loop";
+  EXPECT_GT(refused.identity_chi2, refused.identity_bound);
+  EXPECT_EQ(refused.identities_dropped, 0);
+
+  const SmoothedRun run = recorded(d, FastSlamConfig()).solve(d.odometry, d.trees, pairs);
+  ASSERT_TRUE(run.ok) << run.reason;
+  EXPECT_EQ(run.identities_dropped, 1);
+  EXPECT_EQ(run.identities, static_cast<int>(d.identities.size()));
+  EXPECT_LE(run.identity_chi2, run.identity_bound);
+  EXPECT_LT(positionError(run.poses.back(), d.truth.back()), 0.3);
+  // Each tree once and where it stands: the look-alike's old tree was not dragged onto another.
+  EXPECT_EQ(run.trees.size(), d.trees.size() - d.identities.size());
+  for (const Landmark& l : run.trees)
+  {
+    double nearest = 1e9;
+    for (const Eigen::Vector2d& t : d.stand)
+      nearest = std::min(nearest, (l.mean - t).norm());
+    EXPECT_LT(nearest, 0.4) << "tree " << l.id;
+  }
+}
+
 TEST(TrunkSmoother, RefusesAGraphBeyondItsBoundOrUnconverged)
 {
   const LoopDrive d = makeLoopDrive(0.01);
@@ -471,4 +502,56 @@ TEST(TrunkSmoother, TheOdometrysDriftGrowsWithTheDrive)
   EXPECT_GT(all(2, 2), 1.5 * half(2, 2));
   EXPECT_GT(all.trace(), half.trace());
   EXPECT_LT(none.trace(), 1e-4) << "no drive since the last update";
+}
+
+TEST(TrunkSmoother, LapsOfOnePlaceKeepOneLookPerKeyframe)
+{
+  // Five laps of the square; after the first, every update revisits a place kept from a lap earlier. The odometry
+  // turns 0.003 rad per metre too much: a keyframe left without observations would follow it off the square.
+  const LoopDrive d = makeLoopDrive(0.0);
+  const std::size_t lap = 320;  // updates per lap (80 m in steps of 0.25 m)
+  const SmootherConfig sc;
+  const FastSlamConfig fc;
+  TrunkSmoother laps(sc, fc), kept_all(sc, fc);
+  std::vector<Pose2> path;
+  Pose2 odometry;
+  std::size_t with_observations = 0;
+  for (std::size_t k = 0; k < 5; ++k)
+    for (std::size_t i = 0; i < lap; ++i)
+    {
+      const double stamp = static_cast<double>(k * lap + i);
+      if (!path.empty())
+      {
+        const Pose2 inc = between(path.back(), d.truth[i]);
+        odometry = odometry * Pose2(inc.x, inc.y, inc.theta + 0.003 * std::hypot(inc.x, inc.y));
+      }
+      laps.add(stamp, odometry, Pose2(), d.observations[i], 1.0);
+      kept_all.add(stamp, odometry, Pose2(), d.observations[i], 1.0);
+      path.push_back(d.truth[i]);
+      if (k == 0 && !d.observations[i].empty())
+        ++with_observations;
+    }
+  // Nothing within the pass gap of itself is a revisit: a lap does not thin itself.
+  EXPECT_EQ(laps.thin(path, static_cast<double>(lap), 100.0), 0u);
+  // Before the last lap's start: laps 2 to 4 thinned to one look per metre (of four or five), the last kept (recent).
+  const std::size_t n = laps.thin(path, static_cast<double>(4 * lap), 100.0);
+  EXPECT_GT(n, 3 * with_observations * 6 / 10);
+  EXPECT_LT(n, 3 * with_observations * 85 / 100);
+  EXPECT_EQ(laps.thin(path, static_cast<double>(4 * lap), 100.0), 0u) << "thinning twice changes nothing";
+  EXPECT_EQ(laps.thinned(), n);
+  EXPECT_EQ(laps.size(), path.size()) << "the odometry of every update stays";
+  EXPECT_EQ(laps.thin(std::vector<Pose2>(path.begin(), path.end() - 1), 1e9, 100.0), 0u) << "a path that does "
+                                                                                            "not match: nothing";
+  // The thinned graph is solved as the whole one, from a fraction of its observations: every keyframe still tied.
+  const SmoothedRun thin_run = laps.solve(path, d.trees, {});
+  const SmoothedRun full_run = kept_all.solve(path, d.trees, {});
+  ASSERT_TRUE(thin_run.ok) << thin_run.reason;
+  ASSERT_TRUE(full_run.ok) << full_run.reason;
+  EXPECT_EQ(thin_run.keyframes, full_run.keyframes);
+  EXPECT_LT(thin_run.observations, full_run.observations * 6 / 10);
+  ASSERT_EQ(thin_run.poses.size(), path.size());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < path.size(); ++i)
+    worst = std::max(worst, positionError(thin_run.poses[i], path[i]));
+  EXPECT_LT(worst, 0.1);
 }

@@ -46,6 +46,11 @@ struct SmootherConfig
   /// The loop is rejected when its identities' residuals after the solve exceed this quantile of the chi-square
   /// distribution (two degrees of freedom per matched tree).
   double loop_quantile = 0.999;
+  /// When they do, the worst pair, if beyond the quantile (2 dof) on its own, is dropped and the rest solved again,
+  /// while more than half of the pairs and at least loop_min_trees remain; at most this many solves of one loop
+  /// (1: refused at once).
+  int loop_rounds = 3;
+  int loop_min_trees = 4;  ///< (the loop search's own minimum of matched trees)
   /// Levenberg-Marquardt iterations of one solve: a solve that does not converge within them leaves the filter as it
   /// was. A bound on work, not on time, so that every computer gives the same answer.
   int max_iterations = 50;

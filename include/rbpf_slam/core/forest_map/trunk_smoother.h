@@ -28,7 +28,8 @@ struct SmoothedRun
   int trees_solved = 0;   ///< trees that observations tie to the path (the others move with their keyframe)
   int observations = 0;   ///< observations given to a tree
   int factors = 0;        ///< their factors (one per keyframe and tree)
-  int identities = 0;     ///< identity factors (the loop's matched trees)
+  int identities = 0;     ///< identity factors (the loop's matched trees) in the last solve
+  int identities_dropped = 0;  ///< pairs of the loop dropped as not fitting the others (solved again without them)
   int iterations = 0;
   double identity_chi2 = 0.0;  ///< sum of the identity factors' squared whitened residuals after the solve
   double identity_bound = 0.0; ///< the chi-square quantile they are held to
@@ -62,15 +63,33 @@ public:
    * (sensor frame) and their evidence share. */
   void add(double stamp, const Pose2& odometry, const Pose2& mount, const std::vector<LandmarkObservation>& observations,
            double evidence_share);
-  void clear() { records_.clear(); }
+  void clear()
+  {
+    records_.clear();
+    thinned_ = 0;
+  }
+  /**
+   * @brief Forgets the observations of the updates recorded before @p before that revisit a place: those within
+   * keyframe_distance and keyframe_angle (on the path @p path, one pose per update) of a first visit at least
+   * @p pass_gap earlier, except one per keyframe_distance (or keyframe_angle) of travel, which keeps every keyframe
+   * tied to the trees. Their odometry stays. A revisit then costs one look per keyframe, not every sweep: the
+   * records grow with the distance driven, not with the sweeps. Nothing is done when the path does not match the
+   * records. Returns how many updates were thinned by this call.
+   */
+  std::size_t thin(const std::vector<Pose2>& path, double before, double pass_gap);
+  /** @brief Updates whose observations were forgotten since the start (or clear()). */
+  std::size_t thinned() const { return thinned_; }
   std::size_t size() const { return records_.size(); }
 
   /**
    * @brief Solves the graph from the path @p path (one pose per recorded update, the particle's own) and its trees
    * @p trees, with the identities @p identities (tree ids: (recent, old); the old id is kept). Not ok (and nothing
    * to apply) when the path does not match the records, the graph has more than max_factors factors, the solve fails
-   * or does not converge within max_iterations, or the identities' residuals exceed their chi-square bound. Its work
-   * is bounded by those counts, never by a clock: one input, one answer. Thread-safe (const, no shared state).
+   * or does not converge within max_iterations, or the identities' residuals exceed their chi-square bound. When they
+   * do, the worst pair, if beyond the 2-dof quantile on its own, is dropped and the rest solved again (at most
+   * loop_rounds solves), while more than half of the pairs and at least loop_min_trees remain: one look-alike pair cannot refuse a loop
+   * the others agree on, nor pull the map. Its work is bounded by those counts, never by a clock: one input, one
+   * answer. Thread-safe (const, no shared state).
    */
   SmoothedRun solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
                     const std::vector<std::pair<int, int>>& identities) const;
@@ -97,6 +116,10 @@ private:
   /** @brief Covariance of the odometry's increment from record @p a to @p b under the motion noise class. */
   Eigen::Matrix3d odometryCovariance(std::size_t a, std::size_t b) const;
 
+  /** @brief One solve of solve(); @p identity_chi2 gets each identity's squared whitened residual after it (NaN for
+   * a pair not tied to the path by an observation). */
+  SmoothedRun solveOnce(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
+                        const std::vector<std::pair<int, int>>& identities, std::vector<double>* identity_chi2) const;
   /** @brief One solve's keyframes, parameter blocks, problem and identities (defined in the source). */
   struct Graph;
   /** @brief The keyframes of the records, their poses from @p path. */
@@ -119,6 +142,7 @@ private:
   double motion_step_, motion_step_angle_;
   double range_floor_, bearing_floor_;
   std::vector<Record> records_;
+  std::size_t thinned_ = 0;
 };
 
 /** @brief The @p quantile of the chi-square distribution with @p dof degrees of freedom (exact to 1e-9 relative). */
