@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "rbpf_slam/core/filter/cell_key.h"
+
 namespace rbpf_slam
 {
 namespace sim
@@ -22,8 +24,7 @@ std::int64_t cellKey(double x, double y, double cell)
 {
   const std::int64_t ix = static_cast<std::int64_t>(std::floor(x / cell));
   const std::int64_t iy = static_cast<std::int64_t>(std::floor(y / cell));
-  // Shifted as unsigned: a negative cell index shifted as signed is undefined behaviour.
-  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+  return core::packCell(ix, iy);
 }
 
 /**

@@ -10,12 +10,6 @@ namespace rbpf_slam
 {
 namespace core
 {
-std::int64_t packCell(std::int64_t ix, std::int64_t iy)
-{
-  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^
-                                   (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
-}
-
 namespace
 {
 constexpr std::int64_t kMaxDenseCells = std::int64_t(1) << 20;  // [cells] larger sweeps use the hash maps

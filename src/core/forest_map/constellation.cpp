@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "rbpf_slam/core/filter/cell_key.h"
+
 namespace rbpf_slam
 {
 namespace core
@@ -13,9 +15,7 @@ namespace
 {
 long long key(long cx, long cy)
 {
-  // Two 32-bit cell indices in one number (shifted as unsigned: a negative index is no undefined shift).
-  const unsigned long long hi = static_cast<unsigned long long>(static_cast<unsigned int>(cx)) << 32;
-  return static_cast<long long>(hi | static_cast<unsigned int>(cy));
+  return packCell(cx, cy);
 }
 
 double wrap(double a)

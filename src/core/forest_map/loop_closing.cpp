@@ -86,8 +86,8 @@ LoopEvent LoopClosing::afterUpdate(FastSlam* filter, double stamp, const Pose2& 
   LoopEvent event;
   smoother_.add(stamp, odometry, mount, observations, share);
   ++updates_;
-  // Revisits of a place older than the trees a loop search calls recent keep no observations: the records grow with
-  // the places driven, not with the hours spent driving them.
+  // Revisits of a place older than the trees a loop search calls recent keep one look per keyframe: the records grow
+  // with the distance driven, not with the sweeps.
   if (updates_ % kThinInterval == 0)
     smoother_.thin(filter->bestHistory(), stamp - config_.detection.recent_time, config_.detection.old_time);
   if (pending_ && updates_ >= pending_->apply_at)

@@ -13,6 +13,8 @@
 #include <Eigen/Eigenvalues>
 #include <ceres/ceres.h>
 
+#include "rbpf_slam/core/filter/cell_key.h"
+
 namespace rbpf_slam
 {
 namespace core
@@ -170,10 +172,8 @@ using TreeGrid = std::unordered_map<long long, std::vector<std::size_t>>;
 
 long long treeCellKey(double x, double y)
 {
-  // Shifted as unsigned: a negative cell index shifted as signed is undefined behaviour.
-  const auto ix = static_cast<unsigned long long>(static_cast<long long>(std::floor(x / kTreeCell)));
-  const auto iy = static_cast<unsigned long long>(static_cast<long long>(std::floor(y / kTreeCell)));
-  return static_cast<long long>((ix << 32) ^ (iy & 0xffffffffULL));
+  return packCell(static_cast<std::int64_t>(std::floor(x / kTreeCell)),
+                  static_cast<std::int64_t>(std::floor(y / kTreeCell)));
 }
 
 /** @brief The tree of @p grid nearest to the point @p p of covariance @p C (Mahalanobis, below @p gate), or -1. */
@@ -325,11 +325,7 @@ std::size_t TrunkSmoother::thin(const std::vector<Pose2>& path, double before, d
   // The first visits' updates, by the cell of their pose; oldest first, so that a place keeps its first visit (the
   // one a loop refers to).
   const double cell = config_.keyframe_distance;
-  auto key = [](long ix, long iy) {
-    return static_cast<long long>((static_cast<unsigned long long>(ix) << 32) ^
-                                  (static_cast<unsigned long long>(iy) & 0xffffffffULL));
-  };
-  std::unordered_map<long long, std::vector<std::size_t>> first_visits;
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> first_visits;
   std::size_t count = 0;
   const Record* last = nullptr;  // the last update that keeps its observations
   for (std::size_t i = 0; i < records_.size() && records_[i].stamp < before; ++i)
@@ -343,7 +339,7 @@ std::size_t TrunkSmoother::thin(const std::vector<Pose2>& path, double before, d
     for (long ix = cx - 1; ix <= cx + 1 && !revisit; ++ix)
       for (long iy = cy - 1; iy <= cy + 1 && !revisit; ++iy)
       {
-        const auto it = first_visits.find(key(ix, iy));
+        const auto it = first_visits.find(packCell(ix, iy));
         if (it == first_visits.end())
           continue;
         for (std::size_t j : it->second)
@@ -356,7 +352,7 @@ std::size_t TrunkSmoother::thin(const std::vector<Pose2>& path, double before, d
       }
     if (!revisit)
     {
-      first_visits[key(cx, cy)].push_back(i);
+      first_visits[packCell(cx, cy)].push_back(i);
       last = &r;
       continue;
     }

@@ -8,6 +8,8 @@
 
 #include <Eigen/Core>
 
+#include "rbpf_slam/core/filter/cell_key.h"
+
 namespace rbpf_slam
 {
 namespace core
@@ -76,14 +78,6 @@ private:
   std::unordered_map<std::int64_t, float> lowest_;
   std::unordered_map<std::int64_t, float> ground_;
 };
-
-/**
- * @brief One hash key for a 2D cell: ix in the high word, iy's low 32 bits in the low word.
- *
- * Shifted as unsigned, since cells left of or behind the sensor have negative indices and a left shift of a
- * negative value is undefined.
- */
-std::int64_t packCell(std::int64_t ix, std::int64_t iy);
 
 /**
  * @brief The points whose height above the local ground lies in [min_height, max_height] [m], in their order, as

@@ -11,6 +11,8 @@
 
 #include <Eigen/Core>
 
+#include "rbpf_slam/core/filter/cell_key.h"
+
 namespace rbpf_slam
 {
 namespace core
@@ -199,7 +201,7 @@ private:
 
   static std::int64_t packKey(std::int64_t ix, std::int64_t iy)
   {
-    return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+    return packCell(ix, iy);
   }
 
   /** @brief Writable access: copies the chunk first when another map shares it. */

@@ -87,9 +87,9 @@ public:
    * to apply) when the path does not match the records, the graph has more than max_factors factors, the solve fails
    * or does not converge within max_iterations, or the identities' residuals exceed their chi-square bound. When they
    * do, the worst pair, if beyond the 2-dof quantile on its own, is dropped and the rest solved again (at most
-   * loop_rounds solves), while more than half of the pairs and at least loop_min_trees remain: one look-alike pair cannot refuse a loop
-   * the others agree on, nor pull the map. Its work is bounded by those counts, never by a clock: one input, one
-   * answer. Thread-safe (const, no shared state).
+   * loop_rounds solves), while more than half of the pairs and at least loop_min_trees remain: one look-alike pair
+   * cannot refuse a loop the others agree on, nor pull the map. Its work is bounded by those counts, never by a
+   * clock: one input, one answer. Thread-safe (const, no shared state).
    */
   SmoothedRun solve(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
                     const std::vector<std::pair<int, int>>& identities) const;
