@@ -424,10 +424,18 @@ struct TrunkSmoother::Graph
 
   std::vector<std::size_t> keyframes;              // the records that are keyframes
   std::vector<std::size_t> keyframe_of;            // each record's keyframe
-  std::vector<std::array<double, 3>> poses;        // the keyframes' poses (x, y, theta)
+  // Every parameter block in one buffer, in a fixed order: the keyframes' poses (x, y, theta), then the trees'
+  // positions. Ceres orders the marginal covariance's columns by the blocks' addresses: blocks in separate
+  // allocations would be ordered by where the heap put them, and the covariance would change in its last digits
+  // from one run to the next.
+  std::vector<double> blocks;
+  std::size_t tree_offset = 0;
+  double* pose(std::size_t k) { return blocks.data() + 3 * k; }
+  const double* pose(std::size_t k) const { return blocks.data() + 3 * k; }
+  double* tree(std::size_t j) { return blocks.data() + tree_offset + 2 * j; }
+  const double* tree(std::size_t j) const { return blocks.data() + tree_offset + 2 * j; }
   std::unordered_map<int, std::size_t> index_of;   // each tree's index by its id
   TreeGrid grid;                                   // the trees by cell, for the association
-  std::vector<std::array<double, 2>> tree_params;  // the trees' positions
   std::vector<char> used;                          // the trees an observation ties to the path
   std::optional<ceres::Problem> problem;           // once the parameter blocks are sized
   ceres::CauchyLoss cauchy;                        // the range-bearing factors' loss
@@ -450,9 +458,10 @@ void TrunkSmoother::chooseKeyframes(const std::vector<Pose2>& path, Graph* g) co
       g->keyframes.push_back(i);
     g->keyframe_of[i] = g->keyframes.size() - 1;
   }
-  g->poses.resize(g->keyframes.size());
-  for (std::size_t k = 0; k < g->keyframes.size(); ++k)
-    g->poses[k] = { path[g->keyframes[k]].x, path[g->keyframes[k]].y, path[g->keyframes[k]].theta };
+  g->blocks.clear();
+  for (std::size_t k : g->keyframes)
+    g->blocks.insert(g->blocks.end(), { path[k].x, path[k].y, path[k].theta });
+  g->tree_offset = g->blocks.size();
 }
 
 void TrunkSmoother::indexTrees(const std::vector<Landmark>& trees, Graph* g)
@@ -463,9 +472,9 @@ void TrunkSmoother::indexTrees(const std::vector<Landmark>& trees, Graph* g)
     g->index_of[trees[j].id] = j;
     g->grid[treeCellKey(trees[j].mean.x(), trees[j].mean.y())].push_back(j);
   }
-  g->tree_params.resize(trees.size());
-  for (std::size_t j = 0; j < trees.size(); ++j)
-    g->tree_params[j] = { trees[j].mean.x(), trees[j].mean.y() };
+  g->blocks.resize(g->tree_offset);
+  for (const Landmark& t : trees)
+    g->blocks.insert(g->blocks.end(), { t.mean.x(), t.mean.y() });
   g->used.assign(trees.size(), 0);
 }
 
@@ -477,7 +486,7 @@ void TrunkSmoother::addOdometryFactors(Graph* g) const
     OdometryFactor f{ Eigen::Vector3d(d.x, d.y, d.theta),
                       sqrtInformation<3>(odometryCovariance(g->keyframes[k], g->keyframes[k + 1])) };
     g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryFactor, 3, 3, 3>(new OdometryFactor(f)),
-                                 nullptr, g->poses[k].data(), g->poses[k + 1].data());
+                                 nullptr, g->pose(k), g->pose(k + 1));
   }
 }
 
@@ -499,7 +508,7 @@ void TrunkSmoother::addObservationFactors(const std::vector<Pose2>& path, const 
       const Eigen::Matrix2d cov = f.second.information.inverse();
       PointFactor factor{ cov * f.second.weighted, sqrtInformation<2>(cov) };
       g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PointFactor, 2, 3, 2>(new PointFactor(factor)),
-                                   &g->cauchy, g->poses[k].data(), g->tree_params[f.first].data());
+                                   &g->cauchy, g->pose(k), g->tree(f.first));
       ++out->factors;
     }
     fused.clear();
@@ -560,7 +569,7 @@ void TrunkSmoother::addIdentityFactors(const std::vector<Landmark>& trees,
     g->identity_trees.emplace_back(a->second, b->second);
     g->identity_of.push_back(i);
     g->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<IdentityFactor, 2, 2, 2>(new IdentityFactor(f)),
-                                 nullptr, g->tree_params[a->second].data(), g->tree_params[b->second].data());
+                                 nullptr, g->tree(a->second), g->tree(b->second));
   }
 }
 
@@ -586,7 +595,7 @@ void TrunkSmoother::storeTrees(const Graph& g, const std::vector<Pose2>& correct
   {
     if (g.used[j])
     {
-      moved[j].mean = Eigen::Vector2d(g.tree_params[j][0], g.tree_params[j][1]);
+      moved[j].mean = Eigen::Vector2d(g.tree(j)[0], g.tree(j)[1]);
       continue;
     }
     // Not tied by an observation kept here: moved with the keyframe of its last sighting.
@@ -687,7 +696,7 @@ SmoothedRun TrunkSmoother::solveOnce(const std::vector<Pose2>& path, const std::
     out.reason = "none of the loop's trees is tied to the path by an observation";
     return out;
   }
-  problem.SetParameterBlockConstant(g.poses[0].data());
+  problem.SetParameterBlockConstant(g.pose(0));
   for (char u : g.used)
     out.trees_solved += u;
 
@@ -710,8 +719,7 @@ SmoothedRun TrunkSmoother::solveOnce(const std::vector<Pose2>& path, const std::
   for (std::size_t f = 0; f < g.identity_factors.size(); ++f)
   {
     double r[2];
-    g.identity_factors[f](g.tree_params[g.identity_trees[f].first].data(),
-                          g.tree_params[g.identity_trees[f].second].data(), r);
+    g.identity_factors[f](g.tree(g.identity_trees[f].first), g.tree(g.identity_trees[f].second), r);
     out.identity_chi2 += r[0] * r[0] + r[1] * r[1];
     (*identity_chi2)[g.identity_of[f]] = r[0] * r[0] + r[1] * r[1];
   }
@@ -719,7 +727,7 @@ SmoothedRun TrunkSmoother::solveOnce(const std::vector<Pose2>& path, const std::
 
   // The last keyframe's marginal covariance, for the spread of the particles drawn again.
   const auto t_cov = std::chrono::steady_clock::now();
-  lastPoseCovariance(&problem, g.poses.back().data(), g.keyframes.size(), &out);
+  lastPoseCovariance(&problem, g.pose(g.keyframes.size() - 1), g.keyframes.size(), &out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.seconds_covariance = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_cov).count();
   if (out.identities > 0 && out.identity_chi2 > out.identity_bound)
@@ -732,7 +740,7 @@ SmoothedRun TrunkSmoother::solveOnce(const std::vector<Pose2>& path, const std::
   // The path at every update, and the trees.
   std::vector<Pose2> corrected(g.keyframes.size());
   for (std::size_t k = 0; k < g.keyframes.size(); ++k)
-    corrected[k] = Pose2(g.poses[k][0], g.poses[k][1], wrapAngle(g.poses[k][2]));
+    corrected[k] = Pose2(g.pose(k)[0], g.pose(k)[1], wrapAngle(g.pose(k)[2]));
   storePath(g, corrected, &out);
   storeTrees(g, corrected, path, trees, &out);
   out.ok = true;
