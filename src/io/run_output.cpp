@@ -34,7 +34,7 @@ FastSlamRunRecord::FastSlamRunRecord(bool keep_tables) : keep_tables_(keep_table
     s->precision(12);
   table_ << "stamp,neff,resampled,landmarks,observations,matched,new,deleted,ignored,matched_confirmed,recreated,"
             "pose_spread,relocalizing,health,cloud_x,cloud_y,cloud_xx,cloud_xy,cloud_yy,loop,estimate_x,estimate_y,"
-            "estimate_xx,estimate_xy,estimate_yy\n";
+            "estimate_xx,estimate_xy,estimate_yy,health_cause\n";
   loops_ << "stamp,found,kind,matched,shift,seconds,covariance_seconds,keyframes,chi2,chi2_bound,dropped,reason\n";
 }
 
@@ -161,15 +161,17 @@ void FastSlamRunRecord::addUpdate(double stamp, int timeline, const core::Pose2&
       table_ << ",,,,,";
     table_ << ',' << core::toString(loop.kind) << ',' << estimate.x << ',' << estimate.y;
     if (covariance && covariance->allFinite() && (*covariance)(0, 0) > 0.0)
-      table_ << ',' << (*covariance)(0, 0) << ',' << (*covariance)(0, 1) << ',' << (*covariance)(1, 1) << '\n';
+      table_ << ',' << (*covariance)(0, 0) << ',' << (*covariance)(0, 1) << ',' << (*covariance)(1, 1);
     else
-      table_ << ",,,\n";
+      table_ << ",,,";
+    table_ << ',' << core::toString(health.cause) << '\n';
   }
   if (health.level == core::HealthLevel::kWarn)
   {
     if (warnings_ == 0)
       first_warning_ = stamp;
     ++warnings_;
+    ++warnings_by_cause_[core::toString(health.cause)];
     last_warning_ = stamp;
     last_warning_message_ = health.message;
   }
@@ -181,11 +183,17 @@ std::string FastSlamRunRecord::healthSummary() const
   s.precision(12);
   if (warnings_ == 0)
   {
-    s << "health ok: no update of " << updates_ << " warned that the map was being rebuilt";
+    s << "health ok: no update of " << updates_ << " warned";
     return s.str();
   }
-  s << "health WARNING: " << warnings_ << " of " << updates_ << " updates warned that the map was being rebuilt "
-    << "(from " << first_warning_ << " to " << last_warning_ << "); last: " << last_warning_message_;
+  s << "health WARNING: " << warnings_ << " of " << updates_ << " updates warned (";
+  const char* sep = "";
+  for (const auto& c : warnings_by_cause_)
+  {
+    s << sep << c.first << ": " << c.second;
+    sep = ", ";
+  }
+  s << "; from " << first_warning_ << " to " << last_warning_ << "); last: " << last_warning_message_;
   return s.str();
 }
 

@@ -788,7 +788,8 @@ CHI2_2DOF_95 = 5.991
 
 def read_updates_csv(path):
     """The run's updates.csv (slam_bag --out, the node's run folder): a dict of columns (numpy arrays) with
-    'stamp', 'health' (strings) and, where the run wrote them, the particle cloud's 'cloud_x', 'cloud_y',
+    'stamp', 'health', 'health_cause' (strings; the cause empty where the run did not write it) and, where the run
+    wrote them, the particle cloud's 'cloud_x', 'cloud_y',
     'cloud_xx', 'cloud_xy', 'cloud_yy' (NaN for updates that took no sweep) and the published estimate's
     'estimate_x', 'estimate_y', 'estimate_xx', 'estimate_xy', 'estimate_yy' (NaN where not written). None when
     the file is missing."""
@@ -797,7 +798,8 @@ def read_updates_csv(path):
     with open(path, newline='') as f:
         rows = list(csv.DictReader(f))
     out = {'stamp': np.array([float(r['stamp']) for r in rows]),
-           'health': [r.get('health', '') for r in rows]}
+           'health': [r.get('health', '') for r in rows],
+           'health_cause': [r.get('health_cause') or '' for r in rows]}
     for k in ('cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy',
               'estimate_x', 'estimate_y', 'estimate_xx', 'estimate_xy', 'estimate_yy'):
         out[k] = np.array([float(r[k]) if r.get(k) not in (None, '') else float('nan') for r in rows])

@@ -113,7 +113,11 @@ def table(summary):
             lines.append('truth inside %s 95 %% region: %.1f %% of %d reference poses (fitted), %.1f %% (no fit)'
                          % (what, 100 * c['fitted'], c['compared'], 100 * c['no_fit']))
     if 'health_warned_updates' in summary:
-        lines.append('health warned in %d of %d updates' % tuple(summary['health_warned_updates']))
+        line = 'health warned in %d of %d updates' % tuple(summary['health_warned_updates'])
+        causes = summary.get('health_warned_by_cause') or {}
+        if causes:
+            line += ' (%s)' % ', '.join('%s: %d' % (c, causes[c]) for c in sorted(causes))
+        lines.append(line)
     if 'seconds_processing' in summary:
         lines.append('processing %.1f ms (%d sweeps)' % (1000 * summary['seconds_processing'], summary.get('sweeps', 0)))
     return '\n'.join(lines)
@@ -228,6 +232,11 @@ def _main(argv):
     if updates is not None:
         warned = sum(1 for h in updates['health'] if h == 'warn')
         summary['health_warned_updates'] = [warned, len(updates['health'])]
+        causes = {}
+        for h, c in zip(updates['health'], updates['health_cause']):
+            if h == 'warn':
+                causes[c or 'unknown'] = causes.get(c or 'unknown', 0) + 1
+        summary['health_warned_by_cause'] = causes
         if ref['t'] is not None and 'estimate' in transforms:
             rt, rxy = compared
             r, t = transforms['estimate'][:2]

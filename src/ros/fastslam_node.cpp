@@ -414,6 +414,7 @@ void FastSlamRos::publishHealth(const core::PipelineUpdate& u)
     std::snprintf(b, sizeof(b), "%.3g", v);
     return std::string(b);
   };
+  kv("cause", core::toString(h.cause));
   kv("updates in window", std::to_string(h.updates));
   kv("mean Neff / N", num(h.neff_ratio));
   kv("resampled share", num(h.resampled_share));

@@ -505,9 +505,8 @@ void printSeriesNotes(const Options& opt, const Series& q)
   std::printf("driven %.0f m (median), %.1f x real time (median; simulation and all variants of a seed)\n",
               median(q.driven), median(q.speed));
   std::printf(
-      "health: the filter warned (map being rebuilt, or overconfident) in %d of %d runs ('warned': "
-      "updates), in %d of the %d failed runs; 'cover': updates with the truth inside the cloud's 95 %% "
-      "region\n",
+      "health: warned (any cause: health_cause in a run folder) in %d of %d runs ('warned': updates), in %d of "
+      "the %d failed runs; 'cover': updates with the truth inside the published estimate's 95 %% region\n",
       q.warned, opt.seeds, q.failed_warned, q.failed);
   if (opt.fail_ate > 0.0)
     std::printf(

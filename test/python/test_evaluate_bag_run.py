@@ -285,3 +285,6 @@ def test_the_printed_table_of_a_summary():
         'map: 5 features for 4 true landmarks: 3 matched (recall 75 %), 1 duplicates, 1 spurious',
         'health warned in 2 of 40 updates',
         'processing 250.0 ms (7 sweeps)']
+    # The warnings per cause, where the run folder names them.
+    summary['health_warned_by_cause'] = {'overconfident': 1, 'inconsistent': 1}
+    assert 'health warned in 2 of 40 updates (inconsistent: 1, overconfident: 1)' in ebr.table(summary).splitlines()

@@ -170,8 +170,12 @@ def test_run_folder_has_the_online_estimate_best_history_and_update_statistics(b
     assert header == ['stamp', 'neff', 'resampled', 'landmarks', 'observations', 'matched', 'new', 'deleted',
                       'ignored', 'matched_confirmed', 'recreated', 'pose_spread', 'relocalizing', 'health',
                       'cloud_x', 'cloud_y', 'cloud_xx', 'cloud_xy', 'cloud_yy', 'loop', 'estimate_x', 'estimate_y',
-                      'estimate_xx', 'estimate_xy', 'estimate_yy']
+                      'estimate_xx', 'estimate_xy', 'estimate_yy', 'health_cause']
     assert len(rows) == len(est)
+    # Every warning names its cause; an update that does not warn names none.
+    assert all(r[25] in ('none', 'recreated', 'unmatched', 'inconsistent', 'overconfident', 'saved_map_unobserved')
+               for r in rows)
+    assert all((r[13] == 'ok') == (r[25] == 'none') for r in rows)
     # The published estimate's region: its position is the estimate's, its covariance positive definite.
     region = np.array([[float(v) for v in r[20:25]] for r in rows if r[22] != ''])
     assert len(region) >= len(est) // 2

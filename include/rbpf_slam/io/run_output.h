@@ -1,6 +1,7 @@
 #ifndef RBPF_SLAM_IO_RUN_OUTPUT_H
 #define RBPF_SLAM_IO_RUN_OUTPUT_H
 
+#include <map>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -35,8 +36,8 @@ void writeLandmarksCsv(const std::string& path, const std::vector<core::Landmark
  * the same instants), estimate_best_history.tum (the final best particle's own trajectory over the last timeline),
  * updates.csv (per update: stamp, Neff, resampled, landmarks, observations, matched, new, deleted, ignored,
  * matched_confirmed, recreated, pose_spread, relocalizing, health, the particle cloud, loop: none, closed or
- * rejected), health.txt (the filter's health: how many updates warned that the map was being rebuilt, the first and
- * the last warning), map.csv (the best particle's map, landmarksCsv()), loops.csv (every loop found: stamp, kind,
+ * rejected, the published estimate and its covariance, health_cause), health.txt (the health: how many updates
+ * warned, per cause, the first and the last warning), map.csv (the best particle's map, landmarksCsv()), loops.csv (every loop found: stamp, kind,
  * matched trees, the robot's shift, the solve's seconds and those of its marginal covariance, keyframes, chi-square and its bound, reason) and, with loop
  * closure, map_smoothed.csv and estimate_smoothed.tum (the run smoothed at its end: TrunkSlamPipeline::smoothed()).
  */
@@ -92,6 +93,7 @@ private:
   std::size_t warnings_ = 0;
   double first_warning_ = 0.0, last_warning_ = 0.0;
   std::string last_warning_message_;
+  std::map<std::string, std::size_t> warnings_by_cause_;  ///< by HealthCause's name
   int searching_ = 0;            ///< updates spent searching
   bool found_ = false;
   double found_stamp_ = 0.0, found_travel_ = 0.0, search_seconds_ = 0.0, max_search_seconds_ = 0.0;

@@ -16,6 +16,31 @@ const char* toString(HealthLevel level)
   return level == HealthLevel::kWarn ? "warn" : "ok";
 }
 
+const char* toString(HealthCause cause)
+{
+  switch (cause)
+  {
+    case HealthCause::kRecreated:
+      return "recreated";
+    case HealthCause::kUnmatched:
+      return "unmatched";
+    case HealthCause::kInconsistent:
+      return "inconsistent";
+    case HealthCause::kOverconfident:
+      return "overconfident";
+    case HealthCause::kSavedMapUnobserved:
+      return "saved_map_unobserved";
+    default:
+      return "none";
+  }
+}
+
+void FilterHealth::revisit(bool consistent, const std::string& why)
+{
+  inconsistent_ = !consistent;
+  inconsistent_why_ = consistent ? std::string() : why;
+}
+
 const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particles)
 {
   window_.push_back({ particles > 0 ? s.neff / particles : 1.0, s.resampled, s.relocalizing, s.observations,
@@ -61,13 +86,15 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
   h.relocalizing_share = static_cast<double>(relocalizing) / h.updates;
   h.matched_confirmed_share = h.observations > 0 ? static_cast<double>(matched_confirmed) / h.observations : 0.0;
   h.matched_prior_share = h.observations > 0 ? static_cast<double>(matched_prior) / h.observations : 0.0;
-  char why[256];
+  char why[512];
   h.saved_map_unobserved = config_.matched_prior_warn >= 0.0 && recent_updates >= config_.prior_window &&
                            recent_observations >= config_.min_observations &&
                            recent_prior < config_.matched_prior_warn * recent_observations;
-  if (h.recreated >= config_.recreated_warn)
+  h.map_inconsistent = inconsistent_;
+  if (config_.recreated_warn > 0 && h.recreated >= config_.recreated_warn)
   {
     h.level = HealthLevel::kWarn;
+    h.cause = HealthCause::kRecreated;
     std::snprintf(why, sizeof(why),
                   "map being rebuilt: %d new landmarks where confirmed ones were deleted in the last %d updates "
                   "(the pose is likely lost)",
@@ -78,14 +105,25 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
            h.created > matched_confirmed)
   {
     h.level = HealthLevel::kWarn;
+    h.cause = HealthCause::kUnmatched;
     std::snprintf(why, sizeof(why),
                   "map being rebuilt: %.0f %% of %d observations matched confirmed landmarks, %d new landmarks in the "
                   "last %d updates",
                   100.0 * h.matched_confirmed_share, h.observations, h.created, h.updates);
   }
+  else if (h.map_inconsistent)
+  {
+    h.level = HealthLevel::kWarn;
+    h.cause = HealthCause::kInconsistent;
+    std::snprintf(why, sizeof(why),
+                  "map inconsistent: the smoother could not bring a revisit's trees together with the map (%s); the "
+                  "map is bent where the robot came back, until a loop closes",
+                  inconsistent_why_.c_str());
+  }
   else if (h.overconfident)
   {
     h.level = HealthLevel::kWarn;
+    h.cause = HealthCause::kOverconfident;
     std::snprintf(why, sizeof(why),
                   "overconfident: the innovations average %.1f per match (2 expected) against the uncertainty the "
                   "filter claims, over %d matches in the last %d updates: the pose is further off than the particles' "
@@ -95,6 +133,7 @@ const HealthStatus& FilterHealth::add(const FastSlamUpdateStats& s, int particle
   else if (h.saved_map_unobserved)
   {
     h.level = HealthLevel::kWarn;
+    h.cause = HealthCause::kSavedMapUnobserved;
     std::snprintf(why, sizeof(why),
                   "saved map not re-observed: %d of %d observations matched its trees in the last %d updates (the "
                   "pose is likely lost, or the robot is outside the saved map)",

@@ -327,7 +327,10 @@ LoopEvent LoopClosing::apply(FastSlam* filter, double stamp, Pending* pending)
   {
     event.kind = LoopEvent::Kind::kRejected;
     if (event.reason.empty())
+    {
       event.reason = run.reason;
+      event.inconsistent = run.inconsistent;
+    }
     ++rejected_;
     retry_after_ = stamp + config_.retry_interval;  // the same loop would be found, and refused, again at once
     return event;

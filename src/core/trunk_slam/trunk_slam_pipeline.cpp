@@ -35,6 +35,7 @@ TrunkSlamPipeline::TrunkSlamPipeline(const TrunkDetectorConfig& detector, const 
     loops_.reset(new LoopClosing(filter_config_.loop_closure, filter_config_));
   }
   filter_.reset(new FastSlam(filter_config_));
+  health_ = FilterHealth(healthConfig());
 }
 
 SmoothedRun TrunkSlamPipeline::smoothed() const
@@ -126,6 +127,8 @@ HealthConfig TrunkSlamPipeline::healthConfig() const
   HealthConfig h;
   if (has_prior_)
     h.matched_prior_warn = 0.3;
+  else if (loops_)
+    h.recreated_warn = 0;  // a map made again beside itself is the loop search's to find, and the smoother's to judge
   return h;
 }
 
@@ -300,7 +303,14 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
   gnss_.use(t_mid, odom_mid, odometry_, filter_.get());
   u.relocalization = search;
   if (loops_ && !has_prior_)
+  {
     u.loop = loops_->afterUpdate(filter_.get(), t_mid, odom_mid, u.mount, obs, share);
+    // The smoother's verdict on a revisit: a loop it could not bring together warns until one closes.
+    if (u.loop.kind == LoopEvent::Kind::kClosed)
+      health_.revisit(true, std::string());
+    else if (u.loop.kind == LoopEvent::Kind::kRejected && u.loop.inconsistent)
+      health_.revisit(false, u.loop.reason);
+  }
   u.health = health_.add(u.stats, filter_->config().particles);
   if (!first)
   {

@@ -97,3 +97,36 @@ TEST(FilterHealth, InnovationsBeyondTheClaimedUncertaintyWarn)
   EXPECT_TRUE(h.status().overconfident);
   EXPECT_NE(h.status().message.find("overconfident"), std::string::npos) << h.status().message;
 }
+
+TEST(FilterHealth, ARevisitTheSmootherRefusedWarnsUntilALoopCloses)
+{
+  rbpf_slam::core::HealthConfig config;
+  config.recreated_warn = 0;  // with loop closure: the loop search judges a map made again beside itself
+  FilterHealth h(config);
+  FastSlamUpdateStats s;
+  s.observations = 4;
+  s.matched = s.matched_confirmed = 3;
+  s.created = 1;
+  s.recreated = 1;  // every update: the rule would warn at the third
+  s.neff = 80;
+  for (int i = 0; i < 10; ++i)
+    EXPECT_EQ(h.add(s, 100).level, HealthLevel::kOk) << h.status().message;
+  EXPECT_EQ(h.status().cause, rbpf_slam::core::HealthCause::kNone);
+  h.revisit(false, "its trees' residuals 795.6 exceed the chi-square bound 65.2");
+  EXPECT_EQ(h.add(s, 100).level, HealthLevel::kWarn);
+  EXPECT_EQ(h.status().cause, rbpf_slam::core::HealthCause::kInconsistent);
+  EXPECT_TRUE(h.status().map_inconsistent);
+  EXPECT_NE(h.status().message.find("795.6"), std::string::npos) << h.status().message;
+  EXPECT_STREQ(rbpf_slam::core::toString(h.status().cause), "inconsistent");
+  for (int i = 0; i < 50; ++i)
+    EXPECT_EQ(h.add(s, 100).level, HealthLevel::kWarn) << "it stays until a loop closes";
+  h.revisit(true, std::string());
+  EXPECT_EQ(h.add(s, 100).level, HealthLevel::kOk) << h.status().message;
+  EXPECT_EQ(h.warnings(), 51);
+
+  // With the rule on (no loop closure), the same updates warn for the landmarks made again.
+  FilterHealth rule;
+  for (int i = 0; i < 3; ++i)
+    rule.add(s, 100);
+  EXPECT_EQ(rule.status().cause, rbpf_slam::core::HealthCause::kRecreated);
+}

@@ -217,6 +217,35 @@ TEST(TrunkSmoother, ClosesTheLoopOfADriftingDrive)
   EXPECT_GT(run.last_covariance(0, 0), 0.0);
 }
 
+TEST(TrunkSmoother, TheLastPosesMarginalIsTheOdometrysDriftWhenNothingElseTiesIt)
+{
+  // A drive of 20 m in 0.25 m steps that bends by 0.6 rad, with no trees: the smoothed path is the odometry, and the
+  // last keyframe's marginal covariance is the drift of the odometry from the first pose (held), the motion noise
+  // class propagated along the updates, whatever way the smoother computes it.
+  TrunkSmoother smoother{ SmootherConfig(), FastSlamConfig() };
+  std::vector<Pose2> path;
+  Pose2 odo;
+  for (int i = 0; i <= 80; ++i)
+  {
+    path.push_back(odo);
+    smoother.add(static_cast<double>(i), odo, Pose2(), {}, 1.0);
+    odo = odo * Pose2(0.25, 0.0, 0.0075);
+  }
+  const SmoothedRun run = smoother.solve(path, {}, {});
+  ASSERT_TRUE(run.ok) << run.reason;
+  ASSERT_TRUE(run.has_covariance);
+  ASSERT_GT(run.keyframes, 15);
+  // The last update is a keyframe when the records end on one; otherwise compare with the drift up to it.
+  Pose2 then;
+  const Eigen::Matrix3d drift = smoother.driftSince(0.0, &then);
+  ASSERT_GT(drift(0, 0), 0.0);
+  EXPECT_NEAR(then.x, 0.0, 1e-12);
+  const double relative = (run.last_covariance - drift).norm() / drift.norm();
+  EXPECT_LT(relative, 0.05) << "smoother:\n" << run.last_covariance << "\nodometry:\n" << drift;
+  // The marginal is the pose's, not the information's: it grows with the drive.
+  EXPECT_GT(run.last_covariance(1, 1), run.last_covariance(0, 0));
+}
+
 TEST(TrunkSmoother, RefusesALoopThatPairsTheWrongTrees)
 {
   const LoopDrive d = makeLoopDrive(0.01);
@@ -226,6 +255,7 @@ TEST(TrunkSmoother, RefusesALoopThatPairsTheWrongTrees)
   EXPECT_FALSE(run.ok);
   EXPECT_GT(run.identity_chi2, run.identity_bound);
   EXPECT_NE(run.reason.find("chi-square"), std::string::npos) << run.reason;
+  EXPECT_TRUE(run.inconsistent) << "the map disagrees with the revisit: the health is told";
 }
 
 TEST(TrunkSmoother, ALookAlikePairAmongALoopsTreesIsDroppedNotTheLoop)
@@ -272,10 +302,12 @@ TEST(TrunkSmoother, RefusesAGraphBeyondItsBoundOrUnconverged)
   EXPECT_FALSE(a.ok);
   EXPECT_NE(a.reason.find("max_factors"), std::string::npos) << a.reason;
   EXPECT_TRUE(a.poses.empty()) << "nothing to apply";
+  EXPECT_FALSE(a.inconsistent) << "refused for its size, not for what the map says";
   const SmoothedRun b = iterations.solve(d.odometry, d.trees, d.identities);
   EXPECT_FALSE(b.ok);
   EXPECT_NE(b.reason.find("did not converge"), std::string::npos) << b.reason;
   EXPECT_TRUE(b.trees.empty());
+  EXPECT_TRUE(b.inconsistent) << "a loop the solve could not bring together within its iterations";
 }
 
 TEST(TrunkSmoother, RefusesAPathThatDoesNotMatchTheRecords)

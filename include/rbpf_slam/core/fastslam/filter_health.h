@@ -14,13 +14,26 @@ namespace core
 enum class HealthLevel
 {
   kOk,
-  kWarn,  ///< the map is being rebuilt rather than re-observed (the pose is likely lost), or the cloud is too sure
+  kWarn,  ///< something is wrong: HealthStatus::cause says what
+};
+
+/** @brief Why the health warns (the first rule that holds, in this order). */
+enum class HealthCause
+{
+  kNone,
+  kRecreated,     ///< new landmarks where confirmed ones were deleted (recreated_warn)
+  kUnmatched,     ///< few observations match confirmed landmarks while many new ones are made
+  kInconsistent,  ///< a revisit the smoother could not bring together with the map (until a loop closes)
+  kOverconfident, ///< the innovations exceed the uncertainty the filter claims
+  kSavedMapUnobserved,  ///< a saved map's trees are not re-observed
 };
 
 struct HealthConfig
 {
   int window = 100;            ///< updates the figures are taken over
-  /// Warn when at least this many new landmarks in the window lie where confirmed ones were deleted.
+  /// Warn when at least this many new landmarks in the window lie where confirmed ones were deleted; 0: the rule is
+  /// off (with loop closure, whose search judges a map made again beside itself: the smoother's verdict on the
+  /// revisit, FilterHealth::revisit, warns instead).
   int recreated_warn = 3;
   /// Warn when fewer than this share of a full window's observations matched confirmed landmarks while the
   /// filter made more new landmarks than it matched confirmed ones (a map seen for the first time passes: its
@@ -43,6 +56,7 @@ struct HealthConfig
 struct HealthStatus
 {
   HealthLevel level = HealthLevel::kOk;
+  HealthCause cause = HealthCause::kNone;  ///< why it warns
   std::string message;             ///< one line: the verdict and why
   int updates = 0;                 ///< in the window
   double neff_ratio = 1.0;         ///< mean Neff / N over the window
@@ -64,6 +78,8 @@ struct HealthStatus
   double claimed_nis = 0.0;
   /// the claimed-uncertainty rule alone (claimed_nis_warn): the cloud is surer than its innovations allow
   bool overconfident = false;
+  /// the smoother refused the last loop found as inconsistent, and none has closed since (FilterHealth::revisit)
+  bool map_inconsistent = false;
 };
 
 /**
@@ -79,6 +95,13 @@ public:
   /** @brief Adds one update's statistics (@p particles: the filter's particle count); returns the new status. */
   const HealthStatus& add(const FastSlamUpdateStats& stats, int particles);
   const HealthStatus& status() const { return status_; }
+  /**
+   * @brief The smoother's verdict on a revisit, for the updates from the next one on: @p consistent false when it
+   * refused a loop because the solved graph could not bring its trees together (their normalised residuals beyond
+   * their chi-square bound, or no convergence; @p why says which): the map is bent where the robot came back, and
+   * the health warns until a loop closes (@p consistent true).
+   */
+  void revisit(bool consistent, const std::string& why);
   /** @brief Updates so far that ended in a warning. */
   int warnings() const { return warnings_; }
 
@@ -96,9 +119,14 @@ private:
   std::deque<Entry> window_;
   HealthStatus status_;
   int warnings_ = 0;
+  bool inconsistent_ = false;
+  std::string inconsistent_why_;
 };
 
 const char* toString(HealthLevel level);
+/** @brief The cause's name in files and summaries: none, recreated, unmatched, inconsistent, overconfident,
+ * saved_map_unobserved. */
+const char* toString(HealthCause cause);
 
 }  // namespace core
 }  // namespace rbpf_slam

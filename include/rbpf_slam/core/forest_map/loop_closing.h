@@ -41,6 +41,8 @@ struct LoopEvent
   int keyframes = 0;
   double identity_chi2 = 0.0, identity_bound = 0.0;
   int dropped = 0;  ///< matched pairs dropped as not fitting the others (identity_chi2 is of the rest)
+  /// refused by the smoother as inconsistent (SmoothedRun::inconsistent): the map disagrees with the revisit
+  bool inconsistent = false;
   std::string reason;
   /// The matched trees (recent, old positions, in the map before the loop), e.g. to show the loop.
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> links;

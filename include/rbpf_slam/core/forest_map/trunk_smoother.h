@@ -18,6 +18,9 @@ namespace core
 struct SmoothedRun
 {
   bool ok = false;     ///< solved, converged within the budget and consistent; else nothing is to be applied
+  /// refused because the graph could not bring the loop's trees together: their residuals beyond the bound after the
+  /// solve, or no convergence with them (the map disagrees with the revisit; not a refusal for the graph's size)
+  bool inconsistent = false;
   std::string reason;  ///< why not (or empty)
   std::vector<double> stamps;  ///< [s] one per filter update recorded
   std::vector<Pose2> poses;    ///< base_link in the map frame at each of them
@@ -117,9 +120,11 @@ private:
   Eigen::Matrix3d odometryCovariance(std::size_t a, std::size_t b) const;
 
   /** @brief One solve of solve(); @p identity_chi2 gets each identity's squared whitened residual after it (NaN for
-   * a pair not tied to the path by an observation). */
+   * a pair not tied to the path by an observation). @p start: the parameters a solve of the same graph ended with, to
+   * start from (none when empty); it gets this solve's. */
   SmoothedRun solveOnce(const std::vector<Pose2>& path, const std::vector<Landmark>& trees,
-                        const std::vector<std::pair<int, int>>& identities, std::vector<double>* identity_chi2) const;
+                        const std::vector<std::pair<int, int>>& identities, std::vector<double>* identity_chi2,
+                        std::vector<double>* start) const;
   /** @brief One solve's keyframes, parameter blocks, problem and identities (defined in the source). */
   struct Graph;
   /** @brief The keyframes of the records, their poses from @p path. */
