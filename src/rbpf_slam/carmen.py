@@ -58,10 +58,12 @@ scans in between change) are reported with their lines, duration and motion: odo
 such a gap does not follow the robot.
 
 Readings at the sensor's maximum are no returns, not walls (about 81.83-81.91 m for the SICK scanners, 50.0 m
-in ACES): they become +Inf (REP-117). By default (``--no-return auto``) they are the top cluster of the log's
-readings: the largest reading and those below it, none more than 2 cm from the next, within 0.2 m, at least
-10 readings, and at least 10 times as many as in the 0.2 m below the cluster (a gap: the far walls of a long
-corridor, spread out in range, are no cluster). Readings from 5 mm below the cluster's lower edge up are +Inf;
+in ACES, about 51.1 m in fhw and MIT's infinite corridor): they become +Inf (REP-117). By default
+(``--no-return auto``) they are the top cluster of the log's readings: readings within 0.2 m of its lower edge,
+at least 10 of them, at least 10 times as many as in the 0.2 m below the edge (a gap: the far walls of a long
+corridor, spread out in range, are no cluster), and above the 0.2 m only a few strays (at most 1 % of the
+cluster). Whatever steps the log writes its ranges in (1 cm, 5 cm), no step between the readings is assumed.
+Readings from 5 mm below the cluster's lower edge up are +Inf;
 the summary gives the cluster (from-to m, readings). Readings above the laser's stated maximum range
 (``ROBOTLASER1``'s max_range, or a ``PARAM`` such as ``robot_front_laser_max``) are +Inf too, and the summary
 says how many such a cap made +Inf; ``--laser-max M`` overrides the log's cap (``none``: no cap). Readings
@@ -84,13 +86,13 @@ import numpy as np
 from rbpf_slam import convert_common as cc
 
 LASER_TAGS = ('FLASER', 'RLASER', 'ROBOTLASER1')
-# The no-return readings are the top cluster of the log's readings: sorted, no two consecutive ones more than
-# NO_RETURN_STEP apart, spanning at most NO_RETURN_BAND, at least NO_RETURN_MIN_COUNT readings, and at least
-# NO_RETURN_CONTRAST times as many as in the NO_RETURN_BAND below the cluster (a gap below it: the far walls of
-# a long corridor, spread out in range, are no cluster).
+# The no-return readings are the top cluster of the log's readings (detect_no_return): within NO_RETURN_BAND of
+# its lower edge, at most NO_RETURN_STRAYS of its count above that band, at least NO_RETURN_MIN_COUNT readings,
+# and at least NO_RETURN_CONTRAST times as many as in the NO_RETURN_BAND below the edge (a gap below it: the far
+# walls of a long corridor, spread out in range, are no cluster).
 NO_RETURN_MIN_COUNT = 10
-NO_RETURN_STEP = 0.02       # [m]
 NO_RETURN_BAND = 0.2        # [m]
+NO_RETURN_STRAYS = 0.01     # a share of the cluster's readings
 NO_RETURN_CONTRAST = 10
 NO_RETURN_TOLERANCE = 0.005  # [m] readings this far below the cluster's lower edge are no-returns too
 POSE_EQUAL_TOLERANCE = 1e-6  # [m, rad] a reset ODOM line repeats the laser pose before it within this
@@ -194,7 +196,7 @@ def _count(tokens, index, path, line, what):
     try:
         n = int(tokens[index])
     except ValueError:
-        raise cc.ConversionError(path, line, what, got='%r' % tokens[index])
+        raise cc.ConversionError(path, line, what, got=cc.quote(tokens[index]))
     if n < 0:
         raise cc.ConversionError(path, line, what, got=n)
     return n
@@ -314,7 +316,14 @@ class NoReturn(collections.namedtuple('NoReturn', 'low high count below')):
 
 def detect_no_return(lasers, min_count=NO_RETURN_MIN_COUNT):
     """The no-return readings of a log: its top cluster of readings (see NO_RETURN_*) as a NoReturn, or None
-    when the top of the ranges is no such cluster. Its ``low`` is the no-return value."""
+    when the top of the ranges is no such cluster. Its ``low`` is the no-return value.
+
+    Each reading from the largest down is a candidate lower edge: the readings from it up to NO_RETURN_BAND above
+    it are the cluster, those further up its strays. A candidate holds when the strays are at most
+    NO_RETURN_STRAYS of the cluster's count, the cluster and its strays count min_count readings, and the cluster
+    NO_RETURN_CONTRAST times the readings in the NO_RETURN_BAND below it. Of the candidates that hold one after
+    the other, the one with the fewest readings below it (the highest of equals) is the edge. No step between
+    readings is assumed: a log's ranges may be written in steps of 1 cm or of 5 cm."""
     ranges = [l.ranges for l in lasers if len(l.ranges)]
     if not ranges:
         return None
@@ -323,18 +332,32 @@ def detect_no_return(lasers, min_count=NO_RETURN_MIN_COUNT):
     if not len(values):
         return None
     eps = 1e-9
-    k = len(values) - 1
-    while (k > 0 and values[k] - values[k - 1] <= NO_RETURN_STEP + eps
-           and values[-1] - values[k - 1] <= NO_RETURN_BAND + eps):
-        k -= 1
-    if k > 0 and values[k] - values[k - 1] <= NO_RETURN_STEP + eps:
-        return None  # the band ends among readings that go on below: no gap
-    low = float(values[k])
-    n = int(counts[k:].sum())
-    below = int(counts[(values >= low - NO_RETURN_BAND - eps) & (values < low)].sum())
-    if n < min_count or n < NO_RETURN_CONTRAST * below:
-        return None
-    return NoReturn(low, float(values[-1]), n, below)
+    cumulative = np.concatenate([[0], np.cumsum(counts)])  # readings below values[k]: cumulative[k]
+
+    def readings_below(x):
+        """Readings < x."""
+        return int(cumulative[np.searchsorted(values, x - eps, side='left')])
+
+    def readings_up_to(x):
+        """Readings <= x."""
+        return int(cumulative[np.searchsorted(values, x + eps, side='right')])
+
+    total = int(cumulative[-1])
+    best = None
+    for k in range(len(values) - 1, -1, -1):
+        low = float(values[k])
+        top = low + NO_RETURN_BAND
+        n = readings_up_to(top) - readings_below(low)
+        strays = total - readings_up_to(top)
+        if strays > NO_RETURN_STRAYS * total:
+            break  # no lower edge can hold
+        below = readings_below(low) - readings_below(low - NO_RETURN_BAND)
+        if strays <= NO_RETURN_STRAYS * n and n + strays >= min_count and n >= NO_RETURN_CONTRAST * below:
+            if best is None or below < best.below:
+                best = NoReturn(low, float(values[-1]), n + strays, below)
+        elif best is not None:
+            break
+    return best
 
 
 def _param_float(params, names, default=None):
@@ -591,7 +614,8 @@ class Conversion:
                                                                               self.no_return - NO_RETURN_TOLERANCE)
         elif no_return == 'auto':
             what = ('no no-return value found (the top of the ranges is no cluster of at least %d readings within '
-                    '%g m with a gap below it)' % (NO_RETURN_MIN_COUNT, NO_RETURN_BAND))
+                    '%g m with a gap below it and at most %g %% strays above it)'
+                    % (NO_RETURN_MIN_COUNT, NO_RETURN_BAND, 100 * NO_RETURN_STRAYS))
         else:
             what = 'no no-return value (--no-return none)'
         self.notes.append('%s; %d readings written as +Inf (REP-117); range_max %s' % (

@@ -55,9 +55,20 @@ class ConversionError(UserError):
         where = '%s:%d' % (self.path, line) if line else self.path
         text = '%s: expected %s' % (where, expected)
         if got is not None:
-            got = ' '.join(str(got).split())
-            text += ', got %s' % (got if len(got) <= 80 else got[:77] + '...')
+            text += ', got %s' % ' '.join(str(got).split())
         super().__init__(text)
+
+
+QUOTE_LIMIT = 60  # characters of a field of the file quoted in a message
+
+
+def quote(field):
+    """A field of the input file as a message quotes it: its repr, and when that is longer than QUOTE_LIMIT, its
+    start and how long it is (the message's own words are never shortened)."""
+    text = repr(field)
+    if len(text) <= QUOTE_LIMIT:
+        return text
+    return '%s... (a field of %d characters)' % (text[:QUOTE_LIMIT], len(str(field)))
 
 
 class BadLines:
@@ -207,10 +218,10 @@ def parse_floats(tokens, path, line, what):
         values = np.array(tokens, dtype=float)
     except ValueError:
         bad = next(t for t in tokens if not _is_float(t))
-        raise ConversionError(path, line, what, got='%r' % bad)
+        raise ConversionError(path, line, what, got=quote(bad))
     finite = np.isfinite(values)
     if not finite.all():
-        raise ConversionError(path, line, what, got='%r (not a finite number)' % tokens[int(np.argmin(finite))])
+        raise ConversionError(path, line, what, got='%s (not a finite number)' % quote(tokens[int(np.argmin(finite))]))
     return values
 
 
@@ -220,7 +231,7 @@ def parse_ints(tokens, path, line, what):
         return np.array([int(t) for t in tokens], dtype=np.int64)
     except ValueError:
         bad = next(t for t in tokens if not _is_int(t))
-        raise ConversionError(path, line, what, got='%r' % bad)
+        raise ConversionError(path, line, what, got=quote(bad))
 
 
 def _is_float(token):

@@ -70,7 +70,7 @@ def read_sensor_data(path, bad=None, limit=None):
                 (steps[-1].observations if steps else initial).append((int(i), v[0], v[1]))
             else:
                 raise cc.ConversionError(path, line, "a line starting with 'ODOMETRY' or 'SENSOR'",
-                                         got='%r' % tokens[0])
+                                         got=cc.quote(tokens[0]))
         except cc.ConversionError as e:
             bad(e)
     if n_lines == 0:

@@ -101,7 +101,7 @@ def _records(path, tag, bad, limit):
     n = 0
     for line, tokens in cc.read_tokens(path):
         if tokens[0] != tag:
-            bad(cc.ConversionError(path, line, 'a line starting with %r' % tag, got='%r' % tokens[0]))
+            bad(cc.ConversionError(path, line, 'a line starting with %r' % tag, got=cc.quote(tokens[0])))
             continue
         yield line, tokens
         n += 1
@@ -179,7 +179,7 @@ def read_landmarks(path, bad=None):
         try:
             cc.require_fields(tokens, 5, path, line, 'L C x y r')
             if tokens[1] != 'C':
-                raise cc.ConversionError(path, line, "landmark type 'C' (cylinder)", got='%r' % tokens[1])
+                raise cc.ConversionError(path, line, "landmark type 'C' (cylinder)", got=cc.quote(tokens[1]))
             rows.append(cc.parse_floats(tokens[2:5], path, line, 'numbers as x y r'))
         except cc.ConversionError as e:
             bad(e)

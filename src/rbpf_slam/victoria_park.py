@@ -202,7 +202,7 @@ def read_laser(path, bad=None, limit=None, stream=None):
                     raise cc.ConversionError(
                         path, first_line, 'the time of scan %d%s (a time and %d ranges a scan)' % (
                             n_scans, ' after %.3f s' % previous if previous is not None else '', BEAMS),
-                        got='%r' % current[0])
+                        got=cc.quote(current[0]))
                 try:
                     r = cc.parse_floats(current[1:], path, first_line, 'numbers as the %d ranges of scan %d'
                                         % (BEAMS, n_scans))

@@ -173,8 +173,46 @@ def test_far_walls_spread_in_range_are_no_cluster():
     assert carmen.detect_no_return(gap) == carmen.NoReturn(50.5, 50.5, 12, 0)
     few = [gap[0]._replace(ranges=np.r_[np.arange(30.0, 50.0, 0.01), [50.5] * 9])]
     assert carmen.detect_no_return(few) is None
-    crowded = [gap[0]._replace(ranges=np.r_[[50.4] * 2, [50.5] * 12])]   # 12 < 10 x 2 below it
+    # Walls up to 50.45 m, three readings a centimetre: 45 within 0.2 m below the 12 (12 < 10 x 45), and any lower
+    # edge leaves the 12 above its band as more than 1 % strays.
+    crowded = [gap[0]._replace(ranges=np.r_[np.repeat(np.arange(49.0, 50.455, 0.01), 3), [50.5] * 12])]
     assert carmen.detect_no_return(crowded) is None
+
+
+def test_no_returns_are_found_whatever_the_steps_of_the_ranges():
+    """Ranges written in 5 cm steps (fhw): the no-returns at 51.05 and 51.10 m are one cluster. Ranges in 1 cm steps
+    whose no-returns spread over 51.05-51.12 m, two strays above them at 51.16 m and far walls below in 5 cm steps
+    (MIT's infinite corridor): the cluster and the strays are no-returns, the far walls are not."""
+    def lasers(ranges):
+        return [carmen.Laser(1, 'FLASER', np.asarray(ranges, dtype=float), 0.0, 0.0, None, (0, 0, 0), (0, 0, 0),
+                             1.0)]
+    walls_5cm = np.round(np.arange(0.5, 44.0, 0.05), 2)
+    fhw = np.r_[walls_5cm, [51.05] * 607, [51.10] * 40]
+    assert carmen.detect_no_return(lasers(fhw)) == carmen.NoReturn(51.05, 51.10, 647, 0)
+    corridor = np.r_[np.round(np.arange(0.5, 50.9, 0.05), 2), [51.05] * 218, [51.06] * 3720, [51.07] * 191,
+                     [51.10] * 35, [51.11] * 466, [51.12] * 25, [51.16] * 2]
+    c = carmen.detect_no_return(lasers(corridor))
+    assert c is not None and c.low == pytest.approx(51.05) and c.high == pytest.approx(51.16) and c.count == 4657
+    r = carmen.rep117_ranges(corridor, c.low, np.inf)
+    assert np.sum(np.isinf(r)) == 4657 and np.nanmax(r[np.isfinite(r)]) == pytest.approx(50.85)
+    # Readings spread out above the band, one at each value: up to 1 % of the cluster they are strays (no-returns
+    # too), beyond it the top of the ranges is no cluster.
+    spread = np.round(np.arange(51.5, 57.5, 0.1), 1)
+    c = carmen.detect_no_return(lasers(np.r_[corridor, spread[:40]]))
+    assert c is not None and c.low == pytest.approx(51.05) and c.count == 4657 + 40
+    assert carmen.detect_no_return(lasers(np.r_[corridor, spread[:60]])) is None
+
+
+def test_a_message_quotes_a_long_field_shortened_and_never_cuts_its_own_words(tmp_path):
+    text = HEAD + odom_line((0, 0, 0), 1.0) + flaser_line([1.0, 2.5, 3.0], (0, 0, 0), 1.1).replace('2.50', 'x' * 200)
+    log = write(tmp_path, 'q.log', text)
+    with pytest.raises(cc.ConversionError) as e:
+        carmen.parse_log(log)
+    message = str(e.value)
+    assert "'xxxxx" in message and '(a field of 200 characters)' in message and 'x' * 100 not in message
+    long_own_words = 'time stamps that advance (' + 'the seconds from one line to the next, ' * 4 + ')'
+    error = cc.ConversionError('a.log', None, 'something', got=long_own_words)
+    assert str(error).endswith(' '.join(long_own_words.split()))
 
 
 def test_param_cap_is_named_and_laser_max_overrides_it(tmp_path, capsys):
