@@ -44,7 +44,9 @@ void readGridSlamConfig(const ParamSource& p, core::GridSlamConfig* c)
   p.get("proposal_sigma_theta", &c->proposal_sigma_theta);
   p.get("min_matched_ratio", &c->min_matched_ratio);
   p.get("proposal_motion_weight", &c->proposal_motion_weight);
+  p.get("veto_information_gain", &c->veto_information_gain);
   p.get("odometry_veto", &c->odometry_veto);
+  p.get("veto_consensus", &c->veto_consensus);
   p.get("rbpf/kernel", &c->matcher.kernel);
   p.get("rbpf/match_sigma", &c->matcher.match_sigma);
   p.get("rbpf/likelihood_sigma", &c->matcher.likelihood_sigma);

@@ -74,7 +74,7 @@ struct GridCounts
 {
   int scans = 0, processed = 0, resamples = 0;
   bool have_odometry = false;
-  long evaluations = 0, vetoed = 0, trusted = 0;
+  long evaluations = 0, vetoed = 0, trusted = 0, consensus = 0;
   std::vector<double> processed_stamps;
 };
 
@@ -105,6 +105,8 @@ private:
   void addOdometry(double t, const core::Pose2& p, const std::string& topic, double clock);
   void keepEndedMaps();
   void count(const core::GridPipelineUpdate& u);
+  /** @brief A line of updates.csv: the stated pose and covariance at this scan (what the node publishes). */
+  void writeUpdate(const core::GridPipelineUpdate& u);
   std::string timingText() const;
   std::string timingExtra() const;
 
@@ -188,9 +190,26 @@ void GridBagRun::count(const core::GridPipelineUpdate& u)
     n_.resamples += u.step.resampled ? 1 : 0;
     n_.evaluations += u.step.matcher_evaluations;
     n_.vetoed += u.step.matches_vetoed;
+    n_.consensus += u.step.matches_consensus;
     n_.trusted += u.step.matches_trusted;
     n_.processed_stamps.push_back(u.stamp);
   }
+}
+
+void GridBagRun::writeUpdate(const core::GridPipelineUpdate& u)
+{
+  // The pose and covariance the node publishes on `pose` at this scan: the particle cloud carried by the odometry.
+  std::ostringstream& o = out_.stream("updates.csv");
+  if (o.tellp() == 0)
+    o << "stamp,processed,matches_trusted,matches_vetoed,matches_consensus,estimate_x,estimate_y,estimate_theta,"
+         "estimate_xx,estimate_xy,estimate_yy,estimate_thetatheta\n";
+  const core::PoseMoments m = pipeline_.filter().cloudMoments(u.odometry);
+  char line[320];
+  std::snprintf(line, sizeof(line), "%.6f,%d,%d,%d,%d,%.6f,%.6f,%.6f,%.9g,%.9g,%.9g,%.9g\n", u.stamp,
+                u.step.skipped ? 0 : 1, u.step.matches_trusted, u.step.matches_vetoed, u.step.matches_consensus,
+                m.mean.x, m.mean.y, m.mean.theta, m.covariance(0, 0), m.covariance(0, 1), m.covariance(1, 1),
+                m.covariance(2, 2));
+  o << line;
 }
 
 void GridBagRun::process(double clock, bool flush)
@@ -208,6 +227,7 @@ void GridBagRun::process(double clock, bool flush)
     {
       io::writeTumLine(out_.stream("estimate.tum"), u.stamp, u.estimate);
       io::writeTumLine(out_.stream("odometry.tum"), u.stamp, u.odometry);
+      writeUpdate(u);
     }
   }
 }
@@ -280,6 +300,8 @@ void GridBagRun::printSummary() const
   char thresholds[160];
   if (o_.every_scan)
     std::snprintf(thresholds, sizeof(thresholds), "every scan: --every-scan turned the travel thresholds off");
+  else if (gc_.linear_update <= 0.0 && gc_.angular_update <= 0.0 && gc_.temporal_update <= 0.0)
+    std::snprintf(thresholds, sizeof(thresholds), "every scan: the travel thresholds are 0");
   else if (gc_.temporal_update > 0.0)
     std::snprintf(thresholds, sizeof(thresholds), "the others below the travel thresholds %g m, %g rad, %g s",
                   gc_.linear_update, gc_.angular_update, gc_.temporal_update);
@@ -305,9 +327,9 @@ void GridBagRun::printSummary() const
                 memory.megabytesPerParticlePer1000SquareMetres());
   if (gc_.mode == core::GridSlamMode::kRbpf && !o_.odometry_only)
     std::printf("  scan matcher: %.1f poses scored per particle and processed scan; matches taken %ld, vetoed by "
-                "the odometry %ld (of %ld)\n",
+                "the odometry %ld (of %ld), taken by the particles' common correction %ld\n",
                 static_cast<double>(n_.evaluations) / std::max(1, n_.processed) / std::max(1, gc_.particles),
-                n_.trusted, n_.vetoed, static_cast<long>(n_.processed - 1) * gc_.particles);
+                n_.trusted, n_.vetoed, static_cast<long>(n_.processed - 1) * gc_.particles, n_.consensus);
   if (!o_.wheels_topic.empty() && o_.imu_weight > 0.0)
     std::printf("  gyro bias (from standing still) %.5f rad/s\n", wheels_.gyroBias());
 }

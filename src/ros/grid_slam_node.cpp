@@ -289,15 +289,7 @@ void GridSlamRos::publishPoses(const ros::Time& stamp, const core::GridPipelineU
     tf_broadcaster_.sendTransform(planarTransform(stamp + ros::Duration(config_.transform_tolerance),
                                                   config_.map_frame, config_.odom_frame, u.map_to_odom));
   // The particles carried by the odometry since the last processed scan (to this scan's odometry).
-  std::vector<core::Pose2> poses;
-  std::vector<double> weights;
-  const core::Pose2 since = filter.lastOdometry().inverse() * u.odometry;
-  for (const auto& p : filter.particles())
-  {
-    poses.push_back(p.pose * since);
-    weights.push_back(p.weight);
-  }
-  const core::PoseMoments moments = core::poseMoments(poses, weights);
+  const core::PoseMoments moments = filter.cloudMoments(u.odometry);
   pose_pub_.publish(boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>(
       poseWithCovariance(stamp, config_.map_frame, moments.mean, moments.covariance)));
   if (particles_pub_.getNumSubscribers() > 0)

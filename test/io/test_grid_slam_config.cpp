@@ -63,6 +63,8 @@ TEST(GridSlamConfigFile, TheSingleMapOverlayOnTheShippedConfigGivesBackTheBuiltI
   EXPECT_EQ(read.min_matched_ratio, defaults.min_matched_ratio);
   EXPECT_EQ(read.proposal_motion_weight, defaults.proposal_motion_weight);
   EXPECT_EQ(read.odometry_veto, defaults.odometry_veto);
+  EXPECT_EQ(read.veto_consensus, defaults.veto_consensus);
+  EXPECT_EQ(read.veto_information_gain, defaults.veto_information_gain);
   EXPECT_EQ(read.linear_update, defaults.linear_update);
   EXPECT_EQ(read.angular_update, defaults.angular_update);
   EXPECT_EQ(read.temporal_update, defaults.temporal_update);
@@ -161,7 +163,7 @@ TEST(GridSlamConfigFile, WrongTypeUnknownNameAndInvalidValueNameTheKey)
   expectError("range_min: 5.0\nrange_max: 2.0\n", "range_max");
 }
 
-TEST(GridSlamConfigFile, ShippedConfigRunsRbpfWithTheCoarseLevelTheVetoAndGMappingsThresholds)
+TEST(GridSlamConfigFile, ShippedConfigRunsRbpfWithTheCoarseLevelTheVetoItsConsensusAndEveryScan)
 {
   core::GridSlamConfig c;
   io::readGridSlamConfig(io::YamlParamSource(kAdvancedFile), &c);
@@ -173,7 +175,9 @@ TEST(GridSlamConfigFile, ShippedConfigRunsRbpfWithTheCoarseLevelTheVetoAndGMappi
   EXPECT_EQ(c.proposal_motion_weight, 1.0);
   EXPECT_EQ(c.odometry_veto, 100.0);
   EXPECT_EQ(c.resampling.method, core::ResamplingMethod::kLowVariance);
-  EXPECT_EQ(c.linear_update, 1.0);
-  EXPECT_EQ(c.angular_update, 0.5);
+  EXPECT_TRUE(c.veto_consensus);
+  EXPECT_EQ(c.veto_information_gain, 0.0);
+  EXPECT_EQ(c.linear_update, 0.0);
+  EXPECT_EQ(c.angular_update, 0.0);
   EXPECT_EQ(c.temporal_update, 0.0);
 }

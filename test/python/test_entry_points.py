@@ -19,6 +19,7 @@ MODULES = {
     'extract_trunks': 'extract_trunks',
     'fastslam_experiments': 'fastslam_experiments',
     'grid_benchmark': 'grid_benchmark',
+    'grid_buildings_benchmark': 'grid_buildings_benchmark',
     'lego_benchmark': 'lego_benchmark',
     'lifelong_benchmark': 'lifelong_benchmark',
     'make_corridor_world': 'make_corridor_world',

@@ -70,6 +70,8 @@ std::string GridSlamConfig::validate() const
     return "proposal_motion_weight must be >= 0";
   if (!(std::isfinite(odometry_veto) && odometry_veto >= 0.0))
     return "odometry_veto must be >= 0 (0 = off)";
+  if (!(std::isfinite(veto_information_gain) && veto_information_gain >= 0.0))
+    return "veto_information_gain must be >= 0 (0 = off)";
   std::string e = motion.validate();
   if (e.empty())
     e = matcher.validate();
@@ -243,6 +245,21 @@ WeightingStep GridSlam::weighParticles(const std::function<void(const WeightingS
     }
   }
   return w;
+}
+
+PoseMoments GridSlam::cloudMoments(const Pose2& odometry) const
+{
+  std::vector<Pose2> poses;
+  std::vector<double> weights;
+  poses.reserve(particles_.size());
+  weights.reserve(particles_.size());
+  const Pose2 since = last_odometry_.inverse() * odometry;
+  for (const auto& p : particles_)
+  {
+    poses.push_back(p.pose * since);
+    weights.push_back(p.weight);
+  }
+  return poseMoments(poses, weights);
 }
 
 }  // namespace core

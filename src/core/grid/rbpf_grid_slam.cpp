@@ -5,6 +5,8 @@
 #include <cmath>
 #include <thread>
 
+#include <Eigen/LU>
+
 namespace rbpf_slam
 {
 namespace core
@@ -71,6 +73,19 @@ struct RbpfGridSlam::StepSpread
   double sigma_xy, sigma_theta;                // their standard deviations, floored: the motion factor
   double veto_along, veto_across, veto_theta;  // the veto's: the motion model's and the match's own precision
   int widen;                                   // doublings of the matcher's first steps
+
+  // The veto's covariance in the map's axes (x, y, heading) about @p mean: along and across its heading.
+  Eigen::Matrix3d covariance(const Pose2& mean) const
+  {
+    const double c = std::cos(mean.theta), sn = std::sin(mean.theta);
+    Eigen::Matrix2d r;
+    r << c, -sn, sn, c;
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    cov.topLeftCorner<2, 2>() =
+        r * Eigen::Vector2d(veto_along * veto_along, veto_across * veto_across).asDiagonal() * r.transpose();
+    cov(2, 2) = veto_theta * veto_theta;
+    return cov;
+  }
 
   // The squared Mahalanobis distance of pose @p x from the odometry's mean @p mean.
   double odometryDistance(const Pose2& x, const Pose2& mean) const
@@ -152,12 +167,17 @@ void RbpfGridSlam::matchParticle(std::size_t i, const Pose2& sensor, const StepS
   if (used > 0 && static_cast<double>(matches_[i].matched) >= min_matched)
     use_[i] = MatchUse::kMatch;
   if (use_[i] == MatchUse::kMatch && config_.odometry_veto > 0.0 &&
-      spread.odometryDistance(matches_[i].pose, means_[i]) > config_.odometry_veto)
+      vetoDistance(i, sensor, spread) > config_.odometry_veto)
   {
     // Vetoed: the odometry says the match cannot be where the particle went. The position falls back to the
     // odometry sample's; the heading is matched from there (walls fix it even where they fix no position),
     // unless that too is improbable.
     const int evaluations = matches_[i].evaluations;
+    if (config_.veto_consensus)
+    {
+      refused_[i] = matches_[i];
+      was_refused_[i] = 1;
+    }
     matches_[i] = matcher_.match(maps_[i], predicted_[i], sensor, end_points_, widen, true);
     matches_[i].evaluations += evaluations;
     const bool turn_ok = static_cast<double>(matches_[i].matched) >= min_matched &&
@@ -173,6 +193,23 @@ void RbpfGridSlam::matchParticle(std::size_t i, const Pose2& sensor, const StepS
   }
 }
 
+double RbpfGridSlam::vetoDistance(std::size_t i, const Pose2& sensor, const StepSpread& spread)
+{
+  ScanMatch& m = matches_[i];
+  const Pose2& mean = means_[i];
+  if (config_.veto_information_gain <= 0.0)
+    return spread.odometryDistance(m.pose, mean);
+  // (S_odometry + S_match)^-1 = L_o (L_o + L_m)^-1 L_m: the match's covariance its information inverted.
+  int evaluations = 0;
+  const Eigen::Matrix3d info = config_.veto_information_gain *
+                               matcher_.information(maps_[i], m.pose, sensor, end_points_, &evaluations);
+  m.evaluations += evaluations;
+  const Eigen::Vector3d delta(m.pose.x - mean.x, m.pose.y - mean.y, wrapAngle(m.pose.theta - mean.theta));
+  const Eigen::Matrix3d lo = spread.covariance(mean).inverse();
+  const Eigen::Matrix3d w = lo * (lo + info).inverse() * info;
+  return delta.dot(0.5 * (w + w.transpose()) * delta);
+}
+
 void RbpfGridSlam::matchParticles(const Pose2& sensor, const StepSpread& spread, std::size_t used, double min_matched)
 {
   const std::size_t n = particles_.size();
@@ -180,6 +217,8 @@ void RbpfGridSlam::matchParticles(const Pose2& sensor, const StepSpread& spread,
   // only, so the matches may run on several threads).
   matches_.resize(n);
   use_.assign(n, MatchUse::kOdometry);
+  refused_.resize(n);
+  was_refused_.assign(n, 0);
   const auto match_range = [&](std::size_t first, std::size_t stride) {
     for (std::size_t i = first; i < n; i += stride)
       matchParticle(i, sensor, spread, used, min_matched);
@@ -196,6 +235,48 @@ void RbpfGridSlam::matchParticles(const Pose2& sensor, const StepSpread& spread,
     for (auto& thread : pool)
       thread.join();
   }
+}
+
+int RbpfGridSlam::vetoByConsensus(const StepSpread& spread)
+{
+  std::vector<std::size_t> refused;
+  std::size_t taken = 0;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+  {
+    if (use_[i] == MatchUse::kMatch)
+      ++taken;
+    else if (was_refused_[i])
+      refused.push_back(i);
+  }
+  if (2 * refused.size() <= taken + refused.size())
+    return 0;  // not most of the trusted matches: each refused match is the particle's own
+  // The common correction: the median of the refused matches' corrections, each in its particle's odometry frame.
+  std::vector<double> cx, cy, ct;
+  for (std::size_t i : refused)
+  {
+    const Pose2 c = means_[i].inverse() * refused_[i].pose;
+    cx.push_back(c.x);
+    cy.push_back(c.y);
+    ct.push_back(wrapAngle(c.theta));
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const std::size_t k = v.size() / 2;
+    return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+  };
+  const Pose2 common(median(cx), median(cy), median(ct));
+  int taken_now = 0;
+  for (std::size_t i : refused)
+  {
+    if (spread.odometryDistance(refused_[i].pose, means_[i] * common) > config_.odometry_veto)
+      continue;
+    const int evaluations = matches_[i].evaluations;
+    matches_[i] = refused_[i];
+    matches_[i].evaluations = evaluations;
+    use_[i] = MatchUse::kMatch;
+    ++taken_now;
+  }
+  return taken_now;
 }
 
 void RbpfGridSlam::takeProposals(const StepSpread& spread, std::vector<int>* matched, GridSlamStep* step)
@@ -279,6 +360,8 @@ GridSlamStep RbpfGridSlam::step(const OdometryIncrement& u, const ScanData& scan
   carried_ = Carried();
   drawSamples(u, noise);
   matchParticles(sensor, spread, used, min_matched);
+  if (config_.veto_consensus && config_.odometry_veto > 0.0)
+    step.matches_consensus = vetoByConsensus(spread);
   takeProposals(spread, &matched, &step);
   mapAndResample(scan, sensor, matched, &step);
   return step;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Eigenvalues>
+
 namespace rbpf_slam
 {
 namespace core
@@ -281,6 +283,58 @@ ScanMatch ScanMatcher::climb(const Level& level, const OccupancyGrid& map, const
     }
   }
   return best;
+}
+
+Eigen::Matrix3d ScanMatcher::information(const OccupancyGrid& map, const Pose2& pose, const Pose2& sensor,
+                                         const std::vector<std::pair<double, double>>& end_points,
+                                         int* evaluations) const
+{
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  if (end_points.empty())
+    return info;
+  // Steps: one cell in x and y; the turn that moves an end point at the median range by one cell.
+  std::vector<double> ranges;
+  ranges.reserve(end_points.size());
+  for (const auto& e : end_points)
+    ranges.push_back(std::hypot(e.first, e.second));
+  std::nth_element(ranges.begin(), ranges.begin() + static_cast<long>(ranges.size() / 2), ranges.end());
+  const double res = map.resolution();
+  const double h[3] = { res, res, res / std::max(ranges[ranges.size() / 2], 1.0) };
+  const Level level = fineLevel();
+  Rotated cache;
+  const auto score = [&](double dx, double dy, double dt) {
+    ++*evaluations;
+    return evaluateAt(level, map, Pose2(pose.x + dx, pose.y + dy, wrapAngle(pose.theta + dt)), sensor, end_points,
+                      &cache)
+        .score;
+  };
+  const auto at = [&](int i, double s) {
+    double d[3] = { 0.0, 0.0, 0.0 };
+    d[i] = s * h[i];
+    return score(d[0], d[1], d[2]);
+  };
+  const double centre = score(0.0, 0.0, 0.0);
+  --*evaluations;  // the match's own pose was scored by the climb
+  for (int i = 0; i < 3; ++i)
+    info(i, i) = -(at(i, 1.0) - 2.0 * centre + at(i, -1.0)) / (h[i] * h[i]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j)
+    {
+      const auto corner = [&](double si, double sj) {
+        double d[3] = { 0.0, 0.0, 0.0 };
+        d[i] = si * h[i];
+        d[j] = sj * h[j];
+        return score(d[0], d[1], d[2]);
+      };
+      info(i, j) = info(j, i) =
+          -(corner(1, 1) - corner(1, -1) - corner(-1, 1) + corner(-1, -1)) / (4.0 * h[i] * h[j]);
+    }
+  // The score's curvature at a hit is 1 / match_sigma^2 per end point; the log-likelihood's 1 / likelihood_sigma^2.
+  const double to_likelihood =
+      (config_.match_sigma * config_.match_sigma) / (config_.likelihood_sigma * config_.likelihood_sigma);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(to_likelihood * info);
+  const Eigen::Vector3d values = eig.eigenvalues().cwiseMax(0.0);
+  return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
 
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& start, const Pose2& sensor,

@@ -4,6 +4,7 @@
 #include <iostream>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include "core/grid/grid_test_world.h"
@@ -442,4 +443,80 @@ TEST(GridRbpf, TheOdometryVetoesAMatchThatSlidesBackAlongACorridor)
   GridSlamConfig bad;
   bad.odometry_veto = -1.0;
   EXPECT_NE(bad.validate().find("odometry_veto"), std::string::npos);
+}
+
+TEST(GridRbpf, AMatchsInformationIsNearZeroAlongACorridorAndLargeAcrossIt)
+{
+  // The corridor of the veto's test, mapped from x = 0 to 10 m; its end wall (x = -1) is beyond the 4 m reach
+  // from x = 5: nothing there fixes the position along it.
+  OccupancyGrid corridor{ OccupancyGridConfig() };
+  for (int i = 0; i <= 10; ++i)
+    corridor.insertScan(Pose2(i, 0.0, 0.0), corridorScan(Pose2(i, 0.0, 0.0)), ScanLimits());
+  std::vector<std::pair<double, double>> ends;
+  const Pose2 at(5.0, 0.0, 0.0);
+  GridSlam::scanEndPoints(corridorScan(at), ScanLimits(), 1, &ends);
+  const ScanMatcher matcher;
+  int evaluations = 0;
+  const Eigen::Matrix3d info = matcher.information(corridor, at, Pose2(), ends, &evaluations);
+  EXPECT_EQ(evaluations, 18);
+  EXPECT_GT(info(1, 1), 1000.0);  // across [1/m^2]: the walls
+  EXPECT_GT(info(2, 2), 100.0);   // the heading
+  EXPECT_LT(info(0, 0), 0.01 * info(1, 1));  // along: nearly none
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues().minCoeff(), -1e-9);  // PSD
+
+  // In the room every direction is fixed.
+  const OccupancyGrid room = roomMap();
+  const Pose2 inside(1.0, 0.5, 0.3);
+  GridSlam::scanEndPoints(simulateScan(inside), ScanLimits(), 1, &ends);
+  const Eigen::Matrix3d fixed = matcher.information(room, inside, Pose2(), ends, &evaluations);
+  EXPECT_GT(fixed(0, 0), 0.1 * fixed(1, 1));
+  EXPECT_GT(fixed(1, 1), 0.1 * fixed(0, 0));
+}
+
+namespace
+{
+// Around the room, every scan processed; at step @p slip_at the odometry reports a turn of 0.2 rad that did not
+// happen (a wheel slip), and keeps it. Returns the final position error of the estimate and the matches taken by
+// the particles' common correction.
+std::pair<double, int> driveThroughASlip(bool consensus, bool with_slip)
+{
+  GridSlamConfig c;
+  c.mode = GridSlamMode::kRbpf;
+  c.particles = 10;
+  c.seed = 5;
+  c.linear_update = c.angular_update = 0.0;
+  c.veto_consensus = consensus;
+  const std::unique_ptr<GridSlam> slam = GridSlam::create(c);
+  const std::vector<Pose2> path = truePath();
+  const std::size_t slip_at = 60;
+  const Pose2 slip(0.0, 0.0, with_slip ? 0.2 : 0.0);
+  int taken = 0;
+  for (std::size_t i = 0; i < path.size(); i += 2)
+  {
+    // The odometry: the true path, turned by the slip from slip_at on (about the pose where it happened).
+    Pose2 odom = path[i];
+    if (i >= slip_at)
+      odom = path[slip_at] * slip * (path[slip_at].inverse() * path[i]);
+    taken += slam->update(odom, simulateScan(path[i]), Pose2()).matches_consensus;
+  }
+  const Pose2& end = slam->mappingPose();
+  return { std::hypot(end.x - path.back().x, end.y - path.back().y), taken };
+}
+}  // namespace
+
+TEST(GridRbpf, WhenTheOdometrySlipsEveryParticlesMatchIsRefusedAndTheirCommonCorrectionIsTaken)
+{
+  // No slip: nothing is refused by most particles, the consensus takes nothing and changes nothing.
+  const auto plain = driveThroughASlip(false, false), plain_consensus = driveThroughASlip(true, false);
+  EXPECT_EQ(plain_consensus.second, 0);
+  EXPECT_DOUBLE_EQ(plain.first, plain_consensus.first);
+  EXPECT_LT(plain.first, 0.1);
+  // A 0.2 rad slip at a 5 cm step is far beyond the veto (its heading spread there is about 0.01 rad): every
+  // particle's match is refused, the estimate keeps the slip and the map is built turned.
+  const auto refused = driveThroughASlip(false, true);
+  EXPECT_GT(refused.first, 0.3);  // measured 0.49 m
+  // The consensus takes the matches the particles agree on: the estimate follows the scan.
+  const auto taken = driveThroughASlip(true, true);
+  EXPECT_GT(taken.second, 5);
+  EXPECT_LT(taken.first, 0.1);
 }

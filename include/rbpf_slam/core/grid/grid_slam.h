@@ -79,6 +79,16 @@ struct GridSlamConfig
   /// deviations: a gate for gross errors, as real odometry has heavy tails (slip, gaps in the log) that the
   /// Gaussian class does not hold. 0 = off.
   double odometry_veto = 100.0;
+  /// `rbpf` mode only: > 0: the odometry's veto counts the match's own uncertainty, its information
+  /// (ScanMatcher::information) times this gain inverted, beside the motion model's: a correction in a direction
+  /// the scan fixes poorly is not refused. 0 = the match's precision only (half a cell, the last heading step).
+  double veto_information_gain = 0.0;
+  /// `rbpf` mode only: the veto measured from the particles' common correction when it refuses most matches. The
+  /// odometry is one measurement for all particles: when more than half of the particles' trusted matches are
+  /// beyond the veto, the scan says the odometry itself is wrong (a slip, a jolt: beyond what its model holds). The
+  /// common correction is the median of those matches' corrections (in each particle's odometry frame); a vetoed
+  /// match within the veto of its odometry mean moved by it is taken. A match refused alone stays refused.
+  bool veto_consensus = false;
   /// Travel thresholds (GMapping's linearUpdate / angularUpdate / temporalUpdate, with GMapping's defaults 1 m,
   /// 0.5 rad, off): a scan is processed only after the odometry has moved this far [m] or turned this much [rad]
   /// since the last processed scan, or (temporal_update > 0) this much time [s] has passed; the first scan is
@@ -114,6 +124,7 @@ struct GridSlamStep
   int beams_mapped = 0;
   int matches_trusted = 0;     ///< rbpf mode: particles whose scan match was trusted
   int matches_vetoed = 0;      ///< rbpf mode: particles whose match the odometry vetoed (GridSlamConfig::odometry_veto)
+  int matches_consensus = 0;   ///< rbpf mode: of the vetoed, taken with the common correction (veto_consensus)
   int widen = 0;               ///< rbpf mode: doublings of the matcher's first steps for the travel folded in
   long matcher_evaluations = 0;  ///< rbpf mode: poses scored by the scan matcher, all particles (cost diagnostic)
 };
@@ -203,6 +214,12 @@ public:
   GridMapMemory mapMemory() const;
   /** @brief The odometry pose of the last processed scan. */
   const Pose2& lastOdometry() const { return last_odometry_; }
+  /**
+   * @brief The particle cloud carried by the odometry from the last processed scan to @p odometry (a scan's
+   * odometry pose): its weighted mean and covariance, the filter's stated uncertainty of the pose there (what the
+   * node publishes on `pose`).
+   */
+  PoseMoments cloudMoments(const Pose2& odometry) const;
 
   /**
    * @brief The correlation of a scan taken from robot pose @p pose with @p map: the number of end points (of

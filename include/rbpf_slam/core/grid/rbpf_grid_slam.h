@@ -61,6 +61,10 @@ private:
   void matchParticles(const Pose2& sensor, const StepSpread& spread, std::size_t used, double min_matched);
   void matchParticle(std::size_t i, const Pose2& sensor, const StepSpread& spread, std::size_t used,
                      double min_matched);
+  /** @brief The squared Mahalanobis distance of particle @p i's match from its odometry, as the veto measures it. */
+  double vetoDistance(std::size_t i, const Pose2& sensor, const StepSpread& spread);
+  /** @brief veto_consensus: the refused matches that agree with the particles' common correction taken. */
+  int vetoByConsensus(const StepSpread& spread);
   /** @brief Each particle's new pose and log-weight from its match; the end points each matched. */
   void takeProposals(const StepSpread& spread, std::vector<int>* matched, GridSlamStep* step);
   /** @brief Every particle maps the scan at its pose, then the weighting step resamples. */
@@ -82,6 +86,9 @@ private:
   std::vector<Pose2> predicted_, jitter_, means_;  // means_: the odometry's mean, the motion model's centre
   std::vector<ScanMatch> matches_;
   std::vector<MatchUse> use_;
+  // Per particle: the match the veto refused (its pose), and whether it was refused (veto_consensus).
+  std::vector<ScanMatch> refused_;
+  std::vector<char> was_refused_;
   /** @brief What the scans below the travel thresholds added since the last processed scan. */
   struct Carried
   {
