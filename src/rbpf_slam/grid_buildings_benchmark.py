@@ -21,7 +21,7 @@ For each log (CARMEN, plain or .gz; NAME is its file name without ``-corrected``
    maxRange, so GMapping skips them as slam_gmapping does) and runs it once per seed (GMapping's seed = the
    seed + 1; 0 would leave its generator unseeded) with slam_gmapping's defaults (30 particles, travel
    thresholds 1 m / 0.5 rad, maxRange = maxUrange = the scans' range_max - 0.01 m) unless --gmapping-arg.
-   Scored on its final best particle's history. ``--gmapping-seeds`` runs it on other seeds (it takes about 8
+   Scored on its final best particle's history. ``--gmapping-seeds`` runs it on other seeds (it takes about 5
    times the CPU of the package's filter); a run made before with the same arguments is reused.
 4. Scores every run against the bag's reference (the logs' corrected poses) with the package's evaluator (ATE
    RMS after a rigid fit; the rbpf run's best particle's history), and measures each process's CPU time (user
@@ -48,7 +48,10 @@ import sys
 import threading
 import time
 
+import numpy as np
+
 from rbpf_slam import atomic, evaluate as ev, paths
+from rbpf_slam.geometry import yaw_of
 from rbpf_slam.grid_benchmark import default_configs, find_slam_bag, median, parse_seeds, worst
 
 #: GMapping's arguments (slam_gmapping's defaults); maxRange / maxUrange come from the bag's scans.
@@ -142,8 +145,7 @@ def write_gmapping_log(bag_path, out_path, scan_topic='/scan', odom_topic='/odom
                     frames[tf.child_frame_id] = tf
             elif topic == odom_topic:
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation
-                odom.append((msg.header.stamp.to_sec(), p.x, p.y,
-                             math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))))
+                odom.append((msg.header.stamp.to_sec(), p.x, p.y, q.x, q.y, q.z, q.w))
             else:
                 scans.append(msg)
     if not scans or not odom:
@@ -161,24 +163,14 @@ def write_gmapping_log(bag_path, out_path, scan_topic='/scan', odom_topic='/odom
         if abs(r.z) > 1e-6 or abs(r.x) > 1e-6 or abs(r.y) > 1e-6 or abs(laser.transform.translation.y) > 1e-6:
             raise ValueError('%s: the harness takes a laser on the robot\'s x axis, facing forward' % bag_path)
         offset = laser.transform.translation.x
-    odom.sort()
-    t_odom = [o[0] for o in odom]
-    import bisect
+    odom = np.array(sorted(odom))
+    stamps = [msg.header.stamp.to_sec() for msg in scans]
+    xy, yaw = ev.interpolate(odom[:, 0], odom[:, 1:3], yaw_of(odom[:, 3:7]), stamps)
     lines = ['PARAM robot_frontlaser_offset %.6f' % (offset or 0.0)]
-    for msg in scans:
+    for msg, t, p, th in zip(scans, stamps, xy, yaw):
         if len(msg.ranges) != n:
             continue  # the harness skips them too; say nothing twice
-        t = msg.header.stamp.to_sec()
-        k = bisect.bisect_left(t_odom, t)
-        if k == 0:
-            pose = odom[0][1:]
-        elif k == len(odom):
-            pose = odom[-1][1:]
-        else:
-            a, b = odom[k - 1], odom[k]
-            f = 0.0 if b[0] <= a[0] else (t - a[0]) / (b[0] - a[0])
-            dth = math.atan2(math.sin(b[3] - a[3]), math.cos(b[3] - a[3]))
-            pose = (a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * dth)
+        pose = (p[0], p[1], math.atan2(math.sin(th), math.cos(th)))
         ranges = ['%.3f' % r if (r == r and msg.range_min <= r <= msg.range_max) else '%.0f' % SKIPPED_RANGE
                   for r in msg.ranges]
         lines.append('FLASER %d %s %.6f %.6f %.6f %.6f %.6f %.6f %.6f nohost %.6f' % (
@@ -231,7 +223,6 @@ def stated_coverage(folder, ref):
     region of the pose the node would publish at the nearest scan (updates.csv: the particle cloud's mean and
     covariance), after the rigid fit of the online estimate (estimate.tum) onto the reference; and the median of
     the stated position standard deviation sqrt(trace / 2) [m]. (None, None) without updates.csv."""
-    import numpy as np
     updates = ev.read_updates_csv(os.path.join(folder, 'updates.csv'))
     if updates is None:
         return None, None
