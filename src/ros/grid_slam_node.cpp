@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -93,8 +94,10 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
   save_srv_ = pnh_.advertiseService("save_map", &GridSlamRos::onSaveMap, this);
   if (config_.publish_tf)
     tf_guard_.start(nh_, config_.map_frame, config_.odom_frame, name_);
-  scan_sub_ = nh_.subscribe("scan", 50, &GridSlamRos::onScan, this);
-  timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &GridSlamRos::onTimer, this);
+  worker_ = std::thread(&GridSlamRos::work, this);
+  // Deep queues: the callbacks only fill the inbox, and no message may be lost before it is there.
+  tf_sub_ = nh_.subscribe("/tf", 1000, &GridSlamRos::onTf, this);
+  scan_sub_ = nh_.subscribe("scan", 1000, &GridSlamRos::onScan, this);
 
   ROS_INFO("%s: grid SLAM (%s mode, %d particles, %s resampling, seed %llu, %.3f m cells) on %s; frames %s -> %s -> %s",
            name_.c_str(), core::gridSlamModeName(filter_config_.mode), filter_config_.particles,
@@ -104,38 +107,169 @@ GridSlamRos::GridSlamRos(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh
            config_.base_frame.c_str());
 }
 
-GridSlamRos::~GridSlamRos() = default;
+GridSlamRos::~GridSlamRos()
+{
+  scan_sub_.shutdown();
+  tf_sub_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    stop_ = true;
+  }
+  inbox_cv_.notify_all();
+  if (worker_.joinable())
+    worker_.join();
+}
+
+namespace
+{
+std::string bareFrame(const std::string& frame)
+{
+  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
+}
+}  // namespace
+
+void GridSlamRos::onTf(const tf2_msgs::TFMessage::ConstPtr& msg)
+{
+  std::vector<OdometrySample> samples;
+  for (const geometry_msgs::TransformStamped& t : msg->transforms)
+    if (bareFrame(t.header.frame_id) == config_.odom_frame && bareFrame(t.child_frame_id) == config_.base_frame)
+      samples.push_back({ t.header.stamp.toSec(), clockForStamps(),
+                          core::Pose2(t.transform.translation.x, t.transform.translation.y,
+                                      yawOf(t.transform.rotation)) });
+  if (samples.empty())
+    return;
+  std::lock_guard<std::mutex> lock(inbox_mutex_);
+  samples_ = true;
+  inbox_odometry_.insert(inbox_odometry_.end(), samples.begin(), samples.end());
+  if (inbox_odometry_.size() > 50 * kInboxScans)  // a filter that stopped: memory must not grow
+    inbox_odometry_.erase(inbox_odometry_.begin(), inbox_odometry_.begin() + kInboxScans);
+}
 
 void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // The stamp rule at arrival (the pipeline's, as offline): a late or future scan must not wait for its TF.
-  const core::StampVerdict verdict = pipeline_->admitScan(msg->header.stamp.toSec(), clockForStamps());
-  if (verdict == core::StampVerdict::kReset)
+  std::size_t waiting = 0, dropped = 0;
+  double waited = 0.0, span = 0.0;
+  const double now = ros::WallTime::now().toSec();
   {
-    // A looped bag or a restarted simulation: a new map rather than two timelines mixed. The TF listener clears
-    // its own buffer when the clock jumps back; clearing it here as well could drop the bag's /tf_static, which
-    // is published only once.
-    ROS_WARN("%s: scan stamped %.3f, %.3f s before the previous one (more than ~time_jump_threshold %.2f s): time "
-             "jumped back; the map is restarted (reset %d, after %zu scans)",
-             name_.c_str(), msg->header.stamp.toSec(), (last_scan_stamp_ - msg->header.stamp).toSec(),
-             config_.time_jump_threshold, pipeline_->restarts(), updates_);
-    fed_until_ = -1e300;
-    path_.poses.clear();
-    last_map_stamp_ = ros::Time();
-    saveEndedMaps();
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    inbox_.push_back({ msg, clockForStamps(), now });
+    while (inbox_.size() > kInboxScans)
+    {
+      inbox_.pop_front();
+      ++inbox_dropped_;
+    }
+    waiting = inbox_.size();
+    dropped = inbox_dropped_;
+    waited = now - inbox_.front().arrival;  // how long the oldest scan has waited: how far behind the filter is
+    span = msg->header.stamp.toSec() - inbox_.front().msg->header.stamp.toSec();
   }
+  inbox_cv_.notify_one();
+  if (dropped > 0 && waiting == kInboxScans)
+    ROS_WARN_THROTTLE(5.0, "%s: the filter is %.1f s behind the scans and its inbox is full (%zu scans): the oldest "
+                      "are dropped (%zu so far); fewer particles or travel thresholds make it keep up", name_.c_str(),
+                      waited, kInboxScans, dropped);
+  else if (waited > 1.0)
+    ROS_WARN_THROTTLE(5.0, "%s: the filter is %.1f s behind the scans (%zu wait, %.1f s of scan time); none is lost "
+                      "until %zu wait", name_.c_str(), waited, waiting, span, kInboxScans);
+}
+
+void GridSlamRos::work()
+{
+  std::unique_lock<std::mutex> inbox(inbox_mutex_);
+  while (!stop_)
+  {
+    // Every 0.05 s at least: a scan that waits for odometry is processed once ~odom_timeout has passed.
+    inbox_cv_.wait_for(inbox, std::chrono::milliseconds(50), [this] { return stop_ || !inbox_.empty(); });
+    if (stop_)
+      break;
+    // All odometry that has come, then one scan: what arrived before the scan is there when it is processed.
+    std::vector<OdometrySample> samples;
+    samples.swap(inbox_odometry_);
+    const bool use_samples = samples_;
+    InboxScan scan;
+    if (!inbox_.empty())
+    {
+      scan = std::move(inbox_.front());
+      inbox_.pop_front();
+    }
+    inbox.unlock();
+    try
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!samples.empty())  // onTf keeps only odom -> base_link transforms: the odometry is /tf's samples
+        feedSamples(samples);
+      if (scan.msg)
+        admit(scan);
+      processPending();
+      // No scan anywhere (the scanner silent): as TF's buffer, odometry is kept 10 s back. A scan that comes later
+      // than that after its odometry finds none at its stamp.
+      if (use_samples && !scan.msg)
+        pipeline_->forgetOdometryBefore(fed_until_ - 10.0);
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR_THROTTLE(5.0, "%s: %s", name_.c_str(), e.what());
+    }
+    inbox.lock();
+  }
+}
+
+void GridSlamRos::onRestart(double stamp)
+{
+  seen_restarts_ = pipeline_->restarts();
+  // A looped bag or a restarted simulation: a new map rather than two timelines mixed. The TF listener clears its
+  // own buffer when the clock jumps back; clearing it here as well could drop the bag's /tf_static, which is
+  // published only once.
+  if (last_scan_stamp_.isZero())
+    ROS_WARN("%s: stamp %.3f, more than ~time_jump_threshold %.2f s before the odometry so far, with the clock: time "
+             "jumped back; the map is restarted (reset %d)", name_.c_str(), stamp, config_.time_jump_threshold,
+             pipeline_->restarts());
+  else
+    ROS_WARN("%s: stamp %.3f, %.3f s before the previous scan (more than ~time_jump_threshold %.2f s): time jumped "
+             "back; the map is restarted (reset %d, %zu scans processed in all)", name_.c_str(), stamp,
+             last_scan_stamp_.toSec() - stamp, config_.time_jump_threshold, pipeline_->restarts(), updates_);
+  fed_until_ = -1e300;
+  path_.poses.clear();
+  last_map_stamp_ = ros::Time();
+  saveEndedMaps();
+}
+
+void GridSlamRos::feedSamples(const std::vector<OdometrySample>& samples)
+{
+  for (const OdometrySample& s : samples)
+  {
+    if (s.stamp <= fed_until_ && s.stamp > fed_until_ - config_.time_jump_threshold)
+      continue;  // a transform TF gave twice, or already read from TF at a scan's stamp
+    const core::StampVerdict v = pipeline_->addOdometry(s.stamp, s.pose, s.clock);
+    if (pipeline_->restarts() != seen_restarts_)
+      onRestart(s.stamp);
+    if (v == core::StampVerdict::kAccept || v == core::StampVerdict::kReset)
+      fed_until_ = s.stamp;
+    else
+      ROS_WARN_THROTTLE(5.0, "%s: odometry (TF %s -> %s) at %.3f: %s; dropped", name_.c_str(),
+                        config_.odom_frame.c_str(), config_.base_frame.c_str(), s.stamp,
+                        core::stampVerdictName(v));
+  }
+}
+
+void GridSlamRos::admit(const InboxScan& in)
+{
+  const sensor_msgs::LaserScan::ConstPtr& msg = in.msg;
+  // The stamp rule at arrival (the pipeline's, as offline): a late or future scan must not wait for its TF.
+  const core::StampVerdict verdict = pipeline_->admitScan(msg->header.stamp.toSec(), in.clock);
+  if (verdict == core::StampVerdict::kReset || pipeline_->restarts() != seen_restarts_)
+    onRestart(msg->header.stamp.toSec());
   else if (verdict != core::StampVerdict::kAccept)
   {
     ++dropped_;
     // The first drop of each kind is always said; repeats at most every 5 s.
     if (warned_verdicts_.insert(static_cast<int>(verdict)).second)
       ROS_WARN("%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
-               msg->header.stamp.toSec(), last_scan_stamp_.toSec(), clockForStamps(),
-               core::stampVerdictName(verdict), dropped_);
+               msg->header.stamp.toSec(), last_scan_stamp_.toSec(), in.clock, core::stampVerdictName(verdict),
+               dropped_);
     else
       ROS_WARN_THROTTLE(5.0, "%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)",
-                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), clockForStamps(),
+                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), in.clock,
                         core::stampVerdictName(verdict), dropped_);
     return;
   }
@@ -159,17 +293,10 @@ void GridSlamRos::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     return;
   }
   const std::size_t before = pipeline_->droppedPending();
-  pipeline_->enqueueScan(msg->header.stamp.toSec(), std::move(scan), sensor, ros::WallTime::now().toSec());
+  pipeline_->enqueueScan(msg->header.stamp.toSec(), std::move(scan), sensor, in.arrival);
   if (pipeline_->droppedPending() > before)
     ROS_WARN_THROTTLE(5.0, "%s: %zu scans wait for odometry (TF %s -> %s); dropping the oldest", name_.c_str(),
                       pipeline_->pending(), config_.odom_frame.c_str(), config_.base_frame.c_str());
-  processPending();
-}
-
-void GridSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)
-{
-  std::lock_guard<std::mutex> lock(mutex_);
-  processPending();
 }
 
 bool GridSlamRos::lookup(const std::string& parent, const std::string& child, const ros::Time& stamp,
@@ -190,6 +317,17 @@ bool GridSlamRos::lookup(const std::string& parent, const std::string& child, co
 
 void GridSlamRos::feedOdometry()
 {
+  {
+    // When TF holds odom -> base_link as one transform, its samples come on /tf as well (to onTf, perhaps a little
+    // after TF's listener has them): the pose must not be taken from TF's interpolation meanwhile.
+    std::string parent;
+    const bool direct = tf_buffer_->_getParent(config_.base_frame, ros::Time(0), parent) &&
+                        parent == config_.odom_frame;
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    samples_ = samples_ || direct;
+    if (samples_)
+      return;  // the odometry comes as /tf's samples (feedSamples)
+  }
   // The odometry at each waiting scan's stamp, from TF, into the pipeline: a scan is processed once odometry covers
   // it, or after ~odom_timeout with the newest odometry (as the FastSLAM node does).
   for (const double end : pipeline_->waitingEnds())

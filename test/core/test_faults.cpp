@@ -79,6 +79,29 @@ TEST(TimelineGate, OneMessageBackIsDroppedAndOnlySeveralThatAgreeRestart)
   EXPECT_EQ(g.restarts(), 2);
 }
 
+TEST(TimelineGate, ASensorsFirstMessageBackInTimeWithTheClockStartsANewTimeline)
+{
+  // Odometry alone (a bag without scans), then a bag with scans from an earlier time, played with its clock: the
+  // first scan restarts, before the new odometry comes.
+  TimelineGate g(1.0);
+  for (double t = 1000.0; t < 1010.0; t += 0.05)
+    ASSERT_EQ(g.check(TimelineGate::kOdometry, t, t), StampVerdict::kAccept);
+  EXPECT_EQ(g.check(TimelineGate::kSensor, 1000.0, 1000.0), StampVerdict::kReset);
+  EXPECT_EQ(g.restarts(), 1);
+  EXPECT_EQ(g.check(TimelineGate::kOdometry, 1000.02, 1000.02), StampVerdict::kAccept);
+  // A sensor that starts late behind its odometry, the clock going on: no new timeline.
+  TimelineGate h(1.0);
+  for (double t = 0.0; t < 10.0; t += 0.05)
+    ASSERT_EQ(h.check(TimelineGate::kOdometry, t, t), StampVerdict::kAccept);
+  EXPECT_EQ(h.check(TimelineGate::kSensor, 5.0, 10.0), StampVerdict::kAccept);
+  // Without a clock, one message alone cannot tell.
+  TimelineGate n(1.0);
+  for (double t = 0.0; t < 10.0; t += 0.05)
+    ASSERT_EQ(n.check(TimelineGate::kOdometry, t), StampVerdict::kAccept);
+  EXPECT_EQ(n.check(TimelineGate::kSensor, 1.0), StampVerdict::kAccept);
+  EXPECT_EQ(n.restarts(), 0);
+}
+
 namespace
 {
 /** Four trunks seen from base_link at (x, 0) looking along +x, in the sensor frame (the sensor on base_link). */

@@ -52,3 +52,30 @@ TEST(OdometryBuffer, DropBeforeKeepsWhatInterpolationNeeds)
   b.dropBefore(100.0);
   EXPECT_EQ(b.size(), 1u);
 }
+
+TEST(OdometryBuffer, ThePoseAtAStampDoesNotDependOnLaterSamples)
+{
+  // A scan at 2.000001 s, odometry at 2.0 s (the same instant, printed a microsecond apart) and later at 3.0 s:
+  // the pose at the scan is the 2.0 s sample's, whether the 3.0 s one has come or not (a node behind its scans
+  // sees it, a bag runner that processes at once does not).
+  OdometryBuffer before, after;
+  for (OdometryBuffer* b : { &before, &after })
+  {
+    b->add(1.0, Pose2(0.0, 0.0, 0.0));
+    b->add(2.0, Pose2(1.0, 0.5, 0.1));
+  }
+  after.add(3.0, Pose2(2.0, 1.0, 0.2));
+  const double t = 2.000001;
+  ASSERT_TRUE(before.covers(t));
+  EXPECT_EQ(before.at(t).x, 1.0);
+  EXPECT_EQ(after.at(t).x, before.at(t).x);
+  EXPECT_EQ(after.at(t).y, before.at(t).y);
+  EXPECT_EQ(after.at(t).theta, before.at(t).theta);
+  // A sample exactly at the stamp is the pose there, bit for bit, with or without one before or after it.
+  EXPECT_EQ(after.at(2.0).x, 1.0);
+  EXPECT_EQ(after.at(2.0).theta, 0.1);
+  // Between samples, interpolated as before.
+  EXPECT_NEAR(after.at(2.5).x, 1.5, 1e-12);
+  EXPECT_EQ(after.at(0.5).x, 0.0);
+  EXPECT_EQ(after.at(4.0).x, 2.0);
+}

@@ -164,3 +164,25 @@ TEST(GridSlamPipeline, AScanOlderThanTheFirstOdometryIsDropped)
   EXPECT_FALSE(done[0].error.empty());
   EXPECT_FALSE(p.filter().initialised());
 }
+
+TEST(GridSlamPipeline, OdometryIsForgottenOnlyWhileNoScanWaitsForIt)
+{
+  GridSlamPipeline p(smallGrid());
+  for (int k = 0; k <= 100; ++k)  // x = 0.1 t
+    ASSERT_EQ(p.addOdometry(0.1 * k, Pose2(0.01 * k, 0.0, 0.0)), StampVerdict::kAccept);
+  EXPECT_EQ(p.addScan(9.95, simulateScan(Pose2()), Pose2()), StampVerdict::kAccept);
+  const std::size_t kept = p.odometry().size();
+  p.forgetOdometryBefore(9.99);
+  EXPECT_EQ(p.odometry().size(), kept);  // the scan at 9.95 s waits for its process()
+  const std::vector<GridPipelineUpdate> done = p.process();
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_NEAR(done[0].odometry.x, 0.995, 1e-12);
+  for (int k = 101; k <= 200; ++k)  // the scanner is silent from here
+    ASSERT_EQ(p.addOdometry(0.1 * k, Pose2(0.01 * k, 0.0, 0.0)), StampVerdict::kAccept);
+  EXPECT_GT(p.odometry().size(), 100u);
+  // Nothing waits: what came before 15 s goes, the last sample at or before it stays.
+  p.forgetOdometryBefore(15.01);
+  EXPECT_NEAR(p.odometry().earliest(), 15.0, 1e-9);
+  EXPECT_EQ(p.odometry().size(), 51u);
+  EXPECT_NEAR(p.odometry().at(15.05).x, 1.505, 1e-12);
+}

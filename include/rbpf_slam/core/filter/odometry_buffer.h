@@ -48,21 +48,27 @@ public:
   /** @brief Oldest stamp (undefined when empty). */
   double earliest() const { return samples_.front().stamp; }
   /** @brief True when a sample at or after @p t is present (so at(t) interpolates, not extrapolates). */
-  bool covers(double t) const { return !samples_.empty() && samples_.back().stamp >= t - 1e-6; }
+  bool covers(double t) const { return !samples_.empty() && samples_.back().stamp >= t - kCoverTolerance; }
+  /// [s] a sample this little before a stamp covers it (stamps printed to the microsecond)
+  static constexpr double kCoverTolerance = 1e-6;
 
-  /** @brief Pose at @p t: interpolated between the samples around it, the first/last one outside. */
+  /**
+   * @brief Pose at @p t: the first sample that covers t (covers()' tolerance) when it is at or before t, else the
+   * pose between it and the one before; the first/last one outside. So the pose at t is what it was when that sample
+   * was the newest: it does not depend on the samples that came after it.
+   */
   Pose2 at(double t) const
   {
     if (samples_.empty())
       return Pose2();
-    if (t <= samples_.front().stamp)
-      return samples_.front().pose;
-    if (t >= samples_.back().stamp)
-      return samples_.back().pose;
-    const auto it = std::lower_bound(samples_.begin(), samples_.end(), t,
+    const auto it = std::lower_bound(samples_.begin(), samples_.end(), t - kCoverTolerance,
                                      [](const Sample& s, double v) { return s.stamp < v; });
-    const Sample& b = *it;
+    if (it == samples_.end())
+      return samples_.back().pose;
+    if (it->stamp <= t || it == samples_.begin())
+      return it->pose;
     const Sample& a = *(it - 1);
+    const Sample& b = *it;
     const double s = (t - a.stamp) / std::max(1e-12, b.stamp - a.stamp);
     return interpolate(a.pose, b.pose, s);
   }

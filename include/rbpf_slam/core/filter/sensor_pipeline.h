@@ -71,6 +71,14 @@ public:
   }
 
   const OdometryBuffer& odometry() const { return odometry_; }
+  /** @brief While no item waits, odometry before @p stamp is forgotten (the last sample at or before it is kept): a
+   * source whose sensor is silent must not make memory grow. An item stamped before @p stamp then has the kept
+   * sample's pose. */
+  void forgetOdometryBefore(double stamp)
+  {
+    if (pending_.empty())
+      odometry_.dropBefore(stamp);
+  }
   int restarts() const { return gate_.restarts(); }
   std::size_t pending() const { return pending_.size(); }
   /** @brief [s] up to where each waiting item needs odometry, oldest first. */

@@ -108,7 +108,9 @@ private:
  * message does not look like a second jump. Time has jumped back when the clock went back with the stamps, or when
  * kJumpConfirmations messages in a row (either stream) are back by more than the threshold and agree with each other
  * (within the threshold of the first), with no message of the old timeline between them. Those before the last
- * are dropped; a message that continues the old timeline forgets them.
+ * are dropped; a message that continues the old timeline forgets them. A stream's first message in a timeline is
+ * held against the other stream: back by more than the threshold with the clock, it starts a new timeline too (a bag
+ * of odometry alone, then one with the sensor).
  */
 class TimelineGate
 {
@@ -125,8 +127,13 @@ public:
   /** @brief StampGate::check() on @p stream; on kReset both streams restart here and restarts() counts it. */
   StampVerdict check(Stream stream, double stamp, double clock = NAN)
   {
+    const bool first = !gates_[stream].hasLast();
     StampVerdict v = gates_[stream].check(stamp, clock);
-    if (v == StampVerdict::kAccept)
+    const StampGate& other = gates_[1 - stream];
+    if (v == StampVerdict::kAccept && first && other.hasLast() && stamp < other.last() - threshold() &&
+        std::isfinite(clock) && clock < other.last() - threshold())
+      v = StampVerdict::kReset;  // the stream's first message, and time went back before it came (the clock too)
+    else if (v == StampVerdict::kAccept)
       back_count_ = 0;  // the old timeline goes on
     else if (v == StampVerdict::kBack)
     {
