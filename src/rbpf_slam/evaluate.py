@@ -162,12 +162,13 @@ def read_landmarks_csv(path):
     return out
 
 
-def read_map_csv(path, include_provisional=False):
+def read_map_csv(path, include_provisional=False, with_ids=False):
     """Landmarks of a landmark CSV (a runner's map.csv) as an (n, 3) array x, y, radius; provisional ones
-    only with ``include_provisional``."""
+    only with ``include_provisional``; with ``with_ids`` (array, their ids)."""
     m = read_landmarks_csv(path)
     keep = np.ones(len(m['x']), dtype=bool) if include_provisional else ~m['provisional']
-    return np.column_stack([m['x'], m['y'], m['radius']])[keep].reshape(-1, 3)
+    xyr = np.column_stack([m['x'], m['y'], m['radius']])[keep].reshape(-1, 3)
+    return (xyr, np.asarray(m['id'])[keep]) if with_ids else xyr
 
 
 def interpolate(t, xy, yaw, tq):
@@ -428,6 +429,7 @@ def _read_reference_messages(bag, path_topic, kind, marks_topic, rows, frames, o
             if out['landmarks'] is None:
                 out['landmarks'] = np.array([(tr.center.x, tr.center.y, tr.radius) for tr in msg.trunks],
                                             dtype=float).reshape(-1, 3)
+                out['landmark_ids'] = np.array([tr.id for tr in msg.trunks], dtype=int)
                 out['landmarks_frame'] = msg.header.frame_id
             continue
         out['messages'] += 1
@@ -475,8 +477,8 @@ def read_bag_reference(bag_path, reference_topic=None, landmarks_topic=None):
     except (rosbag.ROSBagException, ValueError) as e:  # ValueError: e.g. a binary file that is no bag
         raise ValueError('%s: not a readable bag (%s)' % (bag_path, e))
     out = {'topic': None, 'type': None, 'frame': None, 't': None, 'xy': None, 'yaw': None, 'messages': 0,
-           'skipped': 0, 'origin': None, 'landmarks': None, 'landmarks_topic': None, 'landmarks_frame': None,
-           'notes': []}
+           'skipped': 0, 'origin': None, 'landmarks': None, 'landmark_ids': None, 'landmarks_topic': None,
+           'landmarks_frame': None, 'notes': []}
     with bag:
         types = {topic: info.msg_type for topic, info in bag.get_type_and_topic_info().topics.items()}
         try:
@@ -659,30 +661,114 @@ def tum_text(t, xy, yaw):
                    for ti, p, a in zip(t, xy, yaw))
 
 
-def fit_map_rigid(features, trees, gate=0.5, coarse_gate=2.0, iterations=20):
-    """A rigid 2D transform (R, t) that moves a map (n, 3: x, y, r) onto the true landmarks (m, 3), for a run
-    without a reference path: match one-to-one (optimal assignment) inside ``coarse_gate`` [m], fit
-    (fit_rigid_2d) over the matches, match again with the moved map, until the matches stay the same; then
-    the same inside ``gate``. Returns (R, t, number of matches of the last fit); (identity, zero, n) when
-    fewer than 2 matches are found (no fit)."""
+#: A fit of a map onto the true landmarks over fewer matches than this is no score: two points fit any two points.
+MIN_MAP_FIT_MATCHES = 3
+
+
+def _refine_map_fit(features, trees, r, t, gate, iterations=20):
+    """From (r, t): match one-to-one (optimal assignment) inside ``gate``, fit over the matches, again until the
+    matches stay the same. Returns (R, t, matches)."""
     from scipy.optimize import linear_sum_assignment
-    r, t, used = np.eye(2), np.zeros(2), 0
-    if len(features) < 2 or len(trees) < 2:
-        return r, t, 0
-    for g in (max(coarse_gate, gate), gate):
-        previous = None
-        for _ in range(iterations):
-            moved = features[:, :2] @ r.T + t
-            d = np.linalg.norm(moved[:, None, :] - trees[None, :, :2], axis=2)
-            cost = np.where(d <= g, d, 1e6)
-            rows, cols = linear_sum_assignment(cost)
-            ok = cost[rows, cols] < 1e6
-            pairs = (tuple(rows[ok]), tuple(cols[ok]))
-            if len(pairs[0]) < 2 or pairs == previous:
-                break
-            r, t = fit_rigid_2d(features[rows[ok], :2], trees[cols[ok], :2])
-            used, previous = len(pairs[0]), pairs
+    previous, used = None, 0
+    for _ in range(iterations):
+        moved = features[:, :2] @ r.T + t
+        d = np.linalg.norm(moved[:, None, :] - trees[None, :, :2], axis=2)
+        cost = np.where(d <= gate, d, 1e6)
+        rows, cols = linear_sum_assignment(cost)
+        ok = cost[rows, cols] < 1e6
+        pairs = (tuple(rows[ok]), tuple(cols[ok]))
+        used = len(pairs[0])
+        if used < 2 or pairs == previous:
+            break
+        r, t = fit_rigid_2d(features[rows[ok], :2], trees[cols[ok], :2])
+        previous = pairs
     return r, t, used
+
+
+def _pair_hypotheses(features, trees, gate, max_points=60):
+    """Rigid transforms that put a pair of map features on a pair of true landmarks as far apart (within ``gate``),
+    both ways round: (k, 2, 2) rotations and (k, 2) translations. At most ``max_points`` points of each side take
+    part (evenly spaced by index: deterministic)."""
+    def subset(n):
+        return np.unique(np.linspace(0, n - 1, min(n, max_points)).round().astype(int))
+    fi, ti = subset(len(features)), subset(len(trees))
+    f, g = features[fi, :2], trees[ti, :2]
+    a, b = np.triu_indices(len(f), 1)
+    c, d = np.triu_indices(len(g), 1)
+    df = np.linalg.norm(f[a] - f[b], axis=1)
+    dt = np.linalg.norm(g[c] - g[d], axis=1)
+    order = np.argsort(dt)
+    dt_sorted = dt[order]
+    src, dst = [], []
+    for k in range(len(df)):
+        if df[k] < 2.0 * gate:  # too short to give a heading
+            continue
+        lo, hi = np.searchsorted(dt_sorted, [df[k] - gate, df[k] + gate])
+        for m in order[lo:hi]:
+            src.append((a[k], b[k]))
+            dst.append((c[m], d[m]))
+            dst.append((d[m], c[m]))
+            src.append((a[k], b[k]))
+    if not src:
+        return np.zeros((0, 2, 2)), np.zeros((0, 2))
+    src, dst = np.array(src), np.array(dst)
+    p0, p1 = f[src[:, 0]], f[src[:, 1]]
+    q0, q1 = g[dst[:, 0]], g[dst[:, 1]]
+    angle = np.arctan2(*(q1 - q0)[:, ::-1].T) - np.arctan2(*(p1 - p0)[:, ::-1].T)
+    cos, sin = np.cos(angle), np.sin(angle)
+    rot = np.stack([np.stack([cos, -sin], 1), np.stack([sin, cos], 1)], 1)
+    mid_p, mid_q = 0.5 * (p0 + p1), 0.5 * (q0 + q1)
+    trans = mid_q - np.einsum('kij,kj->ki', rot, mid_p)
+    return rot, trans
+
+
+def fit_map_rigid(features, trees, gate=0.5, feature_ids=None, tree_ids=None, max_hypotheses=200000):
+    """A rigid 2D transform (R, t) that moves a map (n, 3: x, y, r) onto the true landmarks (m, 3), for a run
+    without a reference path, found wherever the map's frame lies: every pair of map features put on every pair of
+    true landmarks as far apart (within ``gate``), and, where both sides carry ids (known association: the map's
+    ids are the truth's), the fit over the shared ids; the hypothesis under which most features lie within ``gate``
+    of a true landmark is refined by one-to-one matching (optimal assignment) and fitting until the matches stay the
+    same. Returns (R, t, matches of the last fit); (identity, zero, 0) when nothing matches. A caller must not call
+    a fit over fewer than MIN_MAP_FIT_MATCHES matches a score."""
+    from scipy.spatial import cKDTree
+    r0, t0 = np.eye(2), np.zeros(2)
+    if len(features) < 2 or len(trees) < 2:
+        return r0, t0, 0
+    rots, trans = _pair_hypotheses(features, trees, gate)
+    hyp_r, hyp_t = [r0], [t0]  # the map's own frame is a hypothesis too
+    if feature_ids is not None and tree_ids is not None:
+        index = {int(i): k for k, i in enumerate(tree_ids) if i >= 0}
+        shared = [(j, index[int(i)]) for j, i in enumerate(feature_ids) if int(i) in index]
+        if len(shared) >= MIN_MAP_FIT_MATCHES:
+            fj, tj = zip(*shared)
+            r, t = fit_rigid_2d(features[list(fj), :2], trees[list(tj), :2])
+            hyp_r.append(r)
+            hyp_t.append(t)
+    rots = np.concatenate([np.array(hyp_r), rots[:max_hypotheses]])
+    trans = np.concatenate([np.array(hyp_t), trans[:max_hypotheses]])
+    tree = cKDTree(trees[:, :2])
+    with_ids = feature_ids is not None and tree_ids is not None
+    best, best_key = 0, None
+    for start in range(0, len(rots), 5000):  # bounded memory
+        r, t = rots[start:start + 5000], trans[start:start + 5000]
+        moved = np.einsum('kij,nj->kni', r, features[:, :2]) + t[:, None, :]
+        dist, nearest = tree.query(moved.reshape(-1, 2), distance_upper_bound=gate)
+        dist = dist.reshape(len(r), len(features))
+        inside = np.isfinite(dist)
+        count = inside.sum(axis=1)
+        # Most features on a landmark; then most of them on the landmark of their own id; then the closest.
+        agree = np.zeros(len(r), dtype=int)
+        if with_ids:
+            nearest = np.minimum(nearest.reshape(len(r), len(features)), len(trees) - 1)
+            agree = (inside & (np.asarray(tree_ids)[nearest] == np.asarray(feature_ids)[None, :])).sum(axis=1)
+        spread = np.where(inside, dist, 0.0).sum(axis=1)
+        for k in np.lexsort((spread, -agree, -count))[:1]:
+            key = (int(count[k]), int(agree[k]), -float(spread[k]))
+            if best_key is None or key > best_key:
+                best, best_key = start + int(k), key
+    if best_key[0] == 0:
+        return r0, t0, 0
+    return _refine_map_fit(features, trees, rots[best], trans[best], gate)
 
 
 def _transform_info(r, t):
@@ -720,18 +806,20 @@ def _path_metrics(run, rt, rxy, ryaw, point_offset, fit, rpe_distance):
 
 
 def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=None, point_offset=(0.0, 0.0),
-             fit=True, gate=0.5, rpe_distance=1.0, no_fit_too=False):
+             fit=True, gate=0.5, rpe_distance=1.0, no_fit_too=False, feature_ids=None, truth_ids=None):
     """Every metric of one run. est / odom: (t, xy, yaw) as read_tum returns them; ref_t, ref_xy, ref_yaw the
     reference path (ref_yaw None: positions only, e.g. GPS), compared at its stamps inside the estimate's
     time span (the estimate interpolated there). The map (features (n, 3)) is scored against truth_map (m, 3),
     moved by the estimate's fit. Without a reference path (ref_t None) the map alone is scored, fitted onto
-    the true landmarks by fit_map_rigid when ``fit``.
+    the true landmarks by fit_map_rigid when ``fit`` (feature_ids / truth_ids: the map's and the truth's landmark
+    ids, where known, one more hypothesis of the fit).
 
     With ``no_fit_too`` (and ``fit``) summary['no_fit'] holds the same figures without a fit (the run's frame
     taken as the reference's: the start pose known). Returns (summary, transforms, (reference t, xy) or None).
     """
     if ref_t is None:
-        return _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too)
+        return _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too, feature_ids,
+                                   truth_ids)
     ref_t = np.asarray(ref_t, float)
     sel = (ref_t >= est[0][0]) & (ref_t <= est[0][-1])
     if sel.sum() < 2:
@@ -761,18 +849,23 @@ def evaluate(est, odom, ref_t, ref_xy, ref_yaw=None, truth_map=None, features=No
     return summary, transforms, (rt, rxy)
 
 
-def _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too):
-    """evaluate without a reference path: the map against the true landmarks, after fit_map_rigid or none."""
+def _evaluate_map_alone(est, truth_map, features, point_offset, fit, gate, no_fit_too, feature_ids=None,
+                        truth_ids=None):
+    """evaluate without a reference path: the map against the true landmarks, after fit_map_rigid or none. A fit
+    over fewer than MIN_MAP_FIT_MATCHES matches is refused: the map is then scored in its own frame (said)."""
     if truth_map is None or features is None:
         raise ValueError('nothing to score: no reference path, and %s'
                          % ('no true landmarks' if truth_map is None else 'no map of the run'))
     summary = {'reference_poses': 0, 'reference_total': 0, 'fit': 'map_rigid_2d' if fit else 'none',
                'point_offset': list(point_offset)}
-    r, t, used = fit_map_rigid(features, truth_map, gate) if fit else (np.eye(2), np.zeros(2), 0)
+    r, t, used = (fit_map_rigid(features, truth_map, gate, feature_ids, truth_ids) if fit
+                  else (np.eye(2), np.zeros(2), 0))
     if fit:
         summary['map_fit'] = dict(_transform_info(r, t), matches=int(used))
-        if used < 2:
-            summary['fit'] = 'none'  # fewer than 2 matches: nothing to fit on
+        if used < MIN_MAP_FIT_MATCHES:
+            summary['fit'] = 'none'  # a fit over 2 points fits any 2 points: no score
+            summary['map_fit']['refused'] = True
+            r, t = np.eye(2), np.zeros(2)
     transforms = {'map': _moved_map(features, r, t)}
     pts = point_of(est[1], est[2], point_offset)
     transforms['estimate'] = (r, t, pts @ r.T + t, None)

@@ -21,10 +21,12 @@ By default the figures are given twice, side by side: after a least-squares rigi
 points onto the reference (the ATE; the map moved by the estimate's fit), and without a fit (the run's frame
 taken as the reference's, as where the start pose is known); --no-fit gives only the latter. Where the
 reference has headings, the ATE is also given aligned at the first pose ("at the first pose": the run moved so
-that its pose at the first compared reference stamp lies on the reference's, position and heading; no fit). Without a
-reference path the map is fitted onto the true landmarks by a rigid fit over its one-to-one matches (said in
-the output). The compared point is base_link moved by --point-offset (the LEGO logs' reference is the
-scanner, 0.03 m ahead: --point-offset 0.03 0; a GPS antenna's offset likewise).
+that its pose at the first compared reference stamp lies on the reference's, position and heading; no fit).
+Without a reference path the map is fitted onto the true landmarks by a rigid fit over its one-to-one matches, the
+transform searched over pairs of landmarks (and the ids, where the map's are the truth's) wherever the map's frame
+lies; a fit over fewer than 3 matches is refused and the map scored in its own frame (said in the output). The
+compared point is base_link moved by --point-offset (the LEGO logs' reference is the scanner, 0.03 m ahead:
+--point-offset 0.03 0; a GPS antenna's offset likewise).
 
 Prints a table (estimate beside the run's raw odometry) and writes DIR/evaluation.json (both figures; "no_fit"
 holds the figures without a fit) and DIR/evaluation.png (paths with the reference, the map with the true
@@ -94,13 +96,15 @@ def table(summary):
                          % (tr['rotation_deg'], tr['translation'][0], tr['translation'][1]))
     elif 'map_fit' in summary:
         f = summary['map_fit']
-        if f['matches'] >= 2:
+        if not f.get('refused'):
             lines.append('no reference path: the map is fitted onto the true landmarks by a rigid fit over its %d '
-                         'one-to-one matches (rotation %.2f deg, translation (%.3f, %.3f) m)'
+                         'one-to-one matches (rotation %.2f deg, translation (%.3f, %.3f) m; found by a search over '
+                         'pairs of landmarks)'
                          % (f['matches'], f['rotation_deg'], f['translation'][0], f['translation'][1]))
         else:
-            lines.append('no reference path, and fewer than 2 map features match a true landmark: the map is '
-                         'scored without a fit')
+            lines.append('no reference path, and under no rigid transform do %d map features match a true landmark '
+                         '(%d at most): no fit, which would be no score; the map is scored in its own frame'
+                         % (ev.MIN_MAP_FIT_MATCHES, f['matches']))
     m = summary.get('map')
     if m:
         label = 'map' if no_fit is None or 'map' not in no_fit else 'map (fitted)'
@@ -196,7 +200,8 @@ def _main(argv):
     ref = ev.read_bag_reference(args.bag, args.reference, args.truth_landmarks)
     truth_map = ref['landmarks']
     map_path = os.path.join(args.run, 'map.csv')
-    features = ev.read_map_csv(map_path, args.include_provisional) if os.path.exists(map_path) else None
+    features, feature_ids = (ev.read_map_csv(map_path, args.include_provisional, with_ids=True)
+                             if os.path.exists(map_path) else (None, None))
     notes = list(ref['notes'])
     if truth_map is not None and features is None:
         notes.append('map: no %s: the map is not scored' % map_path)
@@ -205,15 +210,18 @@ def _main(argv):
                          % (args.bag, 'no true landmarks' if truth_map is None else 'no map.csv in ' + args.run))
     summary, transforms, compared = ev.evaluate(est, odo, ref['t'], ref['xy'], ref['yaw'], truth_map, features,
                                                 tuple(args.point_offset), not args.no_fit, args.gate,
-                                                args.rpe_distance, no_fit_too=True)
+                                                args.rpe_distance, no_fit_too=True, feature_ids=feature_ids,
+                                                truth_ids=ref['landmark_ids'])
     smoothed_path = os.path.join(args.run, 'estimate_smoothed.tum')
     if os.path.exists(smoothed_path):
         # Loop closure: the run smoothed at its end, scored the same way (its own fit).
         smoothed_map = os.path.join(args.run, 'map_smoothed.csv')
-        s_features = ev.read_map_csv(smoothed_map, args.include_provisional) if os.path.exists(smoothed_map) else None
+        s_features, s_ids = (ev.read_map_csv(smoothed_map, args.include_provisional, with_ids=True)
+                             if os.path.exists(smoothed_map) else (None, None))
         s_summary, _, _ = ev.evaluate(ev.read_tum(smoothed_path), None, ref['t'], ref['xy'], ref['yaw'], truth_map,
                                       s_features, tuple(args.point_offset), not args.no_fit, args.gate,
-                                      args.rpe_distance, no_fit_too=True)
+                                      args.rpe_distance, no_fit_too=True, feature_ids=s_ids,
+                                      truth_ids=ref['landmark_ids'])
         summary['smoothed'] = {k: s_summary.get(k) for k in ('estimate', 'map', 'no_fit')}
     summary['notes'] = notes
     summary['reference'] = {'topic': ref['topic'], 'type': ref['type'], 'frame': ref['frame'],

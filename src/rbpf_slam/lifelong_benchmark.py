@@ -64,14 +64,38 @@ def read_trees(path):
     return trees
 
 
-def changed_world(world, out_dir, rng, fell, plant, grow):
-    """A copy of the world file whose tree list has been felled, planted and grown; (path, felled, planted)."""
-    base = os.path.dirname(world)
-    text = open(world).read()
+def tree_list_of(world):
+    """The tree list of @p world: a world file's "trees:" file, or the world itself when it is a plain tree list
+    (x y radius per line, # comments; the simulator takes it as a flat world). (path, world text, the "trees:"
+    match or None). ValueError for a file that is neither, naming its first line that is no tree."""
+    with open(world) as f:
+        text = f.read()
     m = re.search(r'^trees:\s*(\S+)', text, re.M)
-    if not m:
-        raise ValueError('%s: expected a "trees:" line' % world)
-    trees = read_trees(os.path.join(base, m.group(1)))
+    if m:
+        return os.path.join(os.path.dirname(world), m.group(1)), text, m
+    trees = 0
+    for number, line in enumerate(text.splitlines(), 1):
+        fields = line.split('#')[0].split()
+        if not fields:
+            continue
+        try:
+            values = [float(v) for v in fields]
+        except ValueError:
+            values = []
+        if len(values) < 3:
+            raise ValueError('%s:%d: neither a world file (no "trees:" line) nor a tree list (x y radius per line)'
+                             % (world, number))
+        trees += 1
+    if trees == 0:
+        raise ValueError('%s: neither a world file (no "trees:" line) nor a tree list (no tree in it)' % world)
+    return world, text, None
+
+
+def changed_world(world, out_dir, rng, fell, plant, grow):
+    """A copy of the world whose tree list has been felled, planted and grown; (path, bounds, felled, planted). A
+    plain tree list gives a plain tree list."""
+    tree_path, text, m = tree_list_of(world)
+    trees = read_trees(tree_path)
     n_fell = int(round(fell * len(trees)))
     felled = set(rng.sample(range(len(trees)), n_fell))
     kept = [list(t) for i, t in enumerate(trees) if i not in felled]
@@ -92,19 +116,19 @@ def changed_world(world, out_dir, rng, fell, plant, grow):
                 % (os.path.basename(world), len(felled), len(planted), grow))
         for t in kept + planted:
             f.write('%.3f %.3f %.3f %s\n' % (t[0], t[1], t[2], ' '.join('%.3f' % v for v in t[3:])))
-    world2 = os.path.join(out_dir, 'visit2.yaml')
-    with open(world2, 'w') as f:
-        f.write(text[:m.start(1)] + 'visit2.trees.txt' + text[m.end(1):])
+    if m is None:
+        world2 = tree_file
+    else:
+        world2 = os.path.join(out_dir, 'visit2.yaml')
+        with open(world2, 'w') as f:
+            f.write(text[:m.start(1)] + 'visit2.trees.txt' + text[m.end(1):])
     return world2, (min(xs), min(ys), max(xs), max(ys)), [trees[i][:2] for i in sorted(felled)], \
         [t[:2] for t in planted]
 
 
 def world_trees_file(world):
-    """The tree list a world file names."""
-    m = re.search(r'^trees:\s*(\S+)', open(world).read(), re.M)
-    if not m:
-        raise ValueError('%s: expected a "trees:" line' % world)
-    return os.path.join(os.path.dirname(world), m.group(1))
+    """The tree list a world file names (the world itself for a plain tree list)."""
+    return tree_list_of(world)[0]
 
 
 def truth_and_odometry(bag_path):
@@ -464,7 +488,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0], epilog=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--worlds', default='paper_forest,clumped,plantation_rows,dense_forest,sparse_stand',
-                    help='world files of config/worlds (names) or paths, comma-separated')
+                    help='world files of config/worlds (names) or paths, comma-separated; a path may be a plain '
+                         'tree list (x y radius per line), a flat world')
     ap.add_argument('--seeds', default='1-10', help='e.g. 1-20 or 1,4,9')
     ap.add_argument('--drive', default='loop',
                     help='the first visit\'s drive: loop (the default; straight where the loop touches a trunk)')
@@ -497,6 +522,7 @@ def main(argv=None):
         for w in worlds:
             if not os.path.isfile(w):
                 raise ValueError('%s: no such world file' % w)
+            tree_list_of(w)  # a world file or a plain tree list, before any run
         seeds = parse_seeds(args.seeds)
         paths.program('slam_bag')
     except ValueError as e:

@@ -173,6 +173,63 @@ def test_a_map_alone_is_fitted_onto_the_true_landmarks_and_counted(tmp_path):
     assert 'estimate' not in s
 
 
+def _landmark_field(n=15, seed=4):
+    """n landmarks scattered over 10 x 8 m (as MR.CLAM's 15 poles), no two closer than 1.5 m."""
+    rng = np.random.RandomState(seed)
+    pts = []
+    while len(pts) < n:
+        p = rng.uniform([0.0, 0.0], [10.0, 8.0])
+        if all(np.hypot(*(p - q)) > 1.5 for q in pts):
+            pts.append(p)
+    return np.column_stack([np.array(pts), np.full(n, 0.1)])
+
+
+def test_a_map_far_from_the_truths_frame_is_found_and_scored_whole():
+    # A perfect map (5 cm of noise) in a frame turned 115 deg and moved 580 m: a fit from the identity finds
+    # nothing; the search over pairs of landmarks finds the transform and all 15 match.
+    truth = _landmark_field()
+    rng = np.random.RandomState(1)
+    noisy = truth[:, :2] + rng.normal(0.0, 0.05, (15, 2))
+    r = _rot(math.radians(115.0))
+    t = np.array([500.0, -300.0])
+    feats = np.column_stack([(noisy - t) @ r, truth[:, 2]])  # R feats + t is the truth's frame
+    s, _, _ = ev.evaluate(_path(), None, None, None, truth_map=truth, features=feats, no_fit_too=True)
+    assert s['fit'] == 'map_rigid_2d' and s['map_fit']['matches'] == 15 and 'refused' not in s['map_fit']
+    assert s['map_fit']['rotation_deg'] == pytest.approx(115.0, abs=1.0)
+    # 580 m from the map's origin a tenth of a degree is decimetres: the translation is known to that.
+    assert s['map_fit']['translation'] == pytest.approx([500.0, -300.0], abs=2.0)
+    m = s['map']
+    assert (m['matched'], m['duplicates'], m['spurious'], m['recall']) == (15, 0, 0, 1.0)
+    assert m['rms_error'] < 0.1
+    assert s['no_fit']['map']['matched'] == 0
+
+
+def test_a_fit_over_fewer_than_three_matches_is_refused(tmp_path):
+    # Two features: any two points fit any two points, which would read as a perfect score.
+    d01 = float(np.hypot(*(TREES[0, :2] - TREES[1, :2])))
+    feats = np.array([[100.0, 100.0, 0.2], [100.0 + d01, 100.0, 0.15]])  # as far apart as trees 0 and 1
+    s, _, _ = ev.evaluate(_path(), None, None, None, truth_map=TREES, features=feats, no_fit_too=True)
+    assert s['fit'] == 'none' and s['map_fit']['refused'] and s['map_fit']['matches'] == 2
+    assert s['map']['matched'] == 0  # scored in its own frame, far from the truth
+    bag = _bag(tmp_path / 'two.bag', landmarks=TREES, landmarks_topic='/ground_truth/landmarks')
+    out, _ = _evaluate(bag, _run_dir(tmp_path, _path(), features=feats))
+    assert 'under no rigid transform do 3 map features match a true landmark (2 at most): no fit' in out, out
+
+
+def test_known_ids_tell_a_symmetric_field_apart():
+    # Four landmarks on a square: four rotations fit equally well; the ids (known association) tell which.
+    square = np.array([[0.0, 0.0, 0.1], [4.0, 0.0, 0.1], [4.0, 4.0, 0.1], [0.0, 4.0, 0.1]])
+    ids = np.array([7, 8, 9, 10])
+    r = _rot(math.radians(30.0))
+    t = np.array([100.0, 50.0])
+    feats = np.column_stack([(square[:, :2] - t) @ r, square[:, 2]])
+    s, _, _ = ev.evaluate(_path(), None, None, None, truth_map=square, features=feats[::-1],
+                          feature_ids=ids[::-1], truth_ids=ids)
+    assert s['map_fit']['matches'] == 4
+    assert s['map_fit']['rotation_deg'] == pytest.approx(30.0, abs=1e-6)
+    assert s['map_fit']['translation'] == pytest.approx([100.0, 50.0], abs=1e-6)
+
+
 def test_the_simulators_ground_truth_trees_are_the_true_landmarks(tmp_path):
     est = _path()
     feats = np.vstack([TREES + [0.05, 0.0, 0.01], [[10.0, 12.0, 0.2]]])

@@ -53,8 +53,35 @@ def test_the_changed_stand(tmp_path):
 
 def test_a_world_without_trees_is_refused(tmp_path):
     (tmp_path / 'w.yaml').write_text('ground: flat\n')
-    with pytest.raises(ValueError, match='expected a "trees:" line'):
+    with pytest.raises(ValueError, match=r'w.yaml:1: neither a world file \(no "trees:" line\) nor a tree list'):
         lb.world_trees_file(str(tmp_path / 'w.yaml'))
+    (tmp_path / 'empty.txt').write_text('# nothing\n')
+    with pytest.raises(ValueError, match='empty.txt: neither .* nor a tree list \\(no tree in it\\)'):
+        lb.world_trees_file(str(tmp_path / 'empty.txt'))
+
+
+def test_a_plain_tree_list_is_a_world(tmp_path):
+    # The simulator's flat world from a plain list: the changed stand is a plain list too.
+    trees = [(x, y, 0.15) for x in range(0, 20, 4) for y in range(0, 20, 4)]  # 25 trees
+    plain = tmp_path / 'trees.txt'
+    plain.write_text('# x y radius\n' + ''.join('%d %d %.2f  # tree\n' % t for t in trees))
+    assert lb.world_trees_file(str(plain)) == str(plain)
+    out = tmp_path / 'out'
+    out.mkdir()
+    world2, box, felled, planted = lb.changed_world(str(plain), str(out), random.Random(1), 0.2, 0.0, 0.0)
+    assert world2 == str(out / 'visit2.trees.txt') and box == (0, 0, 16, 16)
+    assert len(felled) == 5 and planted == []
+    assert len(lb.read_trees(world2)) == 20
+    assert lb.world_trees_file(world2) == world2
+
+
+def test_a_file_that_is_no_world_is_refused_before_any_run(tmp_path, capsys):
+    bad = tmp_path / 'notes.txt'
+    bad.write_text('1 2 0.2\nthe stand north of the road\n')
+    assert lb.main(['--worlds', str(bad), '--seeds', '1']) == 1
+    err = capsys.readouterr().err
+    assert err == 'lifelong_benchmark: %s:2: neither a world file (no "trees:" line) nor a tree list (x y radius ' \
+                  'per line)\n' % bad, err
 
 
 def test_a_missing_world_is_named(capsys):
