@@ -49,6 +49,10 @@ CAMERA_HALF_FOV = math.radians(30.0)     # [rad] the camera sees bearings within
 CAMERA_MAX_RANGE = 5.0                   # [m] barcodes are read out to about 5 m
 RANGE_SIGMA = 0.15                       # [m]
 BEARING_SIGMA = 0.03                     # [rad]
+#: Commands beyond these are no command of the data set's iRobot Creates (0.5 m/s at most; the logs' largest are
+#: 0.09 m/s and 0.57 rad/s).
+MAX_SPEED = 2.0                          # [m/s]
+MAX_TURN_RATE = 2.0 * math.pi            # [rad/s]
 
 EXAMPLE = """
 Example:
@@ -119,8 +123,22 @@ def read_landmarks(path, bad=None):
 
 
 def read_odometry(path, bad=None, limit=None):
-    """RobotN_Odometry.dat: (stamps as printed, v [m/s], w [rad/s])."""
-    rows, _ = cc.read_table(path, ('time', 'v', 'w'), bad, limit=limit, order='not decrease')
+    """RobotN_Odometry.dat: (stamps as printed, v [m/s], w [rad/s]); a command beyond MAX_SPEED or MAX_TURN_RATE
+    is malformed."""
+    bad = bad or cc.BadLines()
+    rows, lines = cc.read_table(path, ('time', 'v', 'w'), bad, limit=limit, order='not decrease')
+    v_ok = np.abs(rows[:, 1]) <= MAX_SPEED
+    ok = v_ok & (np.abs(rows[:, 2]) <= MAX_TURN_RATE)
+    for k in np.flatnonzero(~ok):
+        if not v_ok[k]:
+            bad(cc.ConversionError(path, int(lines[k]), 'a forward velocity within +-%g m/s' % MAX_SPEED,
+                                   got='%g' % rows[k, 1]))
+        else:
+            bad(cc.ConversionError(path, int(lines[k]), 'an angular velocity within +-%.4g rad/s' % MAX_TURN_RATE,
+                                   got='%g' % rows[k, 2]))
+    rows = rows[ok]
+    if not len(rows):
+        raise cc.ConversionError(path, None, 'lines of time v w', got='no valid line')
     return rows[:, 0], rows[:, 1], rows[:, 2]
 
 

@@ -59,6 +59,8 @@ LASER_LEFT = 0.5                  # [m] b, left of the centre line
 LASER_MOUNT = (WHEELBASE + LASER_AHEAD_OF_FRONT_AXLE, LASER_LEFT)  # [m] in base_link (the rear axle's centre)
 #: A steering angle beyond this is no reading of the car's (its lock is about 0.6 rad; v_c is singular at 1.31 rad).
 MAX_STEERING = 1.0                # [rad]
+#: A wheel speed beyond this is no reading of a utility car driving in a park (the log's fastest is 6.6 m/s).
+MAX_SPEED = 30.0                  # [m/s]
 
 BEAMS = 361
 ANGLE_MIN = -math.pi / 2.0        # [rad] beam 0, to the car's right
@@ -228,14 +230,18 @@ def read_laser(path, bad=None, limit=None, stream=None):
 
 def read_drs(path, bad=None, until=None, stream=None):
     """DRS.txt: (stamps, speed [m/s] of the left rear wheel, steering [rad]); up to the first line at or after
-    ``until``. A steering angle beyond MAX_STEERING is malformed."""
+    ``until``. A steering angle beyond MAX_STEERING or a speed beyond MAX_SPEED is malformed."""
     bad = bad or cc.BadLines()
     rows, lines = cc.read_table(path, ('time', 'speed', 'steering'), bad, until=until, one_past=True,
                                 order='increase', stream=stream)
-    ok = np.abs(rows[:, 2]) <= MAX_STEERING
+    speed_ok = np.abs(rows[:, 1]) <= MAX_SPEED
+    ok = speed_ok & (np.abs(rows[:, 2]) <= MAX_STEERING)
     for k in np.flatnonzero(~ok):
-        bad(cc.ConversionError(path, int(lines[k]), 'a steering angle within +-%g rad' % MAX_STEERING,
-                               got='%g' % rows[k, 2]))
+        if not speed_ok[k]:
+            bad(cc.ConversionError(path, int(lines[k]), 'a speed within +-%g m/s' % MAX_SPEED, got='%g' % rows[k, 1]))
+        else:
+            bad(cc.ConversionError(path, int(lines[k]), 'a steering angle within +-%g rad' % MAX_STEERING,
+                                   got='%g' % rows[k, 2]))
     rows = rows[ok]
     if not len(rows):
         raise cc.ConversionError(path, None, 'lines of time speed steering', got='no valid line')

@@ -166,10 +166,12 @@ struct FastSlamFeed
     const std::size_t bad = toTrunkSweep(array, core::Pose2(mount.x, mount.y, mount.yaw), mount.z, &sweep);
     if (bad > 0 && sweep.trunks.empty())
       return drops.drop(topic, stamp, "all " + std::to_string(bad) +
-                                          " detections with a non-finite value (not a look that saw no tree)");
+                                          " detections not finite or out of range (a negative radius or variance, "
+                                          "no covariance; not a look that saw no tree)");
     if (bad > 0)
-      drops.drop(topic, stamp, std::to_string(bad) + " detections with a non-finite value (left out; no tree counts "
-                                                     "as missed in this array)");
+      drops.drop(topic, stamp, std::to_string(bad) + " detections not finite or out of range (a negative radius or "
+                                                     "variance, no covariance; left out, no tree counts as missed in "
+                                                     "this array)");
     if (admitted(pipeline->addTrunks(std::move(sweep), clock, clock), topic, stamp, &drops))
       ++sweeps;
   }

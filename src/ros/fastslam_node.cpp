@@ -223,9 +223,9 @@ void FastSlamRos::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)
   const std::string bad = quaternionProblem(p.orientation);
   if (!bad.empty())
   {
-    ++dropped_;
-    ROS_WARN_THROTTLE(5.0, "%s: odometry stamped %.3f: orientation %s; dropped (%zu messages dropped so far)",
-                      name_.c_str(), msg->header.stamp.toSec(), bad.c_str(), dropped_);
+    const std::string so_far = dropped_.add("odometry orientation " + bad);
+    ROS_WARN_THROTTLE(5.0, "%s: odometry stamped %.3f: orientation %s; dropped (%s)", name_.c_str(),
+                      msg->header.stamp.toSec(), bad.c_str(), so_far.c_str());
     return;
   }
   const core::StampVerdict v = pipeline_->addOdometry(
@@ -262,16 +262,17 @@ bool FastSlamRos::toSweep(const rbpf_slam::TrunkArray& msg, core::TrunkSweep* sw
   const std::size_t bad = toTrunkSweep(msg, sensor, sensor_height_, sweep);
   if (bad > 0 && sweep->trunks.empty())
   {
-    ++dropped_;
-    ROS_WARN_THROTTLE(5.0, "%s: all %zu trunks of the array at %.3f have a non-finite centre, covariance or radius; "
-                      "the array is dropped (not a look that saw no tree)", name_.c_str(), bad,
-                      msg.header.stamp.toSec());
+    const std::string so_far = dropped_.add("trunk arrays with no readable trunk");
+    ROS_WARN_THROTTLE(5.0, "%s: all %zu trunks of the array at %.3f have a centre, radius or covariance that is not "
+                      "finite or out of range (a negative radius or variance, no covariance); the array is dropped "
+                      "(not a look that saw no tree); messages: %s", name_.c_str(), bad, msg.header.stamp.toSec(),
+                      so_far.c_str());
     return false;
   }
   if (bad > 0)
-    ROS_WARN_THROTTLE(5.0, "%s: %zu trunks with a non-finite centre, covariance or radius in the array at %.3f; "
-                      "dropped (the others are used; no tree counts as missed in this array)", name_.c_str(), bad,
-                      msg.header.stamp.toSec());
+    ROS_WARN_THROTTLE(5.0, "%s: %zu trunks with a centre, radius or covariance not finite or out of range (a "
+                      "negative radius or variance, no covariance) in the array at %.3f; dropped (the others are "
+                      "used; no tree counts as missed in this array)", name_.c_str(), bad, msg.header.stamp.toSec());
   return true;
 }
 
@@ -287,14 +288,14 @@ void FastSlamRos::report(core::StampVerdict verdict, const char* stream, const r
              core::TimelineGate::kJumpConfirmations, pipeline_->restarts(), updates_);
     return;
   }
-  ++dropped_;
   const char* why = verdict == core::StampVerdict::kInvalid ? "stamp or pose not finite" : core::stampVerdictName(verdict);
+  const std::string so_far = dropped_.add(std::string(stream) + " " + why);
   if (warned_verdicts_.insert(static_cast<int>(verdict)).second)  // the first of each kind always, then every 5 s
-    ROS_WARN("%s: %s stamped %.3f: %s; dropped (%zu messages dropped so far)", name_.c_str(), stream, stamp.toSec(),
-             why, dropped_);
+    ROS_WARN("%s: %s stamped %.3f: %s; dropped (messages: %s)", name_.c_str(), stream, stamp.toSec(), why,
+             so_far.c_str());
   else
-    ROS_WARN_THROTTLE(5.0, "%s: %s stamped %.3f: %s; dropped (%zu messages dropped so far)", name_.c_str(), stream,
-                      stamp.toSec(), why, dropped_);
+    ROS_WARN_THROTTLE(5.0, "%s: %s stamped %.3f: %s; dropped (messages: %s)", name_.c_str(), stream, stamp.toSec(),
+                      why, so_far.c_str());
 }
 
 void FastSlamRos::onTimer(const ros::WallTimerEvent& /*event*/)

@@ -261,16 +261,16 @@ void GridSlamRos::admit(const InboxScan& in)
     onRestart(msg->header.stamp.toSec());
   else if (verdict != core::StampVerdict::kAccept)
   {
-    ++dropped_;
+    const std::string so_far = dropped_.add(core::stampVerdictName(verdict));
     // The first drop of each kind is always said; repeats at most every 5 s.
     if (warned_verdicts_.insert(static_cast<int>(verdict)).second)
-      ROS_WARN("%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
+      ROS_WARN("%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%s)", name_.c_str(),
                msg->header.stamp.toSec(), last_scan_stamp_.toSec(), in.clock, core::stampVerdictName(verdict),
-               dropped_);
+               so_far.c_str());
     else
-      ROS_WARN_THROTTLE(5.0, "%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%zu dropped so far)",
-                        name_.c_str(), msg->header.stamp.toSec(), last_scan_stamp_.toSec(), in.clock,
-                        core::stampVerdictName(verdict), dropped_);
+      ROS_WARN_THROTTLE(5.0, "%s: scan stamped %.3f (previous %.3f, clock %.3f): %s; dropped (%s)", name_.c_str(),
+                        msg->header.stamp.toSec(), last_scan_stamp_.toSec(), in.clock,
+                        core::stampVerdictName(verdict), so_far.c_str());
     return;
   }
   last_scan_stamp_ = msg->header.stamp;
@@ -283,13 +283,13 @@ void GridSlamRos::admit(const InboxScan& in)
                        !lookup(config_.base_frame, msg->header.frame_id, ros::Time(0), &sensor, &error)))
   {
     const std::string reason = why.empty() ? "no transform " + config_.base_frame + " -> " + msg->header.frame_id : why;
-    ++dropped_;
+    const std::string so_far = dropped_.add(why.empty() ? reason : "unreadable scans");
     if (warned_reasons_.insert(reason).second)  // the first of each reason always, repeats at most every 5 s
-      ROS_WARN("%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(), msg->header.stamp.toSec(),
-               reason.c_str(), dropped_);
+      ROS_WARN("%s: scan at %.3f: %s: dropped (%s)", name_.c_str(), msg->header.stamp.toSec(), reason.c_str(),
+               so_far.c_str());
     else
-      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(),
-                        msg->header.stamp.toSec(), reason.c_str(), dropped_);
+      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%s)", name_.c_str(), msg->header.stamp.toSec(),
+                        reason.c_str(), so_far.c_str());
     return;
   }
   const std::size_t before = pipeline_->droppedPending();
@@ -370,9 +370,9 @@ void GridSlamRos::processPending()
       continue;  // the old timeline's last scans, flushed by a restart: its map is gone
     if (!u.error.empty())
     {
-      ++dropped_;
-      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%zu dropped so far)", name_.c_str(), u.stamp,
-                        u.error.c_str(), dropped_);
+      const std::string so_far = dropped_.add(u.error);
+      ROS_WARN_THROTTLE(5.0, "%s: scan at %.3f: %s: dropped (%s)", name_.c_str(), u.stamp, u.error.c_str(),
+                        so_far.c_str());
       continue;
     }
     if (u.outage_began)

@@ -158,6 +158,20 @@ core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg)
   return s;
 }
 
+bool trunkIsReadable(const core::TrunkObservation& o)
+{
+  if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius) ||
+      !std::isfinite(o.radius_variance))
+    return false;
+  if (o.radius < 0.0 || o.radius_variance < 0.0)
+    return false;
+  // A covariance: symmetric, with variances >= 0 and a determinant >= 0 (to the rounding of its numbers).
+  const Eigen::Matrix2d& c = o.covariance;
+  const double scale = std::max({ std::abs(c(0, 0)), std::abs(c(1, 1)), std::abs(c(0, 1)), 1e-300 });
+  return c(0, 0) >= 0.0 && c(1, 1) >= 0.0 && std::abs(c(0, 1) - c(1, 0)) <= 1e-9 * scale &&
+         c(0, 0) * c(1, 1) - c(0, 1) * c(1, 0) >= -1e-9 * scale * scale;
+}
+
 std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& sensor, double sensor_height,
                          core::TrunkSweep* sweep)
 {
@@ -184,7 +198,7 @@ std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& se
   for (const auto& trunk : msg.trunks)
   {
     const core::TrunkObservation o = fromMsg(trunk);
-    if (!o.center.allFinite() || !o.covariance.allFinite() || !std::isfinite(o.radius))
+    if (!trunkIsReadable(o))
     {
       ++bad;
       continue;

@@ -209,10 +209,10 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
   if (!why.empty())
   {
     // Dropped: no TrunkArray, so that no consumer takes an unreadable cloud for a look that saw no tree.
-    ++dropped_;
-    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s (frame '%s', stamp %.3f): %s; dropped (%zu dropped so far)",
-                      name_.c_str(), cloud_sub_.getTopic().c_str(), msg->header.frame_id.c_str(),
-                      msg->header.stamp.toSec(), why.c_str(), dropped_);
+    const std::string so_far = dropped_.add("unreadable clouds");
+    ROS_WARN_THROTTLE(5.0, "%s: cloud on %s (frame '%s', stamp %.3f): %s; dropped (%s)", name_.c_str(),
+                      cloud_sub_.getTopic().c_str(), msg->header.frame_id.c_str(), msg->header.stamp.toSec(),
+                      why.c_str(), so_far.c_str());
     publishDropped(msg->header, "cloud", why);
     return;
   }
@@ -234,8 +234,9 @@ void TrunkExtraction::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
     }
     catch (const std::exception& e)
     {
-      ++dropped_;
-      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; cloud dropped", name_.c_str(), e.what());
+      const std::string so_far = dropped_.add("detection failures");
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; cloud dropped (%s)", name_.c_str(), e.what(),
+                         so_far.c_str());
       publishDropped(msg->header, "cloud", std::string("detection failed: ") + e.what());
       return;
     }
@@ -255,10 +256,10 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
   const std::string why = toPlanarScan(*msg, &scan);
   if (!why.empty())
   {
-    ++dropped_;
-    ROS_WARN_THROTTLE(5.0, "%s: scan on %s (frame '%s', stamp %.3f): %s; dropped (%zu dropped so far)", name_.c_str(),
+    const std::string so_far = dropped_.add("unreadable scans");
+    ROS_WARN_THROTTLE(5.0, "%s: scan on %s (frame '%s', stamp %.3f): %s; dropped (%s)", name_.c_str(),
                       scan_sub_.getTopic().c_str(), msg->header.frame_id.c_str(), msg->header.stamp.toSec(),
-                      why.c_str(), dropped_);
+                      why.c_str(), so_far.c_str());
     publishDropped(msg->header, "scan", why);
     return;
   }
@@ -277,8 +278,9 @@ void TrunkExtraction::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
     }
     catch (const std::exception& e)
     {
-      ++dropped_;
-      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; scan dropped", name_.c_str(), e.what());
+      const std::string so_far = dropped_.add("detection failures");
+      ROS_ERROR_THROTTLE(5.0, "%s: trunk detection failed: %s; scan dropped (%s)", name_.c_str(), e.what(),
+                         so_far.c_str());
       publishDropped(msg->header, "scan", std::string("detection failed: ") + e.what());
       return;
     }
@@ -303,7 +305,7 @@ void TrunkExtraction::publishDropped(const std_msgs::Header& header, const char*
   if (stats_pub_.getNumSubscribers() == 0)
     return;
   std::ostringstream s;
-  s << "input=" << input << " stamp=" << header.stamp << " dropped=" << dropped_ << " inputs=" << inputs_
+  s << "input=" << input << " stamp=" << header.stamp << " dropped=" << dropped_.total() << " inputs=" << inputs_
     << " reason=" << why;
   auto text = boost::make_shared<std_msgs::String>();
   text->data = s.str();
@@ -334,7 +336,7 @@ void TrunkExtraction::publish(const std_msgs::Header& header, const std::vector<
       << " tilt_roll=" << stats.tilt_roll << " tilt_pitch=" << stats.tilt_pitch
       << " tilt_from=" << (stats.tilt_from_ground ? "ground" : "stems") << " ground_roll=" << stats.ground_roll
       << " ground_pitch=" << stats.ground_pitch << " inputs=" << inputs_
-      << " markers_published=" << markers_published_ << " dropped=" << dropped_;
+      << " markers_published=" << markers_published_ << " dropped=" << dropped_.total();
     auto text = boost::make_shared<std_msgs::String>();
     text->data = s.str();
     stats_pub_.publish(std_msgs::String::ConstPtr(text));

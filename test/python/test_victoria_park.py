@@ -229,6 +229,8 @@ def _cut(text, drop):
      'DRS.txt:3: expected times in increasing order, got 1.000 after 1.025 on line 2'),
     ({'drs': DRS.replace('1.050\t 2.000\t0.0000', '1.050\t 2.000\t1.5000')},
      'DRS.txt:3: expected a steering angle within +-1 rad, got 1.5'),
+    ({'drs': DRS.replace('1.050\t 2.000', '1.050\t 1e308')},
+     'DRS.txt:3: expected a speed within +-30 m/s, got 1e+308'),
     ({'gps': GPS + '1.2 3\r\n'}, 'GPS.txt:4: expected time north east (3 fields), got 2 fields'),
     ({'laser': _cut(LASER, 300)}, 'LASER.txt:1: expected a time and 361 ranges (362 numbers) in scan 3, got '),
     ({'laser': laser_stream([100.0]) + '\t' + laser_stream([100.2])[8:] + '\t' + laser_stream([100.4])},

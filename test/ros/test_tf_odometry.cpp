@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <tf2_ros/buffer.h>
 
+#include "rbpf_slam/ros/drop_count.h"
 #include "rbpf_slam/ros/tf_odometry.h"
 
 namespace
@@ -38,4 +39,22 @@ TEST(TfOdometry, FoundNotYetAndNever)
   buffer.setTransform(odomAt(102.0, 4.0), "test");
   EXPECT_EQ(odometry.at(ros::Time(101.5), &pose, &error), rbpf_slam::TfOdometry::Answer::kFound);
   EXPECT_NEAR(pose.x, 3.5, 1e-9);
+}
+
+TEST(DropCount, EachCauseIsCountedOnItsOwnAndTheTotalBesideThem)
+{
+  rbpf_slam::DropCount d;
+  EXPECT_EQ(d.summary(), "0 dropped so far");
+  d.add("before the previous stamp");
+  d.add("no transform base_link -> laser");
+  EXPECT_EQ(d.add("before the previous stamp"),
+            "3 dropped so far: 2 before the previous stamp, 1 no transform base_link -> laser");
+  EXPECT_EQ(d.total(), 3u);
+  EXPECT_EQ(d.count("before the previous stamp"), 2u);
+  // Causes beyond the first kMaxCauses count together: the text stays short.
+  for (std::size_t i = 0; i < 20; ++i)
+    d.add("cause " + std::to_string(i));
+  EXPECT_EQ(d.total(), 23u);
+  EXPECT_EQ(d.count("other causes"), 23u - 3u - (rbpf_slam::DropCount::kMaxCauses - 2));
+  EXPECT_EQ(d.count("cause 19"), 0u);
 }

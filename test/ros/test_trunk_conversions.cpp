@@ -66,6 +66,34 @@ TEST(TrunkConversions, UnreadableTrunksAreLeftOutAndTheArrayIsNoEvidenceOfAbsenc
   EXPECT_TRUE(sweep.scope.complete);
 }
 
+TEST(TrunkConversions, TrunksOutOfRangeAreLeftOutLikeUnreadableOnes)
+{
+  rbpf_slam::TrunkArray msg;
+  msg.header.stamp = ros::Time(100.0);
+  rbpf_slam::Trunk good;
+  good.center.x = 4.0;
+  good.radius = 0.2;
+  good.radius_variance = 1e-4;
+  good.covariance = { 1e-4, 2e-5, 2e-5, 1e-4 };
+  rbpf_slam::Trunk negative_radius = good, negative_radius_variance = good, negative_variance = good,
+                   asymmetric = good, indefinite = good, unknown_radius = good;
+  negative_radius.radius = -0.2;
+  negative_radius_variance.radius_variance = -1e-4;
+  negative_variance.covariance = { -1e-4, 0.0, 0.0, 1e-4 };
+  asymmetric.covariance = { 1e-4, 5e-5, -5e-5, 1e-4 };
+  indefinite.covariance = { 1e-4, 2e-4, 2e-4, 1e-4 };  // variances fine, the determinant negative
+  unknown_radius.radius = 0.0;                          // a centroid: no radius, still a trunk
+  unknown_radius.radius_variance = 0.0;
+  msg.trunks = { good, negative_radius, negative_radius_variance, negative_variance, asymmetric, indefinite,
+                 unknown_radius };
+  rbpf_slam::core::TrunkSweep sweep;
+  EXPECT_EQ(rbpf_slam::toTrunkSweep(msg, rbpf_slam::core::Pose2(), 0.0, &sweep), 5u);
+  EXPECT_EQ(sweep.trunks.size(), 2u);
+  EXPECT_FALSE(sweep.scope.complete);
+  for (const auto& t : { good, unknown_radius })
+    EXPECT_TRUE(rbpf_slam::trunkIsReadable(rbpf_slam::fromMsg(t)));
+}
+
 TEST(TrunkConversions, ADetectionSurvivesTheMessageBothWays)
 {
   rbpf_slam::core::TrunkObservation t;

@@ -17,6 +17,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "rbpf_slam/ros/drop_count.h"
 #include "rbpf_slam/Trunk.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
@@ -125,7 +126,7 @@ private:
   /// The FastSLAM pipeline the bag runner runs too (core::TrunkSlamPipeline): stamps, odometry, filter.
   std::unique_ptr<core::TrunkSlamPipeline> pipeline_;
   int published_timeline_ = 0;
-  std::size_t dropped_ = 0;
+  DropCount dropped_;  ///< messages dropped, per cause
   std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
   std::string sensor_frame_;
   core::Pose2 sensor_pose_;

@@ -19,6 +19,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "rbpf_slam/ros/drop_count.h"
 #include "rbpf_slam/ros/transform_guard.h"
 
 #include "rbpf_slam/core/grid/grid_slam_pipeline.h"
@@ -124,7 +125,8 @@ private:
   ros::Time last_map_stamp_;
   std::set<int> warned_verdicts_;  ///< kinds of dropped stamps said once already
   std::set<std::string> warned_reasons_;  ///< reasons for dropped scans said once already
-  std::size_t updates_ = 0, skipped_ = 0, dropped_ = 0;
+  std::size_t updates_ = 0, skipped_ = 0;
+  DropCount dropped_;  ///< scans dropped, per cause
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -41,10 +41,13 @@ rbpf_slam::TrunkArray::Ptr toSweepMsg(const std_msgs::Header& header, const std:
                                       const core::SweepGeometry* geometry, double tilt_roll, double tilt_pitch);
 /** @brief The sensor's scope a TrunkArray states (NaN for each field it leaves 0). */
 core::SensorScope scopeFromMsg(const rbpf_slam::TrunkArray& msg);
+/** @brief False for a trunk no filter may use: a centre, radius or covariance not finite, a negative radius or
+ * radius variance, a covariance that is no covariance (asymmetric, a negative variance or determinant). */
+bool trunkIsReadable(const core::TrunkObservation& trunk);
 /**
  * @brief A TrunkArray (sensor frame) as the pipeline's sweep, the sensor at @p sensor on base_link, @p sensor_height
- * above it: timing, tilt, scope and the trunks; trunks with a non-finite centre, covariance or radius are left out
- * and counted (the return value). The node and the bag runner share it.
+ * above it: timing, tilt, scope and the trunks; trunks that are not readable (trunkIsReadable) are left out and
+ * counted (the return value). The node and the bag runner share it.
  */
 std::size_t toTrunkSweep(const rbpf_slam::TrunkArray& msg, const core::Pose2& sensor, double sensor_height,
                          core::TrunkSweep* sweep);

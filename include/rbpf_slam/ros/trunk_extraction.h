@@ -16,6 +16,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "rbpf_slam/ros/drop_count.h"
 #include "rbpf_slam/TrunkArray.h"
 #include "rbpf_slam/TrunkExtractionConfig.h"
 #include "rbpf_slam/core/extraction/trunk_detector.h"
@@ -92,7 +93,7 @@ private:
   ros::Publisher trunks_pub_, markers_pub_, stats_pub_, address_pub_;
   std::uint64_t markers_published_ = 0;
   std::uint64_t inputs_ = 0;
-  std::size_t dropped_ = 0;  ///< inputs that could not be read (no TrunkArray published for them)
+  DropCount dropped_;  ///< inputs that could not be read (no TrunkArray published for them), per cause
   bool reach_warned_ = false;  ///< the reach fell short of max_range and that was said
 };
 
