@@ -68,8 +68,11 @@ def tree_list_of(world):
     """The tree list of @p world: a world file's "trees:" file, or the world itself when it is a plain tree list
     (x y radius per line, # comments; the simulator takes it as a flat world). (path, world text, the "trees:"
     match or None). ValueError for a file that is neither, naming its first line that is no tree."""
-    with open(world) as f:
-        text = f.read()
+    try:
+        with open(world) as f:
+            text = f.read()
+    except UnicodeDecodeError:
+        raise ValueError('%s: neither a world file nor a tree list: not text' % world)
     m = re.search(r'^trees:\s*(\S+)', text, re.M)
     if m:
         return os.path.join(os.path.dirname(world), m.group(1)), text, m

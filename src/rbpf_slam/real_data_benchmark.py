@@ -315,8 +315,8 @@ def _find(folder, *names):
 
 
 def data_inputs(data, sets, robots):
-    """{bag name: (converter command without -o, [input files])} for the selected sets; DataError naming what
-    is missing."""
+    """{bag name: (converter command without -o, [input files][, file name of the bag when not the bag name])} for
+    the selected sets; DataError naming what is missing (the published detections only when vp_detections runs)."""
     if not data:
         raise DataError('no data directory: give --data DIR or set %s' % paths.DATA_ENV)
     if not os.path.isdir(data):
@@ -330,11 +330,14 @@ def data_inputs(data, sets, robots):
             log_files = [_find(vp, n) for n in ('LASER.txt', 'DRS.txt', 'GPS.txt')]
         detections = _find(vp, 'published_measurements.dat')
         missing = [] if all(log_files) else ['victoria_park_ascii.zip (or LASER.txt, DRS.txt, GPS.txt)']
-        if detections is None:
-            missing.append('published_measurements.dat.gz')  # the bag always holds both, for both sets
+        if detections is None and 'vp_detections' in vp_sets:
+            missing.append('published_measurements.dat.gz')
         if missing:
             raise DataError('%s: missing %s (needed by %s)' % (vp, ', '.join(missing), ', '.join(vp_sets)))
-        bags['victoria_park'] = (['victoria_park_to_bag', vp, '--detections', '-q'], log_files + [detections])
+        if detections is not None:  # one bag for both sets
+            bags['victoria_park'] = (['victoria_park_to_bag', vp, '--detections', '-q'], log_files + [detections])
+        else:  # the laser alone: a bag of its own name, never taken for one that holds the detections
+            bags['victoria_park'] = (['victoria_park_to_bag', vp, '-q'], log_files, 'victoria_park_laser_only')
     mr_sets = [s for s in sets if DATA_SETS[s]['data'] == 'mrclam']
     if mr_sets:
         mr = os.path.join(data, 'mrclam')
@@ -383,8 +386,8 @@ def convert(bags, names, out_dir):
     os.makedirs(bag_dir, exist_ok=True)
     done = {}
     for name in names:
-        cmd, inputs = bags[name]
-        bag = os.path.join(bag_dir, name + '.bag')
+        cmd, inputs = bags[name][:2]
+        bag = os.path.join(bag_dir, (bags[name][2] if len(bags[name]) > 2 else name) + '.bag')
         newest = max(os.path.getmtime(f) for f in inputs)
         if os.path.isfile(bag) and os.path.getmtime(bag) > newest:
             log('%s: reusing %s' % (name, bag))

@@ -75,7 +75,14 @@ class Lidar(object):
 # --- The cloud and its reference ---------------------------------------------------------------------------------
 
 def read_pcd(path):
-    """The x y z of an ascii or binary PCD file as float64 (n x 3); ValueError for other files."""
+    """The x y z of an ascii or binary PCD file as float64 (n x 3); ValueError for other files, naming the file."""
+    try:
+        return _read_pcd(path)
+    except ValueError as e:
+        raise ValueError('%s: %s' % (path, e))
+
+
+def _read_pcd(path):
     header = extract_trunks.pcd_header(path)
     fields = header['FIELDS']
     sizes = [int(s) for s in header.get('SIZE', ['4'] * len(fields))]

@@ -50,6 +50,22 @@ def test_missing_files_are_named(tmp_path):
     assert 'Robot1_' not in proc.stderr  # only the robots asked for are needed
 
 
+def test_the_laser_set_does_not_ask_for_the_published_detections(tmp_path):
+    rdb = _load()
+    vp = tmp_path / 'data' / 'victoria_park'
+    vp.mkdir(parents=True)
+    (vp / 'victoria_park_ascii.zip').write_bytes(b'')
+    bags = rdb.data_inputs(str(tmp_path / 'data'), ['vp_laser'], [1])
+    cmd, inputs, file_name = bags['victoria_park']
+    assert '--detections' not in cmd and inputs == [str(vp / 'victoria_park_ascii.zip')]
+    assert file_name == 'victoria_park_laser_only'  # never reused as the bag with the detections
+    with pytest.raises(rdb.DataError, match='published_measurements.dat.gz'):
+        rdb.data_inputs(str(tmp_path / 'data'), ['vp_detections', 'vp_laser'], [1])
+    (vp / 'published_measurements.dat.gz').write_bytes(b'')
+    cmd, inputs = rdb.data_inputs(str(tmp_path / 'data'), ['vp_laser'], [1])['victoria_park']
+    assert '--detections' in cmd and len(inputs) == 2  # one bag for both sets when the file is there
+
+
 def test_unknown_data_set_or_robot_is_refused(tmp_path):
     proc = _run(['--data', str(tmp_path), '--only', 'vp_detections,parking_lot'], tmp_path)
     assert proc.returncode == 2 and 'parking_lot' in proc.stderr and 'vp_laser' in proc.stderr
