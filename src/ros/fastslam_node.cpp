@@ -356,6 +356,13 @@ void FastSlamRos::processPending()
                         pipeline_->gnssFixesRejected());
       gnss_rejected_said_ = pipeline_->gnssFixesRejected();
     }
+    if (pipeline_->gnssAnchorOutliers() > gnss_outliers_said_)
+    {
+      ROS_WARN_THROTTLE(10.0, "%s: %d satellite fixes lie far from where the others put the map (a receiver's "
+                        "fault?) and were left out of the map's anchor on the earth", name_.c_str(),
+                        pipeline_->gnssAnchorOutliers());
+      gnss_outliers_said_ = pipeline_->gnssAnchorOutliers();
+    }
     ROS_DEBUG("%s: %d observations, %d matched, %d new, Neff %.1f%s", name_.c_str(), u.stats.observations,
               u.stats.matched, u.stats.created, u.stats.neff, u.stats.resampled ? ", resampled" : "");
     publishHealth(u);

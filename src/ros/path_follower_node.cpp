@@ -30,6 +30,8 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   readKey(params, "avoid_obstacles", &config.avoid_obstacles);
   readKey(params, "robot_radius", &config.robot_radius);
   readKey(params, "clearance", &config.clearance);
+  readKey(params, "min_clearance", &config.min_clearance);
+  readKey(params, "max_departure", &config.max_departure);
   readKey(params, "horizon", &config.horizon);
   readKey(params, "max_curvature", &config.max_curvature);
   readKey(params, "obstacle_memory", &config.obstacle_memory);

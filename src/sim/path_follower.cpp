@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
+#include <cstdint>
 
 #include "rbpf_slam/core/filter/cell_key.h"
 
@@ -19,6 +21,11 @@ constexpr double kExtentCell = 0.2;   // [m] cells in which obstaclesFromCloud m
 constexpr int kArcsPerSide = 20;      // candidate curvatures on each side of straight ahead
 constexpr double kSlowFactor = 1.0 / 3.0;  // of the speed, on an arc that keeps only the footprint clear
 constexpr double kApproachSlack = 0.02;    // [m] an arc may come this much nearer to a point already too near
+constexpr double kPlanCell = 0.15;         // [m] the way planner's grid
+constexpr int kPlanEvery = 5;              // the way is planned again at every 5th command, followed in between
+constexpr double kCarrot = 1.0;            // [m] along the planned way: the point steered to
+constexpr double kTurnInPlaceBearing = M_PI / 3.0;  // [rad] a carrot farther round than this is turned to in place
+constexpr double kNearCost = 3.0;          // a step within clearance of an obstacle point costs this many times more
 
 std::int64_t cellKey(double x, double y, double cell)
 {
@@ -55,6 +62,18 @@ double arcDistance(const Eigen::Vector2d& p, double kappa, double length)
 }
 }  // namespace
 
+namespace
+{
+/** The command along the arc of curvature @p kappa at @p speed, slower where it is sharp (|angular| <= max). */
+VelocityCommand arcCommand(double kappa, double speed, double max_angular)
+{
+  VelocityCommand cmd;
+  cmd.linear = std::abs(kappa) > 1e-9 ? std::min(speed, max_angular / std::abs(kappa)) : speed;
+  cmd.angular = cmd.linear * kappa;
+  return cmd;
+}
+}  // namespace
+
 bool PathFollowerConfig::validate(std::string* error) const
 {
   const auto fail = [error](const std::string& what) {
@@ -62,8 +81,10 @@ bool PathFollowerConfig::validate(std::string* error) const
       *error = what;
     return false;
   };
-  if (!(robot_radius >= 0.0) || !(clearance >= 0.0))
-    return fail("robot_radius and clearance must be >= 0");
+  if (!(robot_radius >= 0.0) || !(clearance >= 0.0) || !(min_clearance >= 0.0) || !(max_departure >= 0.0))
+    return fail("robot_radius, clearance, min_clearance and max_departure must be >= 0");
+  if (min_clearance > clearance)
+    return fail("min_clearance must be <= clearance");
   if (!(horizon > 0.0) || !(max_curvature > 0.0))
     return fail("horizon and max_curvature must be > 0");
   if (!(obstacle_memory >= 0.0) || !(obstacle_range > 0.0))
@@ -182,7 +203,26 @@ VelocityCommand PathFollower::command(const Pose2& pose)
   VelocityCommand cmd;
   cmd.linear = config_.speed;
   cmd.angular = std::max(-config_.max_angular, std::min(config_.max_angular, config_.speed * 2.0 * ly / l2));
+  // A look-ahead point behind the robot (after a detour) is turned towards as sharply as allowed: pure pursuit's
+  // arc would run straight away from one right behind.
+  if (lx < 0.0)
+    cmd.angular = ly >= 0.0 ? config_.max_angular : -config_.max_angular;
   return avoid(pose, cmd);
+}
+
+double PathFollower::distanceToPath(const Eigen::Vector2d& p) const
+{
+  // The segments from the current one to a few look-aheads on (a loop crosses itself; the rest is not the way).
+  double best = std::numeric_limits<double>::infinity();
+  const double window = progress_ + 2.0 * config_.lookahead + config_.horizon + 1.0;
+  for (std::size_t i = segment_; i + 1 < path_.size() && cumulative_[i] <= window; ++i)
+  {
+    const Eigen::Vector2d a = path_[i], ab = path_[i + 1] - path_[i];
+    const double len2 = ab.squaredNorm();
+    const double u = len2 > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / len2)) : 0.0;
+    best = std::min(best, (a + u * ab - p).norm());
+  }
+  return best;
 }
 
 void PathFollower::addObstacles(double stamp, const Pose2& pose, const std::vector<Eigen::Vector2d>& points)
@@ -217,6 +257,128 @@ std::vector<Eigen::Vector2d> PathFollower::obstacles() const
   return out;
 }
 
+bool PathFollower::planWay(const Pose2& pose)
+{
+  way_.clear();
+  const double hard = config_.robot_radius + config_.min_clearance;
+  const double soft = config_.robot_radius + config_.clearance;
+  const double half = config_.obstacle_range + 0.5;
+  const int n = 2 * static_cast<int>(std::ceil(half / kPlanCell)) + 1, c = n / 2;
+  const Eigen::Vector2d origin(pose.x - c * kPlanCell, pose.y - c * kPlanCell);  // the centre of cell (0, 0)
+  const auto centre = [&](int ix, int iy) -> Eigen::Vector2d { return origin + kPlanCell * Eigen::Vector2d(ix, iy); };
+  const auto index = [&](int ix, int iy) { return static_cast<std::size_t>(iy) * n + ix; };
+  // Each cell's distance to the nearest obstacle point (up to the clearance; beyond: infinity), and whether it is
+  // beyond the departure bound.
+  std::vector<double> gap(static_cast<std::size_t>(n) * n, std::numeric_limits<double>::infinity());
+  std::vector<bool> outside(gap.size(), false);
+  const int r_soft = static_cast<int>(std::ceil(soft / kPlanCell));
+  for (const auto& o : obstacles_)
+  {
+    const Eigen::Vector2d q = o.second.point;
+    const int qx = static_cast<int>(std::lround((q.x() - origin.x()) / kPlanCell));
+    const int qy = static_cast<int>(std::lround((q.y() - origin.y()) / kPlanCell));
+    for (int iy = std::max(0, qy - r_soft); iy <= std::min(n - 1, qy + r_soft); ++iy)
+      for (int ix = std::max(0, qx - r_soft); ix <= std::min(n - 1, qx + r_soft); ++ix)
+      {
+        double& g = gap[index(ix, iy)];
+        g = std::min(g, (centre(ix, iy) - q).norm());
+      }
+  }
+  if (config_.max_departure > 0.0)
+  {
+    const double bound = std::max(config_.max_departure, distanceToPath(Eigen::Vector2d(pose.x, pose.y)) + kPlanCell);
+    for (int iy = 0; iy < n; ++iy)
+      for (int ix = 0; ix < n; ++ix)
+        outside[index(ix, iy)] = distanceToPath(centre(ix, iy)) > bound;
+  }
+  // Dijkstra from the robot's cell (allowed even when blocked: the robot is there).
+  std::vector<double> cost(gap.size(), std::numeric_limits<double>::infinity());
+  std::vector<int> from(gap.size(), -1);
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  cost[index(c, c)] = 0.0;
+  open.emplace(0.0, static_cast<int>(index(c, c)));
+  while (!open.empty())
+  {
+    const Entry e = open.top();
+    open.pop();
+    if (e.first > cost[e.second])
+      continue;
+    const int x = e.second % n, y = e.second / n;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+      {
+        const int ix = x + dx, iy = y + dy;
+        if ((dx == 0 && dy == 0) || ix < 0 || iy < 0 || ix >= n || iy >= n)
+          continue;
+        const std::size_t k = index(ix, iy);
+        // Closed: beyond the bound, or within the minimum clearance (unless it leads out of it: the robot may be
+        // there already).
+        if (outside[k] || (gap[k] < hard && !(gap[k] > gap[static_cast<std::size_t>(e.second)])))
+          continue;
+        const double step = (dx != 0 && dy != 0 ? M_SQRT2 : 1.0) * (gap[k] < soft ? kNearCost : 1.0);
+        if (e.first + step < cost[k])
+        {
+          cost[k] = e.first + step;
+          from[k] = e.second;
+          open.emplace(cost[k], static_cast<int>(k));
+        }
+      }
+  }
+  // The goal: the farthest point of the path ahead (within the grid) that the search reached.
+  int goal = -1;
+  for (double s = progress_ + 2.0 * half; s > progress_ + kCarrot; s -= 0.5 * kPlanCell)
+  {
+    const Eigen::Vector2d g = pointAt(s);
+    const int ix = static_cast<int>(std::lround((g.x() - origin.x()) / kPlanCell));
+    const int iy = static_cast<int>(std::lround((g.y() - origin.y()) / kPlanCell));
+    if (ix >= 0 && iy >= 0 && ix < n && iy < n && std::isfinite(cost[index(ix, iy)]))
+    {
+      goal = static_cast<int>(index(ix, iy));
+      break;
+    }
+  }
+  if (goal < 0)
+    return false;
+  for (int k = goal; k >= 0; k = from[k])
+    way_.push_back(centre(k % n, k / n));
+  std::reverse(way_.begin(), way_.end());
+  return way_.size() >= 2;
+}
+
+Eigen::Vector2d PathFollower::carrot(const Pose2& pose) const
+{
+  // kCarrot along the way beyond its point nearest the robot.
+  const Eigen::Vector2d p(pose.x, pose.y);
+  std::size_t k = 0;
+  for (std::size_t i = 1; i < way_.size(); ++i)
+    if ((way_[i] - p).squaredNorm() < (way_[k] - p).squaredNorm())
+      k = i;
+  for (double along = 0.0; k + 1 < way_.size() && along < kCarrot; ++k)
+    along += (way_[k + 1] - way_[k]).norm();
+  return way_[k];
+}
+
+bool PathFollower::arcStays(const Pose2& pose, double kappa, double departure) const
+{
+  // Where the arc of curvature kappa takes the robot (its middle and its end, over the horizon): within the bound,
+  // or within the robot's departure now when it is out already.
+  if (config_.max_departure <= 0.0)
+    return true;
+  const double bound = std::max(config_.max_departure, departure);
+  for (double f : { 0.5, 1.0 })
+  {
+    const double l = f * config_.horizon;
+    const double bx = std::abs(kappa) > 1e-9 ? std::sin(kappa * l) / kappa : l;
+    const double by = std::abs(kappa) > 1e-9 ? (1.0 - std::cos(kappa * l)) / kappa : 0.0;
+    Eigen::Vector2d w;
+    pose.transformPoint(bx, by, &w.x(), &w.y());
+    if (distanceToPath(w) > bound)
+      return false;
+  }
+  return true;
+}
+
 VelocityCommand PathFollower::avoid(const Pose2& pose, const VelocityCommand& pursuit)
 {
   avoiding_ = false;
@@ -225,7 +387,7 @@ VelocityCommand PathFollower::avoid(const Pose2& pose, const VelocityCommand& pu
     turn_ = 0;
     return pursuit;
   }
-  const double soft = config_.robot_radius + config_.clearance, hard = config_.robot_radius;
+  const double soft = config_.robot_radius + config_.clearance, hard = config_.robot_radius + config_.min_clearance;
   // The points within reach of any candidate arc, in base_link, with their distance now.
   const double reach = config_.horizon + soft;
   const Pose2 inv = pose.inverse();
@@ -242,24 +404,59 @@ VelocityCommand PathFollower::avoid(const Pose2& pose, const VelocityCommand& pu
       now.push_back(d);
     }
   }
-  // Whether the arc of curvature kappa keeps radius from every point over arc length [0, length] (or, from a point
-  // nearer than that already, comes no nearer).
+  const double departure = distanceToPath(Eigen::Vector2d(pose.x, pose.y));
+  const auto stays = [&](double kappa) { return arcStays(pose, kappa, departure); };
+  // Whether the arc of curvature kappa keeps radius from every point over arc length [0, length]; from a point nearer
+  // already, it may come kApproachSlack nearer but never within hard; from one within hard, no nearer at all.
   const auto clear = [&](double kappa, double radius, double length) {
     for (std::size_t i = 0; i < near.size(); ++i)
     {
-      const double need = std::min(radius, now[i] - kApproachSlack);
+      const double need =
+          now[i] < hard ? now[i] - 1e-9 : std::max(hard, std::min(radius, now[i] - kApproachSlack));
       if (arcDistance(near[i], kappa, length) < need)
         return false;
     }
     return true;
   };
   const double pursuit_kappa = pursuit.angular / pursuit.linear;
-  if (clear(pursuit_kappa, soft, config_.horizon))
+  if (clear(pursuit_kappa, soft, config_.horizon) && stays(pursuit_kappa))
   {
     turn_ = 0;
+    way_.clear();
+    plan_count_ = 0;
     return pursuit;
   }
   avoiding_ = true;
+  const auto drive = [&](double kappa, double speed) {
+    turn_ = 0;
+    return arcCommand(kappa, speed, config_.max_angular);
+  };
+  // The way round (planWay), planned again every kPlanEvery commands and followed in between.
+  if (plan_count_++ % kPlanEvery == 0 || way_.empty())
+    planWay(pose);
+  if (!way_.empty())
+  {
+    const Eigen::Vector2d c = carrot(pose);
+    Eigen::Vector2d b;
+    inv.transformPoint(c.x(), c.y(), &b.x(), &b.y());
+    const double bearing = std::atan2(b.y(), b.x());
+    if (std::abs(bearing) > kTurnInPlaceBearing)
+    {
+      // Turned to in place, one way until it is ahead (a way planned again may flip sides: no dithering).
+      if (turn_ == 0)
+        turn_ = bearing > 0.0 ? 1 : -1;
+      VelocityCommand cmd;
+      cmd.angular = turn_ * config_.max_angular;
+      return cmd;  // a round footprint turning in place touches nothing new
+    }
+    const double l2 = std::max(1e-6, b.squaredNorm());
+    const double kappa = std::max(-config_.max_curvature, std::min(config_.max_curvature, 2.0 * b.y() / l2));
+    const double length = std::min(config_.horizon, std::max(kPlanCell, std::sqrt(l2)));
+    if (clear(kappa, soft, length))
+      return drive(kappa, config_.speed);
+    if (clear(kappa, hard, length))
+      return drive(kappa, kSlowFactor * config_.speed);
+  }
   // Candidates, nearest to pure pursuit's arc first (ties: the straighter, then the left one).
   std::vector<double> candidates;
   for (int i = -kArcsPerSide; i <= kArcsPerSide; ++i)
@@ -272,23 +469,16 @@ VelocityCommand PathFollower::avoid(const Pose2& pose, const VelocityCommand& pu
       return std::abs(a) < std::abs(b);
     return a > b;
   });
-  const auto drive = [&](double kappa, double speed) {
-    turn_ = 0;
-    VelocityCommand cmd;
-    cmd.linear = std::abs(kappa) > 1e-9 ? std::min(speed, config_.max_angular / std::abs(kappa)) : speed;
-    cmd.angular = cmd.linear * kappa;
-    return cmd;
-  };
   for (double kappa : candidates)
-    if (clear(kappa, soft, config_.horizon))
+    if (stays(kappa) && clear(kappa, soft, config_.horizon))
       return drive(kappa, config_.speed);
   for (double kappa : candidates)
-    if (clear(kappa, hard, config_.horizon))
+    if (stays(kappa) && clear(kappa, hard, config_.horizon))
       return drive(kappa, kSlowFactor * config_.speed);
   if (turn_ == 0)
   {
-    // Nothing is clear: turn in place towards the side whose arc keeps the footprint clear the longest (ties:
-    // pure pursuit's side), and keep turning that way until an arc is clear (no dithering between sides).
+    // Nothing is clear: turn in place to the side whose arc keeps the footprint clear the longest (ties: pure
+    // pursuit's side), and on that way until an arc is clear (no dithering between sides).
     turn_ = pursuit_kappa >= 0.0 ? 1 : -1;
     double best = -1.0;
     for (double kappa : candidates)

@@ -134,6 +134,8 @@ void readScenarioConfig(const io::ParamSource& p, sim::ScenarioConfig* c)
   p.get("follower/avoid_obstacles", &f.avoid_obstacles);
   p.get("follower/robot_radius", &f.robot_radius);
   p.get("follower/clearance", &f.clearance);
+  p.get("follower/min_clearance", &f.min_clearance);
+  p.get("follower/max_departure", &f.max_departure);
   p.get("follower/horizon", &f.horizon);
   p.get("follower/max_curvature", &f.max_curvature);
   p.get("follower/obstacle_memory", &f.obstacle_memory);

@@ -42,6 +42,7 @@
 #include "rbpf_slam/sim/sim_config.h"
 #include "rbpf_slam/io/trunk_detector_config.h"
 #include "rbpf_slam/sim/waypoints_file.h"
+#include "rbpf_slam/sim/drive_check.h"
 #include "rbpf_slam/sim/world_file.h"
 
 using namespace rbpf_slam;
@@ -539,6 +540,9 @@ int main(int argc, char** argv)
     core::TrunkDetectorConfig base_detector;
     readConfigs(&opt, &scenario, &base_filter, &base_detector);
     setDriveAndOdometry(opt, &scenario);
+    std::string refused;
+    if (!sim::checkDrive(world, scenario, &refused))
+      throw std::runtime_error("the drive '" + opt.drive + "' is refused before it starts: " + refused);
     std::vector<eval::ForestSlamVariant> variants;
     std::vector<Series> series;
     makeVariants(opt, base_detector, base_filter, &variants, &series);

@@ -17,6 +17,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "rbpf_slam/core/grid/occupancy_image.h"
+#include "rbpf_slam/sim/drive_check.h"
 #include "rbpf_slam/sim/scenario.h"
 #include "rbpf_slam/io/files.h"
 #include "rbpf_slam/io/map_image_file.h"
@@ -50,6 +51,8 @@ const char* kUsage =
     "  --out BAG           output bag (written to a temporary name, renamed when complete)\n"
     "  --no-points         leave the 3D point clouds out (small bags for odometry studies)\n"
     "  --quiet             no progress bar\n"
+    "A drive the robot cannot follow (no way round the trunks and boxes within the follower's max_departure of it,\n"
+    "or off the ground) is refused before it starts, with the reason (exit 1).\n"
     "If the robot's footprint touches a trunk or a box, the simulator stops it there: the recorder reports the\n"
     "collision (time, true pose, what was hit), writes no bag and exits with status 3.\n"
     "example:\n"
@@ -393,6 +396,9 @@ int main(int argc, char** argv)
     sim::ScenarioConfig config = readScenario(opt);
     std::shared_ptr<const core::OccupancyImage> image;
     const sim::ForestWorld world = loadWorld(opt, &config, &image);
+    std::string refused;
+    if (!image && !sim::checkDrive(world, config, &refused))
+      throw std::runtime_error("the drive '" + opt.drive + "' is refused before it starts: " + refused);
     sim::Scenario scenario(world, config, image);
     return record(opt, config, image.get(), &scenario);
   }

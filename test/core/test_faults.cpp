@@ -279,6 +279,45 @@ TEST(ConstellationFaults, AHugeMapBuildsItsPairsFromNeighboursAndTheSearchIsBoun
   EXPECT_LE(r.candidates, cc.max_candidates);
 }
 
+TEST(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
+{
+  // The receiver's first 20 fixes lie 1000 km east (before any anchor exists, so no gate refuses them), then 60
+  // good ones along an L of 600 m legs: the 20 are left out (counted) and the anchor lands where the good fixes put
+  // it, though the tangent plane the fit works in is at the first, wild, fix.
+  GnssFusionConfig gc;
+  gc.anchor_min_fixes = 20;
+  GeoAnchorEstimator est(gc);
+  const GeoPoint origin{ 61.0, 24.0, 100.0 };
+  const LocalTangentPlane plane(origin);
+  const double yaw = 30.0 * M_PI / 180.0;
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+  Random rng(5);
+  for (int i = 0; i < 80; ++i)
+  {
+    const int k = std::max(0, i - 20);
+    const Eigen::Vector2d map = k < 30 ? Eigen::Vector2d(20.0 * k, 0.0) : Eigen::Vector2d(580.0, 20.0 * (k - 29));
+    Eigen::Vector2d en = R * map + Eigen::Vector2d(rng.gaussian(1.0), rng.gaussian(1.0));
+    if (i < 20)
+      en += Eigen::Vector2d(1e6, 0.0);
+    const GeoPoint g = plane.toGeo(en, 100.0);
+    GnssFix fix;
+    fix.valid = true;
+    fix.stamp = 10.0 * i;
+    fix.latitude = g.latitude;
+    fix.longitude = g.longitude;
+    fix.altitude = 100.0;
+    fix.covariance = Eigen::Matrix2d::Identity();
+    est.add(fix, map);
+  }
+  int outliers = 0;
+  const GeoAnchor a = est.anchor(&outliers);
+  ASSERT_TRUE(a.valid);
+  EXPECT_EQ(outliers, 20);
+  const Eigen::Vector2d off = plane.toEastNorth(a.latitude, a.longitude);
+  EXPECT_LT(off.norm(), 1.0) << "origin moved " << off.transpose();
+  EXPECT_LT(std::abs(std::remainder(a.yaw - yaw, 2.0 * M_PI)), 0.05);
+}
+
 TEST(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
 {
   // A drive of 60 fixes along an L (the antenna's map positions), the map frame 30 degrees from east at a known

@@ -123,3 +123,18 @@ def test_same_seed_gives_the_same_bag(tmp_path):
         pc = _odometry(bc, '/odom')[1]
     assert np.array_equal(pa, pb)
     assert not np.array_equal(pa, pc)
+
+
+def test_a_drive_the_robot_cannot_follow_is_refused_before_it_starts(tmp_path):
+    # A row of trunks 1 m apart across the straight drive, 12 m wide: no gap for the robot within 3 m of the drive.
+    trees = tmp_path / 'wall.trees.txt'
+    trees.write_text(''.join('20 %.1f 0.2\n' % (9.0 + k) for k in range(13)))
+    out = tmp_path / 'wall.bag'
+    r = subprocess.run([_tool(), '--world', str(trees), '--drive', 'straight', '--seed', '1', '--out', str(out),
+                        '--quiet', '--no-points'], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       universal_newlines=True, timeout=60)
+    assert r.returncode == 1, r.stderr
+    assert "the drive 'straight' is refused before it starts" in r.stderr
+    assert 'cannot be reached' in r.stderr and 'within 3.0 m of the drive' in r.stderr
+    assert 'Traceback' not in r.stderr
+    assert list(tmp_path.iterdir()) == [trees]  # no bag, no temporary file

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "rbpf_slam/sim/drive_check.h"
 #include "rbpf_slam/sim/forest_simulator.h"
 #include "rbpf_slam/sim/scenario.h"
 
@@ -449,6 +450,134 @@ TEST(PathFollower, TurnsInPlaceWhenAWallBlocksEveryArc)
   EXPECT_TRUE(follower.avoiding());
   EXPECT_EQ(cmd.linear, 0.0);
   EXPECT_NEAR(std::abs(cmd.angular), config.max_angular, 1e-12);
+}
+
+namespace
+{
+/** Drives @p follower (unicycle, 50 Hz, a 10 Hz lidar seeing @p world within 5 m) for at most @p seconds; the
+ * nearest any world point came to base_link, the farthest the pose went from the x axis, and the end pose. */
+struct Drive
+{
+  double nearest = std::numeric_limits<double>::infinity();
+  double farthest = 0.0;
+  rbpf_slam::core::Pose2 pose;
+};
+Drive drive(PathFollower* follower, const std::vector<Eigen::Vector2d>& world, double seconds,
+            rbpf_slam::core::Pose2 pose = rbpf_slam::core::Pose2())
+{
+  Drive d;
+  const double dt = 0.02;
+  for (int step = 0; step * dt < seconds && !follower->done(); ++step)
+  {
+    if (step % 5 == 0)
+      follower->addObstacles(step * dt, pose, seenFrom(pose, world, 5.0));
+    const VelocityCommand cmd = follower->command(pose);
+    pose.theta = rbpf_slam::core::wrapAngle(pose.theta + cmd.angular * dt);
+    pose.x += cmd.linear * dt * std::cos(pose.theta);
+    pose.y += cmd.linear * dt * std::sin(pose.theta);
+    for (const auto& p : world)
+      d.nearest = std::min(d.nearest, (p - Eigen::Vector2d(pose.x, pose.y)).norm());
+    d.farthest = std::max(d.farthest, std::abs(pose.y));
+  }
+  d.pose = pose;
+  return d;
+}
+}  // namespace
+
+TEST(PathFollower, KeepsItsMinimumClearanceInAGapNarrowerThanItsClearance)
+{
+  // Two trunks of radius 0.05 m 0.8 m either side of the path: the gap (1.5 m) is narrower than the footprint with
+  // its clearance (2 x 0.9 m) but wider than with its minimum clearance (2 x 0.7 m). The robot creeps through, and
+  // never nearer than robot_radius + min_clearance (less 1 cm: what one 20 ms step at a third of the speed takes).
+  PathFollowerConfig config;
+  std::vector<Eigen::Vector2d> world = trunkSurface(Eigen::Vector2d(5.0, 0.8), 0.05);
+  const std::vector<Eigen::Vector2d> other = trunkSurface(Eigen::Vector2d(5.0, -0.8), 0.05);
+  world.insert(world.end(), other.begin(), other.end());
+  PathFollower follower(straightDrive(10.0), config);
+  const Drive d = drive(&follower, world, 120.0);
+  EXPECT_TRUE(follower.done());
+  EXPECT_GT(d.nearest, config.robot_radius + config.min_clearance - 0.01);
+  // A ratchet that lets each command come 2 cm nearer a point already too near would touch: not so.
+  EXPECT_GT(d.nearest, config.robot_radius);
+}
+
+TEST(PathFollower, ALookAheadPointBehindIsTurnedTowardsNotDrivenAwayFrom)
+{
+  PathFollowerConfig config;
+  config.avoid_obstacles = false;
+  PathFollower follower(straightDrive(20.0), config);
+  // 6 m beyond the start of the path, heading away from it, the look-ahead point straight behind.
+  rbpf_slam::core::Pose2 pose(-6.0, 0.0, M_PI);
+  const VelocityCommand cmd = follower.command(pose);
+  EXPECT_NEAR(std::abs(cmd.angular), config.max_angular, 1e-12);
+  const Drive d = drive(&follower, {}, 60.0, pose);
+  EXPECT_TRUE(follower.done());
+  EXPECT_NEAR(d.pose.x, 20.0, 0.5);
+}
+
+TEST(PathFollower, NoArcTakesItFartherThanMaxDepartureFromThePath)
+{
+  // A wall of trunks across the path from y = -6 to 6 m, open beyond: the detour round its end would take the robot
+  // 6.5 m from the path. With max_departure 3 m it stays within 3 m (and does not get past); without, it goes round.
+  std::vector<Eigen::Vector2d> world;
+  for (double y = -6.0; y <= 6.0; y += 0.2)
+  {
+    const auto t = trunkSurface(Eigen::Vector2d(6.0, y), 0.08);
+    world.insert(world.end(), t.begin(), t.end());
+  }
+  PathFollowerConfig bounded;
+  PathFollower a(straightDrive(12.0), bounded);
+  const Drive da = drive(&a, world, 120.0);
+  EXPECT_FALSE(a.done());
+  EXPECT_LE(da.farthest, bounded.max_departure + 0.05);
+  EXPECT_GT(da.nearest, bounded.robot_radius + bounded.min_clearance - 0.01);
+  PathFollowerConfig unbounded;
+  unbounded.max_departure = 0.0;
+  PathFollower b(straightDrive(12.0), unbounded);
+  const Drive db = drive(&b, world, 300.0);
+  EXPECT_GT(db.farthest, 6.0);
+}
+
+TEST(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
+{
+  ForestWorld world;
+  world.ground.amplitude = 0.0;
+  ScenarioConfig config;
+  config.sim.start = rbpf_slam::core::Pose2(0.0, 15.0, 0.0);
+  config.drive = straightDrive(30.0);
+  std::string error;
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+  // One trunk on the drive: the planner goes round it within 3 m.
+  TrunkSpec t;
+  t.x = 10.0;
+  t.y = 15.0;
+  t.radius = 0.2;
+  world.trunks.push_back(t);
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+  // A row of trunks across the drive, 1 m apart, from y = 10 to 20 m: no gap for 0.7 m either side within 3 m.
+  for (double y = 10.0; y <= 20.0; y += 1.0)
+  {
+    t.x = 20.0;
+    t.y = y;
+    world.trunks.push_back(t);
+  }
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  // The first point of the drive with no reachable place within 3 m: just beyond the row.
+  EXPECT_NE(error.find("its point (22.20, 15.00) in the world cannot be reached"), std::string::npos) << error;
+  EXPECT_NE(error.find("no way there within 3.0 m of the drive"), std::string::npos) << error;
+  // Without the planner, the drive itself must keep the footprint off every trunk: the first one is named.
+  config.follower.avoid_obstacles = false;
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_NE(error.find("trunk 0 at (10.00, 15.00)"), std::string::npos) << error;
+  // A drive that leaves the ground, and one that does not move.
+  config.follower.avoid_obstacles = true;
+  world.trunks.clear();
+  config.drive = straightDrive(200.0);
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_NE(error.find("leaves the ground"), std::string::npos) << error;
+  config.drive = { Eigen::Vector2d(1.0, 1.0), Eigen::Vector2d(1.0, 1.0) };
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_NE(error.find("fewer than two distinct waypoints"), std::string::npos) << error;
 }
 
 TEST(PathFollower, ObstaclesFromACloudAreWhatStandsNotTheGround)

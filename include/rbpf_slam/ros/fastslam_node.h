@@ -160,6 +160,7 @@ private:
   io::FastSlamRunRecord record_;  ///< the run folder's content (its tables only with ~run_folder set at start)
   TransformGuard tf_guard_;       ///< map -> odom: this node's to publish, or another's (named)
   int gnss_rejected_said_ = 0;    ///< fixes refused by the innovation gate, said so far
+  int gnss_outliers_said_ = 0;    ///< fixes left out of the anchor as far from the others, said so far
   /** @brief Saves the maps that restarts ended beside ~map_path (FILE.restartN.csv) and says where. */
   void saveEndedMaps();
   ros::WallTimer timer_;

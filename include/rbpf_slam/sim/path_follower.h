@@ -26,9 +26,13 @@ struct PathFollowerConfig
   bool avoid_obstacles = true;        ///< steer around the obstacle points the lidar sees
   double robot_radius = 0.6;          ///< [m] the footprint: a circle around base_link
   double clearance = 0.3;             ///< [m] kept between the footprint and any obstacle point
+  double min_clearance = 0.1;         ///< [m] never given up, even at a third of the speed (the trunk a lidar sees
+                                      ///< above the ground is thinner than at its foot; odometry and motor noise)
+  double max_departure = 3.0;         ///< [m] no arc ends farther than this from the path (0: no bound)
   double horizon = 2.5;               ///< [m] arc length ahead along which each candidate arc must stay clear
   double max_curvature = 2.0;         ///< [1/m] the sharpest candidate arc (driven slower: |angular| <= max_angular)
-  double obstacle_memory = 10.0;      ///< [s] an obstacle point is remembered this long after it was last seen
+  double obstacle_memory = 0.5;       ///< [s] an obstacle point is remembered this long after it was last seen
+                                      ///< (placed by the odometry, which drifts most while turning in place)
   double obstacle_range = 5.0;        ///< [m] points farther than this from the robot are dropped
   double obstacle_min_height = 0.3;   ///< [m] above base_link: 3D points lower than this are ground
   double obstacle_max_height = 2.5;   ///< [m] above base_link: 3D points higher than this pass over the robot
@@ -63,8 +67,11 @@ std::vector<Eigen::Vector2d> obstaclesFromScan(const std::vector<float>& ranges,
  * remembered in the odom frame for obstacle_memory seconds, so a low obstacle the lidar no longer sees up close
  * stays avoided). Among candidate arcs (the pure-pursuit arc and curvatures evenly spread over +-max_curvature)
  * it takes the one closest to the pure-pursuit arc that keeps robot_radius + clearance from every point over the
- * horizon (or, nearer than that already, comes no nearer); failing that, one that keeps robot_radius, at a third
- * of the speed; failing that, it turns in place. A sharp arc is driven slower so that |angular| <= max_angular.
+ * horizon (or, nearer than that already, comes no nearer than robot_radius + min_clearance); failing that, one that
+ * keeps robot_radius + min_clearance (or, nearer than that already, comes no nearer at all), at a third of the
+ * speed; failing that, it turns in place (a round footprint turning in place touches nothing new). With
+ * max_departure, an arc that would end (or pass its middle) farther than that from the path is no candidate, unless
+ * it brings the robot nearer the path than it is. A sharp arc is driven slower so that |angular| <= max_angular.
  * When the pure-pursuit arc is clear the command is pure pursuit's, exactly. Deterministic.
  */
 class PathFollower
@@ -91,6 +98,18 @@ public:
 
 private:
   Eigen::Vector2d pointAt(double s) const;
+  /** @brief Distance from @p p (odom frame) to the path from the current segment a few look-aheads on. */
+  double distanceToPath(const Eigen::Vector2d& p) const;
+  /**
+   * @brief Plans way_ (odom frame) from @p pose to the farthest point of the path ahead that a grid search over the
+   * remembered obstacles reaches (cells within robot_radius + min_clearance of a point, or beyond max_departure from
+   * the path, are closed; those within the clearance cost more). False, and way_ empty, when none is reached.
+   */
+  bool planWay(const core::Pose2& pose);
+  /** @brief The point of way_ to steer to from @p pose (way_ not empty). */
+  Eigen::Vector2d carrot(const core::Pose2& pose) const;
+  /** @brief Whether the arc of curvature @p kappa from @p pose ends within max_departure (or @p departure). */
+  bool arcStays(const core::Pose2& pose, double kappa, double departure) const;
   /** @brief The planner's command, given pure pursuit's @p pursuit at @p pose. */
   VelocityCommand avoid(const core::Pose2& pose, const VelocityCommand& pursuit);
 
@@ -109,6 +128,8 @@ private:
   std::map<std::int64_t, Remembered> obstacles_;  ///< by 0.1 m cell of the odom frame
   bool avoiding_ = false;
   int turn_ = 0;  ///< turning in place: +1 left, -1 right, 0 not
+  std::vector<Eigen::Vector2d> way_;  ///< the planned way round (odom frame), empty when pure pursuit is clear
+  unsigned plan_count_ = 0;           ///< commands since the way was last planned
 };
 
 /** @brief The straight drive: straight ahead for @p length metres (start frame). */

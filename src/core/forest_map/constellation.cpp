@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <unordered_map>
 #include <cmath>
+#include <cstdio>
+#include <stdexcept>
 #include <limits>
 
 #include "rbpf_slam/core/filter/cell_key.h"
@@ -64,6 +66,23 @@ TrunkPoint trunkPoint(const Landmark& tree)
   return t;
 }
 
+namespace
+{
+/** @brief The area of the trees' bounding box [m^2] (at least 1). */
+double boundingArea(const std::vector<TrunkPoint>& trees)
+{
+  if (trees.empty())
+    return 1.0;
+  Eigen::Vector2d lo = trees.front().center, hi = lo;
+  for (const TrunkPoint& t : trees)
+  {
+    lo = lo.cwiseMin(t.center);
+    hi = hi.cwiseMax(t.center);
+  }
+  return std::max(1.0, (hi.x() - lo.x()) * (hi.y() - lo.y()));
+}
+}  // namespace
+
 ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, const ConstellationConfig& config)
   : config_(config), cell_(std::max(0.1, config.inlier_gate))
 {
@@ -86,6 +105,36 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
     long cx = 0, cy = 0;
     coarseOf(trees_[a].center, &cx, &cy);
     coarse[key(cx, cy)].push_back(static_cast<int>(a));
+  }
+  // Counted first, nothing stored: a map with too many pairs is refused in about a second, not minutes.
+  long count = 0;
+  for (std::size_t a = 0; a < trees_.size() && count <= config_.max_pairs; ++a)
+  {
+    long cx = 0, cy = 0;
+    coarseOf(trees_[a].center, &cx, &cy);
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+      {
+        const auto it = coarse.find(key(cx + dx, cy + dy));
+        if (it == coarse.end())
+          continue;
+        for (const int b : it->second)
+        {
+          const double d = (trees_[a].center - trees_[static_cast<std::size_t>(b)].center).norm();
+          count += b > static_cast<int>(a) && d >= config_.min_pair_length - config_.pair_tolerance && d <= reach;
+        }
+      }
+  }
+  if (count > config_.max_pairs)
+  {
+    char text[400];
+    std::snprintf(text, sizeof(text),
+                  "the map's %zu trees make more than %ld pairs within %.0f m of each other (the index of the search "
+                  "for the pose in the map would take more than %.0f MB): on average %.1f trees per square metre, "
+                  "denser than a forest (5000 stems a hectare are 0.5); refused",
+                  trees_.size(), config_.max_pairs, reach, config_.max_pairs * sizeof(Pair) / 1e6,
+                  trees_.size() / std::max(1e-9, boundingArea(trees_)));
+    throw std::invalid_argument(text);
   }
   std::vector<int> near;
   for (std::size_t a = 0; a < trees_.size(); ++a)

@@ -80,7 +80,7 @@ void GnssAnchoring::use(double t_mid, const Pose2& odom_mid, const OdometryBuffe
         f.fix.stamp - last_weigh_stamp_ < gnss_config_.correlation_time || f.fix.stamp < next_anchor_check_)
       continue;
     next_anchor_check_ = f.fix.stamp + 0.1 * gnss_config_.correlation_time;
-    const GeoAnchor a = anchor();
+    const GeoAnchor a = combineAnchors(map_anchor_, anchor_estimator_.anchor(&anchor_outliers_));
     if (a.valid)
       gate_anchor_ = a;
     if (!a.valid || (a.sigma > gnss_config_.weigh_max_anchor_sigma && !map_anchor_.valid))

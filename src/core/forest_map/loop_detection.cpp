@@ -1,6 +1,7 @@
 #include "rbpf_slam/core/forest_map/loop_detection.h"
 
 #include <cmath>
+#include <stdexcept>
 
 namespace rbpf_slam
 {
@@ -37,8 +38,16 @@ LoopClosure LoopDetector::search(const LandmarkMap& map, double now, const Eigen
   };
   if (out.recent < config_.constellation.min_inliers || out.old < config_.constellation.min_inliers)
     return fail("too few trees: " + std::to_string(out.recent) + " recent, " + std::to_string(out.old) + " old");
-  const ConstellationMatcher matcher(old, config_.constellation);
-  const ConstellationResult r = matcher.match(recent);
+  ConstellationResult r;
+  try
+  {
+    const ConstellationMatcher matcher(old, config_.constellation);
+    r = matcher.match(recent);
+  }
+  catch (const std::invalid_argument& e)  // more pairs than the index takes (ConstellationConfig::max_pairs)
+  {
+    return fail(e.what());
+  }
   if (!r.accepted || r.hypotheses.empty())
     return fail(r.reason.empty() ? "no constellation" : r.reason);
   const PoseHypothesis& h = r.hypotheses.front();

@@ -104,3 +104,33 @@ TEST(Constellation, RefusesARegularPlantationAsAmbiguous)
   EXPECT_FALSE(r.accepted);
   EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
 }
+
+TEST(Constellation, RefusesAMapDenserThanAForestBeforeIndexingIt)
+{
+  // 20000 trees 0.63 m apart (2.5 per square metre): 49 million pairs within 25 m. Refused, by a message that says
+  // why, before the index is built (counted without storing: seconds, not minutes and a gigabyte).
+  std::vector<Landmark> dense;
+  for (int i = 0; i < 20000; ++i)
+  {
+    Landmark l;
+    l.mean = Eigen::Vector2d(0.632 * (i % 141), 0.632 * (i / 141));
+    l.radius = 0.1;
+    l.provisional = false;
+    dense.push_back(l);
+  }
+  try
+  {
+    ConstellationMatcher m(dense, ConstellationConfig());
+    FAIL() << "a 2.5 trees per square metre map was indexed";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("20000 trees make more than 20000000 pairs"), std::string::npos) << what;
+    EXPECT_NE(what.find("2.5 trees per square metre"), std::string::npos) << what;
+  }
+  // The same number of trees at a forest's density (0.1 per square metre) is indexed.
+  for (Landmark& l : dense)
+    l.mean *= 5.0;
+  EXPECT_NO_THROW(ConstellationMatcher(dense, ConstellationConfig()));
+}

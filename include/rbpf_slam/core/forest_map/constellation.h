@@ -49,6 +49,10 @@ struct ConstellationConfig
   /// score a tenth of it or less), so that no saved map, however large or regular, can stall the filter for long.
   /// Deterministic, unlike a bound in seconds.
   long max_candidates = 200000;
+  /// The map's pairs (of trees min_pair_length..max_pair_length apart) are indexed once, 16 bytes each: a map with
+  /// more (e.g. 20000 trees at 2.5 per m^2, denser than any stand, 0.5 per m^2 being 5000 stems a hectare) is
+  /// refused before any is stored, rather than taking minutes and gigabytes. 20 million: 320 MB.
+  long max_pairs = 20000000;
 };
 
 /** @brief One transform from the seen trunks' frame to the map, with its support. */

@@ -56,6 +56,8 @@ public:
   int used() const { return gnss_used_; }
   int weighed() const { return gnss_weighed_; }
   int rejected() const { return gnss_rejected_; }
+  /** @brief Fixes the anchor's last fit left out (far from the others: a receiver's fault before any anchor). */
+  int anchorOutliers() const { return anchor_outliers_; }
 
 private:
   GnssFusionConfig gnss_config_;
@@ -69,7 +71,7 @@ private:
   std::deque<PendingFix> pending_fixes_;
   double last_weigh_stamp_ = -1e300;
   double next_anchor_check_ = -1e300;  ///< [s] the anchor is not refitted for weighing before this fix stamp
-  int gnss_used_ = 0, gnss_weighed_ = 0, gnss_rejected_ = 0;
+  int gnss_used_ = 0, gnss_weighed_ = 0, gnss_rejected_ = 0, anchor_outliers_ = 0;
   GeoAnchor gate_anchor_;  ///< the last anchor computed (or the saved map's): the fixes' innovation gate
 };
 

@@ -167,6 +167,8 @@ public:
   int gnssFixesWeighed() const { return gnss_.weighed(); }
   /** @brief Fixes the innovation gate refused (kGnssGate2: inconsistent with the anchor and the filter's pose). */
   int gnssFixesRejected() const { return gnss_.rejected(); }
+  /** @brief Fixes the anchor's last fit left out as far from the others. */
+  int gnssAnchorOutliers() const { return gnss_.anchorOutliers(); }
   /** @brief Localized in the map: always true without a saved map, or with a known start. */
   bool localized() const { return initialized_; }
 
