@@ -286,7 +286,8 @@ bool PathFollower::planWay(const Pose2& pose)
   }
   if (config_.max_departure > 0.0)
   {
-    const double bound = std::max(config_.max_departure, distanceToPath(Eigen::Vector2d(pose.x, pose.y)) + kPlanCell);
+    // Out beyond it already (odometry noise, an escape), the robot may keep its distance but go no farther out.
+    const double bound = std::max(config_.max_departure, distanceToPath(Eigen::Vector2d(pose.x, pose.y)));
     for (int iy = 0; iy < n; ++iy)
       for (int ix = 0; ix < n; ++ix)
         outside[index(ix, iy)] = distanceToPath(centre(ix, iy)) > bound;
