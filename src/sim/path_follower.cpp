@@ -326,8 +326,8 @@ bool PathFollower::planWay(const Pose2& pose)
         }
       }
   }
-  // The goal: the farthest point of the path ahead (within the grid) that the search reached.
-  int goal = -1;
+  // Where to: the farthest point of the path ahead (within the grid) that the search reached.
+  int target = -1;
   for (double s = progress_ + 2.0 * half; s > progress_ + kCarrot; s -= 0.5 * kPlanCell)
   {
     const Eigen::Vector2d g = pointAt(s);
@@ -335,13 +335,13 @@ bool PathFollower::planWay(const Pose2& pose)
     const int iy = static_cast<int>(std::lround((g.y() - origin.y()) / kPlanCell));
     if (ix >= 0 && iy >= 0 && ix < n && iy < n && std::isfinite(cost[index(ix, iy)]))
     {
-      goal = static_cast<int>(index(ix, iy));
+      target = static_cast<int>(index(ix, iy));
       break;
     }
   }
-  if (goal < 0)
+  if (target < 0)
     return false;
-  for (int k = goal; k >= 0; k = from[k])
+  for (int k = target; k >= 0; k = from[k])
     way_.push_back(centre(k % n, k / n));
   std::reverse(way_.begin(), way_.end());
   return way_.size() >= 2;
