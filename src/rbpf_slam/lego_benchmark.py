@@ -10,7 +10,8 @@ Converts the logs once (lego_to_bag; the bag keeps the reference on ground_truth
 reads), runs `slam_bag --scan /scan` with config/lego/{trunk_extraction,fastslam}.yaml for each seed,
 scores each run with evaluate_bag_run (the scanner, 30 mm ahead of the robot centre by config/lego/robot.yaml,
 after a least-squares rigid fit of the path onto the camera reference; the map moved by the same fit) and
-prints the median and the worst seed beside the raw odometry. Writes OUT/summary.json and OUT/seedN/evaluation.png.
+prints the median and the worst seed beside the raw odometry, with the share of the reference inside the
+estimate's stated 95 % region (a filter that states its uncertainty truly has it near 95 %). Writes OUT/summary.json and OUT/seedN/evaluation.png.
 """
 import argparse
 import json
@@ -32,6 +33,13 @@ def run(cmd):
     return proc.stdout
 
 
+def _coverage(row):
+    """The share of reference positions inside the published estimate's 95 % region (after the fit); NaN when the
+    run states no covariance."""
+    c = (row.get('coverage_95') or {}).get('fitted')
+    return np.nan if c is None else c
+
+
 def report(logs, rows):
     """The printed lines and the summary (as OUT/summary.json holds it) of the runs' evaluation.json figures."""
     def col(get):
@@ -44,6 +52,7 @@ def report(logs, rows):
         ('true landmarks found', col(lambda r: r['map']['matched']), None, 'min'),
         ('duplicates', col(lambda r: r['map']['duplicates']), None, 'max'),
         ('spurious', col(lambda r: r['map']['spurious']), None, 'max'),
+        ('truth in 95% region %', col(lambda r: 100 * _coverage(r)), None, 'min'),
         ('processing [ms]', col(lambda r: 1000 * r.get('seconds_processing', np.nan)), None, 'max'),
     ]
     lines = ['LEGO logs (%s), %d seeds, scanner point after a least-squares rigid fit onto the reference'

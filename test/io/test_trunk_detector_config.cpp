@@ -57,7 +57,8 @@ TEST(TrunkDetectorConfigFile, LegoConfigIsValidAndEveryKeyIsUsed)
   io::readTrunkDetectorConfig(params, &c);
   EXPECT_TRUE(params.unusedKeys().empty());
   EXPECT_DOUBLE_EQ(c.arc_radius_prior, 0.055);
-  EXPECT_EQ(c.method, core::TrunkMethod::kCircle);
+  EXPECT_EQ(c.method, core::TrunkMethod::kCentroid);
+  EXPECT_DOUBLE_EQ(c.range_offset, 0.09);  // the data set's 90 mm from the beams' surface to the centre
 }
 
 TEST(TrunkDetectorConfigFile, BadValuesNameTheProblem)

@@ -5,8 +5,9 @@ from rbpf_slam import lego_benchmark as lb
 
 def _rows():
     return [{'estimate': {'path_rms': a, 'final_error': 2 * a}, 'odometry': {'path_rms': 1.0, 'final_error': 2.0},
-             'map': {'mean_error': e, 'matched': m, 'duplicates': 0, 'spurious': 1}, 'seconds_processing': 0.5}
-            for a, m, e in ((0.01, 7, 0.01), (0.03, 9, None), (0.02, 8, 0.02))]
+             'map': {'mean_error': e, 'matched': m, 'duplicates': 0, 'spurious': 1}, 'seconds_processing': 0.5,
+             'coverage_95': {'fitted': c, 'no_fit': 0.5, 'compared': 100}}
+            for a, m, e, c in ((0.01, 7, 0.01, 0.9), (0.03, 9, None, 0.2), (0.02, 8, 0.02, 0.5))]
 
 
 def test_the_table_and_the_summary():
@@ -20,6 +21,7 @@ def test_the_table_and_the_summary():
         'true landmarks found         8.0       7.0               ',  # the worst is the fewest found
         'duplicates                   0.0       0.0               ',
         'spurious                     1.0       1.0               ',
+        'truth in 95% region %       50.0      20.0               ',  # the worst is the least covered
         'processing [ms]            500.0     500.0               ']
     assert summary['seeds'] == 3 and len(summary['runs']) == 3
     assert summary['path RMS [mm]'] == {'median': 20.0, 'worst': 30.0, 'odometry': 1000.0}
