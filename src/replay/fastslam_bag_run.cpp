@@ -204,6 +204,9 @@ void printGnssSummary(const core::TrunkSlamConfig& fc, const core::TrunkSlamPipe
     std::printf("  %d satellite fixes were inconsistent with the anchor and the filter's pose (beyond the "
                 "innovation gate) and were not used\n",
                 pipeline.gnssFixesRejected());
+  if (pipeline.gnssAnchorOutliers() > 0)
+    std::printf("  %d satellite fixes were left out of the anchor's fit as far from the others (a receiver's fault)\n",
+                pipeline.gnssAnchorOutliers());
 }
 
 void printFastSlamSummary(const SlamBagOptions& o, const core::TrunkSlamConfig& fc,

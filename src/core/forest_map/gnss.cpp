@@ -141,6 +141,8 @@ void GeoAnchorEstimator::clear()
   weight_.clear();
   stamp_.clear();
   altitude_.clear();
+  latitude_.clear();
+  longitude_.clear();
 }
 
 void GeoAnchorEstimator::add(const GnssFix& fix, const Eigen::Vector2d& antenna_map)
@@ -155,10 +157,14 @@ void GeoAnchorEstimator::add(const GnssFix& fix, const Eigen::Vector2d& antenna_
   weight_.push_back(1.0 / var);
   stamp_.push_back(fix.stamp);
   altitude_.push_back(fix.altitude);
+  latitude_.push_back(fix.latitude);
+  longitude_.push_back(fix.longitude);
 }
 
 namespace
 {
+constexpr double kPlaneFollowDistance = 1000.0;  ///< [m] the fit's tangent plane moves to the median fix beyond this
+
 /** @brief The median of @p v (reordered); NaN when empty. */
 double median(std::vector<double>* v)
 {
@@ -169,6 +175,17 @@ double median(std::vector<double>* v)
   return *mid;
 }
 }  // namespace
+
+void GeoAnchorEstimator::followFixes() const
+{
+  std::vector<double> lat = latitude_, lon = longitude_, alt = altitude_;
+  const GeoPoint middle{ median(&lat), median(&lon), median(&alt) };
+  if (!(plane_.toEastNorth(middle.latitude, middle.longitude).norm() > kPlaneFollowDistance))
+    return;
+  plane_ = LocalTangentPlane(middle);
+  for (std::size_t i = 0; i < east_north_.size(); ++i)
+    east_north_[i] = plane_.toEastNorth(latitude_[i], longitude_[i]);
+}
 
 bool GeoAnchorEstimator::robustStart(double* yaw, Eigen::Vector2d* origin) const
 {
@@ -220,6 +237,7 @@ GeoAnchor GeoAnchorEstimator::anchor(int* outliers) const
   const std::size_t n = map_.size();
   if (static_cast<int>(n) < std::max(3, config_.anchor_min_fixes))
     return a;
+  followFixes();
   // Fixes that disagree with a robust first fit (beyond the gate of their own sigma, and beyond three robust
   // standard deviations of all the residuals) are left out of the least-squares fit.
   double yaw0 = 0.0;

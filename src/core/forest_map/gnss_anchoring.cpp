@@ -65,25 +65,27 @@ void GnssAnchoring::use(double t_mid, const Pose2& odom_mid, const OdometryBuffe
     Eigen::Vector2d antenna_map;
     estimate.transformPoint(lever.x(), lever.y(), &antenna_map.x(), &antenna_map.y());
     // The innovation gate: once an anchor is known, a fix far from where it and the filter put the antenna (a
-    // receiver's jump) goes neither into the anchor's fit nor onto the particles.
-    if (gate_anchor_.valid &&
-        gnssInnovation(f.fix, gate_anchor_, gnss_config_.sigma_floor, antenna_map, pose_covariance) > kGnssGate2)
-    {
-      ++gnss_rejected_;
-      continue;
-    }
+    // receiver's jump) does not weigh the particles. It still goes to the anchor's robust fit, which leaves it out
+    // while such fixes are fewer than the others, and which follows them when they are the many: when the first
+    // fixes were the wild ones, the anchor fitted to them would otherwise refuse every good fix after them.
+    const bool gated = gate_anchor_.valid && gnssInnovation(f.fix, gate_anchor_, gnss_config_.sigma_floor,
+                                                            antenna_map, pose_covariance) > kGnssGate2;
     anchor_estimator_.add(f.fix, antenna_map);
-    ++gnss_used_;
+    if (gated)
+      ++gnss_rejected_;
+    else
+      ++gnss_used_;
     // A fix weighs the particles at most once per correlation time; the anchor (a fit over every fix so far) is
-    // refitted for it only when one is due, and at most ten times per correlation time while it is not yet known.
-    if (gnss_config_.weigh_max_anchor_sigma <= 0.0 ||
-        f.fix.stamp - last_weigh_stamp_ < gnss_config_.correlation_time || f.fix.stamp < next_anchor_check_)
+    // refitted for it only when one is due (or the gate refused the fix), and at most ten times per correlation
+    // time while it is not yet known.
+    if (gnss_config_.weigh_max_anchor_sigma <= 0.0 || f.fix.stamp < next_anchor_check_ ||
+        (!gated && f.fix.stamp - last_weigh_stamp_ < gnss_config_.correlation_time))
       continue;
     next_anchor_check_ = f.fix.stamp + 0.1 * gnss_config_.correlation_time;
     const GeoAnchor a = combineAnchors(map_anchor_, anchor_estimator_.anchor(&anchor_outliers_));
     if (a.valid)
       gate_anchor_ = a;
-    if (!a.valid || (a.sigma > gnss_config_.weigh_max_anchor_sigma && !map_anchor_.valid))
+    if (gated || !a.valid || (a.sigma > gnss_config_.weigh_max_anchor_sigma && !map_anchor_.valid))
       continue;
     Eigen::Vector2d z;
     Eigen::Matrix2d cov;

@@ -36,13 +36,13 @@ double metresBetween(const GeoAnchor& a, double lat, double lon)
   return p.toEastNorth(lat, lon).norm();
 }
 
-GnssFix fixAt(double stamp, const Eigen::Vector2d& map_position, double offset_east = 0.0)
+GnssFix fixAt(double stamp, const Eigen::Vector2d& map_position, double offset_east = 0.0, double offset_north_deg = 0.0)
 {
   const GeoPoint g = rbpf_slam::core::anchoredToGeo(trueAnchor(), map_position.x(), map_position.y());
   GnssFix f;
   f.stamp = stamp;
   f.valid = true;
-  f.latitude = g.latitude;
+  f.latitude = g.latitude + offset_north_deg;
   // a receiver's jump: metres east (the longitude's metres at this latitude)
   f.longitude = g.longitude + offset_east / (111320.0 * std::cos(61.5 * M_PI / 180.0));
   f.altitude = 300.0;
@@ -116,4 +116,41 @@ TEST(GnssAnchoring, TheAnchorIsFittedAJumpIsRejectedAndTheParticlesAreWeighed)
   g.setMapAnchor(trueAnchor());
   EXPECT_TRUE(g.anchor().valid);
   EXPECT_NEAR(g.anchor().latitude, 61.5, 1e-12);
+}
+
+TEST(GnssAnchoring, WildFirstFixesDoNotLockTheAnchor)
+{
+  // The receiver's first 20 fixes lie 1000 km north (9 degrees of latitude, where a degree of longitude is 30 %
+  // shorter), before any anchor exists, so the first anchor is theirs and its gate refuses the good fixes after
+  // them. The robust fit still sees the refused fixes: once they are the many, the anchor is theirs, within a metre
+  // of the truth, the 20 are counted as left out, and the good fixes weigh the particles again.
+  FastSlamConfig fc;
+  fc.particles = 50;
+  fc.seed = 2;
+  FastSlam filter(fc);
+  OdometryBuffer odometry;
+  GnssFusionConfig gc;
+  gc.correlation_time = 5.0;
+  GnssAnchoring g(gc);
+  const Eigen::Vector2d antenna(0.2, 0.0);
+  int weighed_at_40 = 0;
+  for (int k = 0; k <= 120; ++k)
+  {
+    const double t = k, w = 0.05;
+    const Pose2 pose(20.0 * std::sin(w * t), 20.0 * (1.0 - std::cos(w * t)), w * t);
+    odometry.add(t, pose);
+    filter.initialize(pose);
+    Eigen::Vector2d at;
+    pose.transformPoint(antenna.x(), antenna.y(), &at.x(), &at.y());
+    ASSERT_EQ(g.add(fixAt(t, at, 0.0, k < 20 ? 9.0 : 0.0), antenna, k > 0 ? t - 1.0 : NAN), "");
+    g.use(t, pose, odometry, &filter);
+    if (k == 40)
+      weighed_at_40 = g.weighed();
+  }
+  const GeoAnchor a = g.anchor();
+  ASSERT_TRUE(a.valid);
+  EXPECT_LT(metresBetween(trueAnchor(), a.latitude, a.longitude), 1.0);
+  EXPECT_NEAR(a.yaw, 0.4, 0.02);
+  EXPECT_EQ(g.anchorOutliers(), 20);
+  EXPECT_GT(g.weighed(), weighed_at_40) << "good fixes weigh the particles once the anchor is theirs";
 }

@@ -121,14 +121,16 @@ constexpr double kGnssGate = 3.7;
 
 /**
  * @brief The anchor of a map frame from satellite fixes: each fix pairs the antenna's position in the map (from the
- * filter's estimate at the fix's instant) with its east-north position in the tangent plane at the first fix; a
+ * filter's estimate at the fix's instant) with its east-north position in a tangent plane near the fixes; a
  * weighted least-squares rigid fit (rotation and translation, no scale) of the one onto the other gives the map
  * origin's WGS84 position and its x axis's heading. Its sigma: the fit's residual over the square root of the
  * number of correlation times the fixes cover (their errors wander together within one), for the origin and for the
  * heading's lever from the fixes' centre to the origin. Wild fixes (a receiver's jump) are left out: a first fit
  * that fewer than half of them cannot move (the heading most pairs of fixes agree on, the median origin) gates
  * every fix (kGnssGate of its own sigma, and three robust standard deviations of the residuals) before the
- * least-squares fit; @p outliers says how many were left out.
+ * least-squares fit; @p outliers says how many were left out. The tangent plane follows the fixes: once the median
+ * fix lies more than 1 km from the plane's origin (the first fix was wild), the plane moves to it, so wild first
+ * fixes do not distort the good ones' geometry.
  */
 class GeoAnchorEstimator
 {
@@ -144,10 +146,15 @@ public:
 private:
   /** @brief A first fit that fewer than half wild fixes cannot move (see anchor()). */
   bool robustStart(double* yaw, Eigen::Vector2d* origin) const;
+  /** @brief Moves the tangent plane to the median fix when that lies more than 1 km from its origin. */
+  void followFixes() const;
   GnssFusionConfig config_;
-  LocalTangentPlane plane_;
-  std::vector<Eigen::Vector2d> map_, east_north_;
-  std::vector<double> weight_, stamp_, altitude_;
+  // The plane the fit works in and the fixes' east-north in it: a working frame that follows the fixes (followFixes),
+  // not part of the estimator's state (the anchor is the same in any plane near the fixes).
+  mutable LocalTangentPlane plane_;
+  mutable std::vector<Eigen::Vector2d> east_north_;
+  std::vector<Eigen::Vector2d> map_;
+  std::vector<double> weight_, stamp_, altitude_, latitude_, longitude_;
 };
 
 /**

@@ -22,7 +22,9 @@ namespace core
  * A fix waits until the filter update at or after its instant: the antenna's map position from the estimate there
  * (carried back to the fix's instant by the odometry) goes to the anchor's fit, and once the anchor is known well
  * enough (weigh_max_anchor_sigma), at most one fix per correlation_time weighs the particles. Once an anchor is
- * known, a fix beyond the innovation gate (kGnssGate2: a receiver's jump) is rejected.
+ * known, a fix beyond the innovation gate (kGnssGate2: a receiver's jump) is rejected: it weighs no particle, and
+ * only the anchor's robust fit sees it (which leaves such fixes out while they are fewer than the others, and
+ * follows them when wild first fixes had made the anchor and the good ones are now the many).
  */
 class GnssAnchoring
 {
@@ -52,7 +54,7 @@ public:
    * the counts stay. */
   void restart();
 
-  /** @brief Fixes that went into the anchor's fit, fixes that weighed the particles, fixes the gate refused. */
+  /** @brief Fixes inside the gate (or before any anchor), fixes that weighed the particles, fixes the gate refused. */
   int used() const { return gnss_used_; }
   int weighed() const { return gnss_weighed_; }
   int rejected() const { return gnss_rejected_; }
