@@ -19,10 +19,7 @@ constexpr double kCell = 0.1;         // [m] the grid of the corridor check
 /** The point of segment [a, b] nearest @p p. */
 Eigen::Vector2d nearestOnSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& p)
 {
-  const Eigen::Vector2d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double u = len2 > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / len2)) : 0.0;
-  return a + u * ab;
+  return a + segmentFraction(a, b, p) * (b - a);
 }
 
 template <typename... Args>
@@ -232,8 +229,8 @@ bool checkDrive(const ForestWorld& world, const ScenarioConfig& config, std::str
   for (const Eigen::Vector2d& p : path)
     if (p.x() < world.min_x - m || p.x() > world.max_x + m || p.y() < world.min_y - m || p.y() > world.max_y + m)
       return fail(format("it leaves the ground at (%.1f, %.1f) in the world, which ends %.0f m outside the stand "
-                         "[%.1f, %.1f] x ...",
-                         p.x(), p.y(), m, world.min_x, world.max_x));
+                         "[%.1f, %.1f] x [%.1f, %.1f]",
+                         p.x(), p.y(), m, world.min_x, world.max_x, world.min_y, world.max_y));
   const RobotConfig& robot = config.sim.robot;
   const bool car = robot.model == RobotModel::kAckermann;
   const double side = car ? 0.5 * robot.width : robot.footprint_radius;
@@ -241,7 +238,6 @@ bool checkDrive(const ForestWorld& world, const ScenarioConfig& config, std::str
   if (!f.avoid_obstacles || f.max_departure <= 0.0)
     return checkClearance(world, path, side, f.avoid_obstacles ? f.min_clearance : 0.0, error);
   return checkCorridor(world, path, side + f.min_clearance, f.max_departure, error);
-  return true;
 }
 
 }  // namespace sim

@@ -152,6 +152,13 @@ PathFollower::PathFollower(std::vector<Eigen::Vector2d> path, const PathFollower
     cumulative_.push_back(cumulative_.back() + (path_[i] - path_[i - 1]).norm());
 }
 
+double segmentFraction(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& p)
+{
+  const Eigen::Vector2d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  return len2 > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / len2)) : 0.0;
+}
+
 Eigen::Vector2d PathFollower::pointAt(double s) const
 {
   s = std::max(0.0, std::min(s, cumulative_.back()));
@@ -176,14 +183,13 @@ VelocityCommand PathFollower::command(const Pose2& pose)
   for (std::size_t i = segment_; i + 1 < path_.size() && cumulative_[i] <= window; ++i)
   {
     const Eigen::Vector2d a = path_[i], ab = path_[i + 1] - path_[i];
-    const double len2 = ab.squaredNorm();
-    const double u = len2 > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / len2)) : 0.0;
+    const double u = segmentFraction(a, path_[i + 1], p);
     const double d = (a + u * ab - p).norm();
     if (d < best_d)
     {
       best_d = d;
       best_seg = i;
-      best_s = cumulative_[i] + u * std::sqrt(len2);
+      best_s = cumulative_[i] + u * ab.norm();
     }
   }
   segment_ = best_seg;
@@ -210,7 +216,7 @@ VelocityCommand PathFollower::command(const Pose2& pose)
   return avoid(pose, cmd);
 }
 
-double PathFollower::distanceToPath(const Eigen::Vector2d& p) const
+double PathFollower::distanceToPath(const Eigen::Vector2d& p, double enough) const
 {
   // The segments from the current one to a few look-aheads on (a loop crosses itself; the rest is not the way).
   double best = std::numeric_limits<double>::infinity();
@@ -218,9 +224,9 @@ double PathFollower::distanceToPath(const Eigen::Vector2d& p) const
   for (std::size_t i = segment_; i + 1 < path_.size() && cumulative_[i] <= window; ++i)
   {
     const Eigen::Vector2d a = path_[i], ab = path_[i + 1] - path_[i];
-    const double len2 = ab.squaredNorm();
-    const double u = len2 > 0.0 ? std::max(0.0, std::min(1.0, (p - a).dot(ab) / len2)) : 0.0;
-    best = std::min(best, (a + u * ab - p).norm());
+    best = std::min(best, (a + segmentFraction(a, path_[i + 1], p) * ab - p).norm());
+    if (best <= enough)
+      break;
   }
   return best;
 }
@@ -290,7 +296,7 @@ bool PathFollower::planWay(const Pose2& pose)
     const double bound = std::max(config_.max_departure, distanceToPath(Eigen::Vector2d(pose.x, pose.y)));
     for (int iy = 0; iy < n; ++iy)
       for (int ix = 0; ix < n; ++ix)
-        outside[index(ix, iy)] = distanceToPath(centre(ix, iy)) > bound;
+        outside[index(ix, iy)] = distanceToPath(centre(ix, iy), bound) > bound;
   }
   // Dijkstra from the robot's cell (allowed even when blocked: the robot is there).
   std::vector<double> cost(gap.size(), std::numeric_limits<double>::infinity());

@@ -98,8 +98,9 @@ public:
 
 private:
   Eigen::Vector2d pointAt(double s) const;
-  /** @brief Distance from @p p (odom frame) to the path from the current segment a few look-aheads on. */
-  double distanceToPath(const Eigen::Vector2d& p) const;
+  /** @brief Distance from @p p (odom frame) to the path from the current segment a few look-aheads on; once a segment
+   * lies within @p enough, that segment's distance (the search stops: the caller asks only whether p is that near). */
+  double distanceToPath(const Eigen::Vector2d& p, double enough = -1.0) const;
   /**
    * @brief Plans way_ (odom frame) from @p pose to the farthest point of the path ahead that a grid search over the
    * remembered obstacles reaches (cells within robot_radius + min_clearance of a point, or beyond max_departure from
@@ -131,6 +132,10 @@ private:
   std::vector<Eigen::Vector2d> way_;  ///< the planned way round (odom frame), empty when pure pursuit is clear
   unsigned plan_count_ = 0;           ///< commands since the way was last planned
 };
+
+/** @brief The fraction u in [0, 1] of the way from @p a to @p b where the point of segment [a, b] nearest @p p lies
+ * (0 for a segment of no length). */
+double segmentFraction(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& p);
 
 /** @brief The straight drive: straight ahead for @p length metres (start frame). */
 std::vector<Eigen::Vector2d> straightDrive(double length = 30.0);
