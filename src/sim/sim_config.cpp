@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "rbpf_slam/sim/waypoints_file.h"
+
 namespace rbpf_slam
 {
 namespace sim
@@ -161,6 +163,26 @@ void readScenarioConfig(const io::ParamSource& p, sim::ScenarioConfig* c)
   std::string follower_error;
   if (!c->follower.validate(&follower_error))
     throw std::runtime_error("invalid follower parameter: " + follower_error);
+}
+
+ScenarioConfig loadScenario(const std::string& path, const std::string& drive, const core::Pose2* start,
+                            std::vector<std::string>* unknown)
+{
+  ScenarioConfig config;
+  unknown->clear();
+  if (!path.empty())
+  {
+    io::YamlParamSource params(path);
+    readScenarioConfig(params, &config);
+    *unknown = params.unusedKeys();
+  }
+  if (start)
+    config.sim.start = *start;
+  std::string error;
+  config.drive = namedDrive(drive, &error);
+  if (config.drive.empty())
+    throw std::runtime_error(error);
+  return config;
 }
 
 }  // namespace sim

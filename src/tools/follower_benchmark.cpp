@@ -191,23 +191,15 @@ int main(int argc, char** argv)
     return status;
   try
   {
-    sim::ScenarioConfig config;
-    if (!opt.config.empty())
-    {
-      io::YamlParamSource params(opt.config);
-      sim::readScenarioConfig(params, &config);
-      for (const auto& k : params.unusedKeys())
-        std::fprintf(stderr, "follower_benchmark: warning: %s: unknown key '%s' ignored\n", opt.config.c_str(),
-                     k.c_str());
-    }
-    if (opt.start_given)
-      config.sim.start = opt.start;
+    std::vector<std::string> unknown;
+    sim::ScenarioConfig config =
+        sim::loadScenario(opt.config, opt.drive, opt.start_given ? &opt.start : nullptr, &unknown);
+    for (const auto& k : unknown)
+      std::fprintf(stderr, "follower_benchmark: warning: %s: unknown key '%s' ignored\n", opt.config.c_str(),
+                   k.c_str());
     if (!opt.points)
       config.sim.lidar3d.enabled = false;
     std::string error;
-    config.drive = sim::namedDrive(opt.drive, &error);
-    if (config.drive.empty())
-      throw std::runtime_error(error);
     const sim::ForestWorld world = sim::loadForestWorld(opt.world);
     if (!sim::checkDrive(world, config, &error) && !opt.force)
     {

@@ -174,22 +174,13 @@ bool parseOptions(int argc, char** argv, Options* opt, int* status)
 /** The scenario of --config over the defaults, with the seed, the start and the drive of the options. */
 sim::ScenarioConfig readScenario(const Options& opt)
 {
-  sim::ScenarioConfig config;
-  if (!opt.config_path.empty())
-  {
-    io::YamlParamSource params(opt.config_path);
-    sim::readScenarioConfig(params, &config);
-    for (const auto& k : params.unusedKeys())
-      std::fprintf(stderr, "record_scenario: warning: %s: unknown key '%s' ignored\n", opt.config_path.c_str(),
-                   k.c_str());
-  }
+  std::vector<std::string> unknown;
+  sim::ScenarioConfig config =
+      sim::loadScenario(opt.config_path, opt.drive, opt.start_given ? &opt.start : nullptr, &unknown);
+  for (const auto& k : unknown)
+    std::fprintf(stderr, "record_scenario: warning: %s: unknown key '%s' ignored\n", opt.config_path.c_str(),
+                 k.c_str());
   config.sim.seed = static_cast<std::uint64_t>(static_cast<std::int64_t>(opt.seed));
-  if (opt.start_given)
-    config.sim.start = opt.start;
-  std::string error;
-  config.drive = sim::namedDrive(opt.drive, &error);
-  if (config.drive.empty())
-    throw std::runtime_error(error);
   return config;
 }
 

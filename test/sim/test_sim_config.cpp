@@ -159,3 +159,32 @@ TEST(SimConfig, TheCarAndTheFollowerInputAreRead)
     std::remove(p.c_str());
   }
 }
+
+TEST(SimConfig, LoadScenarioReadsTheFileTheStartAndTheDrive)
+{
+  // The file's values over the defaults, its unknown keys named, the start given over the file's, the named drive.
+  const std::string path = writeTemp("scenario.yaml", "follower:\n  speed: 0.5\nstart: {x: 1.0, y: 2.0, yaw_deg: 0.0}\n"
+                                                      "follwer_speed: 3\n");
+  std::vector<std::string> unknown;
+  const core::Pose2 start(4.0, 5.0, 0.5);
+  const sim::ScenarioConfig c = sim::loadScenario(path, "straight", &start, &unknown);
+  EXPECT_DOUBLE_EQ(c.follower.speed, 0.5);
+  EXPECT_DOUBLE_EQ(c.sim.start.x, 4.0);
+  EXPECT_DOUBLE_EQ(c.sim.start.theta, 0.5);
+  ASSERT_EQ(unknown.size(), 1u);
+  EXPECT_EQ(unknown[0], "follwer_speed");
+  EXPECT_GE(c.drive.size(), 2u);
+  // Without a file: the defaults, no unknown keys; a drive that cannot be read throws with its name.
+  const sim::ScenarioConfig d = sim::loadScenario("", "loop", nullptr, &unknown);
+  EXPECT_TRUE(unknown.empty());
+  EXPECT_EQ(d.sim.start.y, sim::ScenarioConfig().sim.start.y);
+  try
+  {
+    sim::loadScenario("", "no_such_drive.txt", nullptr, &unknown);
+    FAIL() << "a drive that cannot be read was accepted";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("no_such_drive"), std::string::npos) << e.what();
+  }
+}
