@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <stdexcept>
 #include <limits>
+#include <utility>
 
 #include "rbpf_slam/core/filter/cell_key.h"
 
@@ -106,10 +107,9 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
     coarseOf(trees_[a].center, &cx, &cy);
     coarse[key(cx, cy)].push_back(static_cast<int>(a));
   }
-  // Counted first, nothing stored: a map with too many pairs is refused in about a second, not minutes.
-  long count = 0;
-  for (std::size_t a = 0; a < trees_.size() && count <= config_.max_pairs; ++a)
-  {
+  // The trees b > a of a pair with tree a (within the pair lengths), through the coarse grid: visit(b, length).
+  const double shortest = config_.min_pair_length - config_.pair_tolerance;
+  const auto forEachPartner = [&](std::size_t a, const auto& visit) {
     long cx = 0, cy = 0;
     coarseOf(trees_[a].center, &cx, &cy);
     for (long dx = -1; dx <= 1; ++dx)
@@ -120,11 +120,18 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
           continue;
         for (const int b : it->second)
         {
+          if (b <= static_cast<int>(a))
+            continue;
           const double d = (trees_[a].center - trees_[static_cast<std::size_t>(b)].center).norm();
-          count += b > static_cast<int>(a) && d >= config_.min_pair_length - config_.pair_tolerance && d <= reach;
+          if (d >= shortest && d <= reach)
+            visit(b, d);
         }
       }
-  }
+  };
+  // Counted first, nothing stored: a map with too many pairs is refused in about a second, not minutes.
+  long count = 0;
+  for (std::size_t a = 0; a < trees_.size() && count <= config_.max_pairs; ++a)
+    forEachPartner(a, [&](int, double) { ++count; });
   if (count > config_.max_pairs)
   {
     char text[400];
@@ -136,31 +143,17 @@ ConstellationMatcher::ConstellationMatcher(const std::vector<Landmark>& map, con
                   trees_.size() / std::max(1e-9, boundingArea(trees_)));
     throw std::invalid_argument(text);
   }
-  std::vector<int> near;
+  std::vector<std::pair<int, double>> near;
   for (std::size_t a = 0; a < trees_.size(); ++a)
   {
     long cx = 0, cy = 0;
     cellOf(trees_[a].center, &cx, &cy);
     grid_.emplace_back(key(cx, cy), static_cast<int>(a));
-    coarseOf(trees_[a].center, &cx, &cy);
     near.clear();
-    for (long dx = -1; dx <= 1; ++dx)
-      for (long dy = -1; dy <= 1; ++dy)
-      {
-        const auto it = coarse.find(key(cx + dx, cy + dy));
-        if (it == coarse.end())
-          continue;
-        for (const int b : it->second)
-          if (b > static_cast<int>(a))
-            near.push_back(b);
-      }
+    forEachPartner(a, [&](int b, double d) { near.emplace_back(b, d); });
     std::sort(near.begin(), near.end());  // the pairs in the order of the trees, whatever the cells
-    for (const int b : near)
-    {
-      const double d = (trees_[a].center - trees_[static_cast<std::size_t>(b)].center).norm();
-      if (d >= config_.min_pair_length - config_.pair_tolerance && d <= reach)
-        pairs_.push_back({ d, static_cast<int>(a), b });
-    }
+    for (const auto& bd : near)
+      pairs_.push_back({ bd.second, static_cast<int>(a), bd.first });
   }
   std::sort(grid_.begin(), grid_.end());
   std::sort(pairs_.begin(), pairs_.end(), [](const Pair& x, const Pair& y) { return x.length < y.length; });
