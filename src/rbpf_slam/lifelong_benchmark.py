@@ -340,7 +340,7 @@ def one_run(args, world, seed, work):
         f.write(gps)
     code, out = run([record, '--world', world, '--drive', args.drive, '--seed', str(seed), '--out', bag1,
                      '--config', sim1, '--quiet'])
-    if code == 3 and args.drive != 'straight':  # the loop runs into a trunk of this stand: the straight drive
+    if code in (3, 4) and args.drive != 'straight':  # the loop runs into (or is refused at) a trunk: the straight drive
         code, out = run([record, '--world', world, '--drive', 'straight', '--seed', str(seed), '--out', bag1,
                          '--config', sim1, '--quiet'])
     if code != 0:
@@ -363,7 +363,7 @@ def one_run(args, world, seed, work):
                          '--config', sim2, '--start', '%.3f' % start2[0], '%.3f' % start2[1], '%.3f' % math.degrees(start2[2])])
         if code == 0:
             break
-        if code != 3:
+        if code not in (3, 4):  # 3: it ran into a trunk; 4: refused before it started: both drawn again
             return {'error': 'visit 2: ' + out.strip().splitlines()[-1]}
     else:
         return {'error': 'visit 2: no start without a collision in 40 draws'}

@@ -138,7 +138,8 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>&
   cellOf(path.front(), &sx, &sy);
   if (at(sx, sy) != 1)
   {
-    *error = format("it starts at (%.2f, %.2f) in the world, where x",
+    *error = format("it starts at (%.2f, %.2f) in the world, nearer than %.2f m (the robot from base_link to a "
+                    "trunk or a box) to a trunk or a box",
                     path.front().x(), path.front().y(), need);
     return false;
   }

@@ -28,7 +28,7 @@ const char* kUsage =
     "Runs the simulated robot along a drive (no SLAM) and prints, per seed and over the seeds: collisions, runs that\n"
     "timed out, the largest distance of the odometry from the drive (what the follower steers on) and of the true\n"
     "pose from the drive laid from the true start. A run fails on a collision, a time-out, or a true departure above\n"
-    "--max-departure (default 3 m). Exits 1 when any run failed, 3 when the drive is refused before it starts.\n"
+    "--max-departure (default 3 m). Exits 1 when any run failed, 4 when the drive is refused before it starts.\n"
     "  --world FILE        forest world (YAML world file or tree list)\n"
     "  --drive NAME        straight | loop | waypoint file (x y per line, start frame); default straight\n"
     "  --config FILE       simulator parameters (keys of config/forest_sim.yaml); default: built-in\n"
@@ -204,7 +204,7 @@ int main(int argc, char** argv)
     if (!sim::checkDrive(world, config, &error) && !opt.force)
     {
       std::fprintf(stderr, "follower_benchmark: the drive '%s' is refused: %s\n", opt.drive.c_str(), error.c_str());
-      return 3;
+      return 4;
     }
     const sim::PathFollower probe(config.drive, config.follower);
     std::printf("follower_benchmark: world %s, drive %s (%.0f m), seeds %d-%d, speed %.2f m/s, avoidance %s\n",

@@ -52,7 +52,7 @@ const char* kUsage =
     "  --no-points         leave the 3D point clouds out (small bags for odometry studies)\n"
     "  --quiet             no progress bar\n"
     "A drive the robot cannot follow (no way round the trunks and boxes within the follower's max_departure of it,\n"
-    "or off the ground) is refused before it starts, with the reason (exit 1).\n"
+    "or off the ground) is refused before it starts, with the reason (exit 4).\n"
     "If the robot's footprint touches a trunk or a box, the simulator stops it there: the recorder reports the\n"
     "collision (time, true pose, what was hit), writes no bag and exits with status 3.\n"
     "example:\n"
@@ -389,7 +389,11 @@ int main(int argc, char** argv)
     const sim::ForestWorld world = loadWorld(opt, &config, &image);
     std::string refused;
     if (!image && !sim::checkDrive(world, config, &refused))
-      throw std::runtime_error("the drive '" + opt.drive + "' is refused before it starts: " + refused);
+    {
+      std::fprintf(stderr, "record_scenario: the drive '%s' is refused before it starts: %s; no bag written\n",
+                   opt.drive.c_str(), refused.c_str());
+      return 4;
+    }
     sim::Scenario scenario(world, config, image);
     return record(opt, config, image.get(), &scenario);
   }

@@ -133,7 +133,7 @@ def test_a_drive_the_robot_cannot_follow_is_refused_before_it_starts(tmp_path):
     r = subprocess.run([_tool(), '--world', str(trees), '--drive', 'straight', '--seed', '1', '--out', str(out),
                         '--quiet', '--no-points'], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                        universal_newlines=True, timeout=60)
-    assert r.returncode == 1, r.stderr
+    assert r.returncode == 4, r.stderr
     assert "the drive 'straight' is refused before it starts" in r.stderr
     assert 'cannot be reached' in r.stderr and 'within 3.0 m of the drive' in r.stderr
     assert 'Traceback' not in r.stderr

@@ -578,6 +578,18 @@ TEST(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
   config.drive = { Eigen::Vector2d(1.0, 1.0), Eigen::Vector2d(1.0, 1.0) };
   EXPECT_FALSE(checkDrive(world, config, &error));
   EXPECT_NE(error.find("fewer than two distinct waypoints"), std::string::npos) << error;
+  // A start beside a trunk, nearer than the robot needs: refused with the start and the distance it needs.
+  config.drive = straightDrive(30.0);
+  t.x = 0.5;
+  t.y = 15.0;
+  world.trunks.push_back(t);
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_NE(error.find("it starts at (0.00, 15.00) in the world, nearer than"), std::string::npos) << error;
+  // The ground's extent is named on both axes.
+  world.trunks.clear();
+  config.drive = straightDrive(200.0);
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_EQ(error.find("x ..."), std::string::npos) << error;
 }
 
 TEST(PathFollower, ObstaclesFromACloudAreWhatStandsNotTheGround)
