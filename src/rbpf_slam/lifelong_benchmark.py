@@ -2,7 +2,8 @@
 
 Per world and seed:
   1. visit 1: record_scenario drives the loop (--drive; seed S; the driver steers on the true pose, as a person
-     would, so that the loop keeps clear of the trunks) and slam_bag --save-map keeps the tree map (its frame: the
+     would, so that the loop keeps clear of the trunks; the straight drive where the loop collides, is refused
+     before it starts or is not finished in time) and slam_bag --save-map keeps the tree map (its frame: the
      start of visit 1);
   2. the stand changes: --fell of the trees are felled, --plant as many new ones planted (at least 1.5 m from any
      trunk), every other tree grows by 0..--grow m of radius;
@@ -340,7 +341,8 @@ def one_run(args, world, seed, work):
         f.write(gps)
     code, out = run([record, '--world', world, '--drive', args.drive, '--seed', str(seed), '--out', bag1,
                      '--config', sim1, '--quiet'])
-    if code in (3, 4) and args.drive != 'straight':  # the loop runs into (or is refused at) a trunk: the straight drive
+    if code in (3, 4, 5) and args.drive != 'straight':
+        # the loop runs into a trunk, is refused before it starts or is not finished in time: the straight drive
         code, out = run([record, '--world', world, '--drive', 'straight', '--seed', str(seed), '--out', bag1,
                          '--config', sim1, '--quiet'])
     if code != 0:
@@ -495,7 +497,8 @@ def main(argv=None):
                          'tree list (x y radius per line), a flat world')
     ap.add_argument('--seeds', default='1-10', help='e.g. 1-20 or 1,4,9')
     ap.add_argument('--drive', default='loop',
-                    help='the first visit\'s drive: loop (the default; straight where the loop touches a trunk)')
+                    help='the first visit\'s drive: loop (the default; straight where the loop collides, is '
+                         'refused or times out)')
     ap.add_argument('--fell', type=float, default=0.10, help='share of the trees felled between the visits')
     ap.add_argument('--plant', type=float, default=0.05, help='share of new trees planted between the visits')
     ap.add_argument('--grow', type=float, default=0.01, help='[m] most radius growth between the visits')

@@ -54,7 +54,8 @@ const char* kUsage =
     "A drive the robot cannot follow (no way round the trunks and boxes within the follower's max_departure of it,\n"
     "or off the ground) is refused before it starts, with the reason (exit 4).\n"
     "If the robot's footprint touches a trunk or a box, the simulator stops it there: the recorder reports the\n"
-    "collision (time, true pose, what was hit), writes no bag and exits with status 3.\n"
+    "collision (time, true pose, what was hit), writes no bag and exits with status 3. A drive not finished in time\n"
+    "(the follower's time limit) keeps its bag and exits with status 5.\n"
     "example:\n"
     "  record_scenario --world config/worlds/paper_forest.yaml --drive loop --seed 3 --out loop3.bag\n";
 
@@ -331,8 +332,8 @@ void printSummary(const Options& opt, const sim::ScenarioConfig& config, sim::Sc
 }
 
 /**
- * Records the scenario to the bag: 0 when the drive completed, 1 when it timed out, 3 (and no bag) when the robot
- * collided.
+ * Records the scenario to the bag: 0 when the drive completed, 5 when it timed out (the bag kept), 3 (and no bag)
+ * when the robot collided.
  */
 int record(const Options& opt, const sim::ScenarioConfig& config, const core::OccupancyImage* image,
            sim::Scenario* scenario)
@@ -369,7 +370,7 @@ int record(const Options& opt, const sim::ScenarioConfig& config, const core::Oc
   if (!opt.quiet)
     progress(scenario->simulator().time(), expected, true);
   printSummary(opt, config, scenario, writer);
-  return scenario->timedOut() ? 1 : 0;
+  return scenario->timedOut() ? 5 : 0;
 }
 }  // namespace
 

@@ -138,3 +138,19 @@ def test_a_drive_the_robot_cannot_follow_is_refused_before_it_starts(tmp_path):
     assert 'cannot be reached' in r.stderr and 'within 3.0 m of the drive' in r.stderr
     assert 'Traceback' not in r.stderr
     assert list(tmp_path.iterdir()) == [trees]  # no bag, no temporary file
+
+
+def test_a_drive_not_finished_in_time_keeps_its_bag_and_exits_with_status_5(tmp_path):
+    # A 5 s time limit on the 30 m straight drive: the bag of those 5 s is kept, the summary says so, status 5
+    # (not 1, which is a file or value the tool cannot read).
+    sim = tmp_path / 'short.yaml'
+    sim.write_text('timeout: 5.0\n')
+    out = tmp_path / 'short.bag'
+    r = subprocess.run([_tool(), '--world', WORLD, '--drive', 'straight', '--seed', '1', '--out', str(out),
+                        '--config', str(sim), '--quiet', '--no-points'], stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, universal_newlines=True, timeout=120)
+    assert r.returncode == 5, r.stdout + r.stderr
+    assert 'TIMED OUT before its end' in r.stdout
+    assert out.exists()
+    with rosbag.Bag(str(out)) as bag:
+        assert bag.get_end_time() - bag.get_start_time() < 10.0
