@@ -388,47 +388,36 @@ def test_satellite_fixes_anchor_a_new_map_on_the_earth(tmp_path):
     doc = json.load(open(str(tmp_path / 'map.geojson')))
     assert doc['type'] == 'FeatureCollection' and len(doc['features']) >= 10
 
+    def with_wild_fixes(name, wild):
+        """The bag with the valid fixes whose index is wild(k) moved ~1000 km north; slam_bag's output and anchor."""
+        path = str(tmp_path / (name + '.bag'))
+        with rosbag.Bag(bag) as src, rosbag.Bag(path, 'w') as dst:
+            k = 0
+            for topic, msg, t in src.read_messages():
+                if topic == '/gps/fix' and msg.status.status >= 0:
+                    if wild(k):
+                        msg.latitude += 9.0  # ~1000 km north
+                    k += 1
+                dst.write(topic, msg, t)
+        saved = str(tmp_path / (name + '.csv'))
+        r = subprocess.run([_tool('slam_bag'), '--bag', path, '--seed', '4', '--save-map', saved],
+                           stdout=subprocess.PIPE, universal_newlines=True, check=True)
+        a = ev.read_landmarks_csv(saved)['anchor']
+        east = np.radians(a['longitude'] - 24.25) * parallel
+        north = np.radians(a['latitude'] - 61.5) * meridian
+        return r.stdout, a, np.hypot(east - true_east, north - true_north)
+
     # Ten fixes in a row 1000 km away (a receiver's fault): the gate and the robust fit leave them out, and the
     # anchor stays where the good fixes put it.
-    wild = str(tmp_path / 'wild.bag')
-    with rosbag.Bag(bag) as src, rosbag.Bag(wild, 'w') as dst:
-        k = 0
-        for topic, msg, t in src.read_messages():
-            if topic == '/gps/fix' and msg.status.status >= 0:
-                if 40 <= k < 50:
-                    msg.latitude += 9.0  # ~1000 km north
-                k += 1
-            dst.write(topic, msg, t)
-    wild_map = str(tmp_path / 'wild.csv')
-    r = subprocess.run([_tool('slam_bag'), '--bag', wild, '--seed', '4', '--save-map', wild_map],
-                       stdout=subprocess.PIPE, universal_newlines=True, check=True)
-    a = ev.read_landmarks_csv(wild_map)['anchor']
-    east = np.radians(a['longitude'] - 24.25) * parallel
-    north = np.radians(a['latitude'] - 61.5) * meridian
-    error = np.hypot(east - true_east, north - true_north)
+    _, a, error = with_wild_fixes('wild', lambda k: 40 <= k < 50)
     assert 0.0 < a['sigma'] < 5.0, a
     assert error < 3.0 * a['sigma'] + 0.5, 'with wild fixes: origin %.2f m off, sigma %.2f m' % (error, a['sigma'])
     assert abs(np.degrees(a['yaw']) - 30.0) < 10.0, np.degrees(a['yaw'])
 
     # The receiver's first 20 fixes 1000 km north, before any anchor exists: the first anchor is theirs, and its gate
     # refuses the good fixes after them; the robust fit follows the good ones once they are the more.
-    first_wild = str(tmp_path / 'first_wild.bag')
-    with rosbag.Bag(bag) as src, rosbag.Bag(first_wild, 'w') as dst:
-        k = 0
-        for topic, msg, t in src.read_messages():
-            if topic == '/gps/fix' and msg.status.status >= 0:
-                if k < 20:
-                    msg.latitude += 9.0
-                k += 1
-            dst.write(topic, msg, t)
-    first_wild_map = str(tmp_path / 'first_wild.csv')
-    r = subprocess.run([_tool('slam_bag'), '--bag', first_wild, '--seed', '4', '--save-map', first_wild_map],
-                       stdout=subprocess.PIPE, universal_newlines=True, check=True)
-    assert '20 satellite fixes were left out of the anchor' in r.stdout, r.stdout
-    a = ev.read_landmarks_csv(first_wild_map)['anchor']
-    east = np.radians(a['longitude'] - 24.25) * parallel
-    north = np.radians(a['latitude'] - 61.5) * meridian
-    error = np.hypot(east - true_east, north - true_north)
+    out, a, error = with_wild_fixes('first_wild', lambda k: k < 20)
+    assert '20 satellite fixes were left out of the anchor' in out, out
     assert 0.0 < a['sigma'] < 5.0, a
     assert error < 3.0 * a['sigma'] + 0.5, 'first 20 fixes wild: origin %.2f m off, sigma %.2f m' % (error, a['sigma'])
 

@@ -49,6 +49,30 @@ GnssFix fixAt(double stamp, const Eigen::Vector2d& map_position, double offset_e
   f.covariance = Eigen::Matrix2d::Identity();
   return f;
 }
+
+/**
+ * The robot drives a circle of @p radius at 1 m/s for @p steps seconds with @p filter on the truth at every update;
+ * each second a fix @p fix(k, t, antenna position) of the antenna 0.2 m ahead goes to @p g, and @p before_use(k) runs
+ * before @p g uses the fixes due.
+ */
+template <typename Fix, typename Hook>
+void driveCircle(double radius, int steps, GnssAnchoring* g, FastSlam* filter, const Fix& fix, const Hook& before_use)
+{
+  OdometryBuffer odometry;
+  const Eigen::Vector2d antenna(0.2, 0.0);
+  for (int k = 0; k <= steps; ++k)
+  {
+    const double t = k, w = 1.0 / radius;
+    const Pose2 pose(radius * std::sin(w * t), radius * (1.0 - std::cos(w * t)), w * t);
+    odometry.add(t, pose);
+    filter->initialize(pose);
+    Eigen::Vector2d at;
+    pose.transformPoint(antenna.x(), antenna.y(), &at.x(), &at.y());
+    ASSERT_EQ(g->add(fix(k, t, at), antenna, k > 0 ? t - 1.0 : NAN), "");
+    before_use(k);
+    g->use(t, pose, odometry, filter);
+  }
+}
 }  // namespace
 
 TEST(GnssAnchoring, RefusedFixesAreNamed)
@@ -78,25 +102,16 @@ TEST(GnssAnchoring, TheAnchorIsFittedAJumpIsRejectedAndTheParticlesAreWeighed)
   fc.seed = 4;
   FastSlam filter(fc);
   // The robot drives a circle of 10 m radius at 1 m/s, a fix a second; the filter sits on the truth.
-  OdometryBuffer odometry;
   GnssFusionConfig gc;
   gc.correlation_time = 5.0;
   GnssAnchoring g(gc);
-  const Eigen::Vector2d antenna(0.2, 0.0);
   int weighed_before = 0;
-  for (int k = 0; k <= 60; ++k)
-  {
-    const double t = k, w = 0.1;
-    const Pose2 pose(10.0 * std::sin(w * t), 10.0 * (1.0 - std::cos(w * t)), w * t);
-    odometry.add(t, pose);
-    filter.initialize(pose);  // the filter on the truth at every update
-    Eigen::Vector2d at;
-    pose.transformPoint(antenna.x(), antenna.y(), &at.x(), &at.y());
-    ASSERT_EQ(g.add(fixAt(t, at, k == 50 ? 60.0 : 0.0), antenna, k > 0 ? t - 1.0 : NAN), "");
-    if (k == 49)
-      weighed_before = g.weighed();
-    g.use(t, pose, odometry, &filter);
-  }
+  driveCircle(
+      10.0, 60, &g, &filter, [](int k, double t, const Eigen::Vector2d& at) { return fixAt(t, at, k == 50 ? 60.0 : 0.0); },
+      [&](int k) {
+        if (k == 49)
+          weighed_before = g.weighed();
+      });
   EXPECT_EQ(g.used() + g.rejected(), 61);
   EXPECT_EQ(g.rejected(), 1) << "the 60 m jump is outside the gate once an anchor is known";
   const GeoAnchor a = g.anchor();
@@ -128,25 +143,17 @@ TEST(GnssAnchoring, WildFirstFixesDoNotLockTheAnchor)
   fc.particles = 50;
   fc.seed = 2;
   FastSlam filter(fc);
-  OdometryBuffer odometry;
   GnssFusionConfig gc;
   gc.correlation_time = 5.0;
   GnssAnchoring g(gc);
-  const Eigen::Vector2d antenna(0.2, 0.0);
   int weighed_at_40 = 0;
-  for (int k = 0; k <= 120; ++k)
-  {
-    const double t = k, w = 0.05;
-    const Pose2 pose(20.0 * std::sin(w * t), 20.0 * (1.0 - std::cos(w * t)), w * t);
-    odometry.add(t, pose);
-    filter.initialize(pose);
-    Eigen::Vector2d at;
-    pose.transformPoint(antenna.x(), antenna.y(), &at.x(), &at.y());
-    ASSERT_EQ(g.add(fixAt(t, at, 0.0, k < 20 ? 9.0 : 0.0), antenna, k > 0 ? t - 1.0 : NAN), "");
-    g.use(t, pose, odometry, &filter);
-    if (k == 40)
-      weighed_at_40 = g.weighed();
-  }
+  driveCircle(
+      20.0, 120, &g, &filter,
+      [](int k, double t, const Eigen::Vector2d& at) { return fixAt(t, at, 0.0, k < 20 ? 9.0 : 0.0); },
+      [&](int k) {
+        if (k == 41)
+          weighed_at_40 = g.weighed();  // after the fixes of second 40 were used
+      });
   const GeoAnchor a = g.anchor();
   ASSERT_TRUE(a.valid);
   EXPECT_LT(metresBetween(trueAnchor(), a.latitude, a.longitude), 1.0);
