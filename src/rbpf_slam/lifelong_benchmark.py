@@ -318,6 +318,9 @@ def anchor_errors(anchor, start1, trees_map, args):
 
 #: WGS84 latitude, longitude [deg] and altitude [m] of the worlds' origin with --gps (the simulator's default).
 GPS_ORIGIN = (47.0, 8.0, 500.0)
+# record_scenario's exit statuses (rbpf_slam::sim::exit_status): the robot ran into a trunk, the drive was refused
+# before it started, the drive was not finished in time
+COLLIDED, REFUSED, TIMED_OUT = 3, 4, 5
 
 
 def run(cmd):
@@ -341,7 +344,7 @@ def one_run(args, world, seed, work):
         f.write(gps)
     code, out = run([record, '--world', world, '--drive', args.drive, '--seed', str(seed), '--out', bag1,
                      '--config', sim1, '--quiet'])
-    if code in (3, 4, 5) and args.drive != 'straight':
+    if code in (COLLIDED, REFUSED, TIMED_OUT) and args.drive != 'straight':
         # the loop runs into a trunk, is refused before it starts or is not finished in time: the straight drive
         code, out = run([record, '--world', world, '--drive', 'straight', '--seed', str(seed), '--out', bag1,
                          '--config', sim1, '--quiet'])
@@ -365,7 +368,7 @@ def one_run(args, world, seed, work):
                          '--config', sim2, '--start', '%.3f' % start2[0], '%.3f' % start2[1], '%.3f' % math.degrees(start2[2])])
         if code == 0:
             break
-        if code not in (3, 4):  # 3: it ran into a trunk; 4: refused before it started: both drawn again
+        if code not in (COLLIDED, REFUSED):  # a start beside a trunk: drawn again
             return {'error': 'visit 2: ' + out.strip().splitlines()[-1]}
     else:
         return {'error': 'visit 2: no start without a collision in 40 draws'}

@@ -26,9 +26,10 @@ const char* kUsage =
     "usage: follower_benchmark --world FILE [--drive NAME] [--config FILE] [--start X Y YAW_DEG] [--seeds N]\n"
     "                          [--first-seed N] [--max-departure M] [--no-points] [--force]\n"
     "Runs the simulated robot along a drive (no SLAM) and prints, per seed and over the seeds: collisions, runs that\n"
-    "timed out, the largest distance of the odometry from the drive (what the follower steers on) and of the true\n"
-    "pose from the drive laid from the true start. A run fails on a collision, a time-out, or a true departure above\n"
-    "--max-departure (default 3 m). Exits 1 when any run failed, 4 when the drive is refused before it starts.\n"
+    "timed out, the largest distance of the odometry from the drive (what the follower steers on, unless --config\n"
+    "sets follower/steer_on: truth) and of the true pose from the drive laid from the true start. A run fails on a\n"
+    "collision, a time-out, or a true departure above --max-departure (default 3 m). Exits 1 when any run failed, 4\n"
+    "when the drive is refused before it starts.\n"
     "  --world FILE        forest world (YAML world file or tree list)\n"
     "  --drive NAME        straight | loop | waypoint file (x y per line, start frame); default straight\n"
     "  --config FILE       simulator parameters (keys of config/forest_sim.yaml); default: built-in\n"
@@ -204,12 +205,14 @@ int main(int argc, char** argv)
     if (!sim::checkDrive(world, config, &error) && !opt.force)
     {
       std::fprintf(stderr, "follower_benchmark: the drive '%s' is refused: %s\n", opt.drive.c_str(), error.c_str());
-      return 4;
+      return sim::exit_status::kRefused;
     }
     const sim::PathFollower probe(config.drive, config.follower);
-    std::printf("follower_benchmark: world %s, drive %s (%.0f m), seeds %d-%d, speed %.2f m/s, avoidance %s\n",
+    std::printf("follower_benchmark: world %s, drive %s (%.0f m), seeds %d-%d, speed %.2f m/s, avoidance %s, "
+                "steering on %s\n",
                 opt.world.c_str(), opt.drive.c_str(), probe.length(), opt.first_seed, opt.first_seed + opt.seeds - 1,
-                config.follower.speed, config.follower.avoid_obstacles ? "on" : "off");
+                config.follower.speed, config.follower.avoid_obstacles ? "on" : "off",
+                config.steer_on == sim::SteerOn::kTruth ? "the truth" : "odometry");
     std::vector<double> odom_dep, true_dep, lengths;
     int collided = 0, timed_out = 0, departed = 0;
     for (int s = opt.first_seed; s < opt.first_seed + opt.seeds; ++s)

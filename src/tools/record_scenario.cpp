@@ -361,7 +361,7 @@ int record(const Options& opt, const sim::ScenarioConfig& config, const core::Oc
                  "%.1f deg) in the world; the run ended there; no bag written\n",
                  c->stamp, c->what(scenario->simulator().world()).c_str(), c->pose.x, c->pose.y,
                  c->pose.theta * 180.0 / M_PI);
-    return 3;  // the bag and the temporary file are removed as they go out of scope
+    return sim::exit_status::kCollided;  // the bag and the temporary file are removed as they go out of scope
   }
   writer.truth_path.header.stamp = toRosTime(scenario->simulator().time(), base);
   bag.write("/ground_truth/path", writer.truth_path.header.stamp, writer.truth_path);
@@ -370,7 +370,7 @@ int record(const Options& opt, const sim::ScenarioConfig& config, const core::Oc
   if (!opt.quiet)
     progress(scenario->simulator().time(), expected, true);
   printSummary(opt, config, scenario, writer);
-  return scenario->timedOut() ? 5 : 0;
+  return scenario->timedOut() ? sim::exit_status::kTimedOut : 0;
 }
 }  // namespace
 
@@ -393,7 +393,7 @@ int main(int argc, char** argv)
     {
       std::fprintf(stderr, "record_scenario: the drive '%s' is refused before it starts: %s; no bag written\n",
                    opt.drive.c_str(), refused.c_str());
-      return 4;
+      return sim::exit_status::kRefused;
     }
     sim::Scenario scenario(world, config, image);
     return record(opt, config, image.get(), &scenario);

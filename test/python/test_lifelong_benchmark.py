@@ -3,6 +3,7 @@ the visits and the georeferencing (the SLAM runs themselves need the built tools
 import math
 import os
 import random
+import re
 
 import pytest
 
@@ -87,3 +88,12 @@ def test_a_file_that_is_no_world_is_refused_before_any_run(tmp_path, capsys):
 def test_a_missing_world_is_named(capsys):
     assert lb.main(['--worlds', 'no_such_world']) == 1
     assert 'no_such_world.yaml: no such world file' in capsys.readouterr().err
+
+
+def test_record_scenarios_exit_statuses_are_the_ones_it_returns():
+    # the benchmark tells a refused or colliding start from a broken tool by record_scenario's exit status
+    header = os.path.join(os.path.dirname(__file__), '..', '..', 'include', 'rbpf_slam', 'sim', 'scenario.h')
+    with open(header) as f:
+        text = f.read()
+    got = {name: int(value) for name, value in re.findall(r'constexpr int k(\w+) = (\d+);', text)}
+    assert got == {'Collided': lb.COLLIDED, 'Refused': lb.REFUSED, 'TimedOut': lb.TIMED_OUT}

@@ -28,6 +28,17 @@ enum class SteerOn
 /** @brief Parses "odometry" or "truth"; false for anything else. */
 bool parseSteerOn(const std::string& name, SteerOn* steer_on);
 
+/**
+ * @brief The exit statuses of the tools that run a scenario (record_scenario, follower_benchmark), so that a script
+ * driving them can tell the causes apart. 1 stays a file or a value that cannot be read.
+ */
+namespace exit_status
+{
+constexpr int kCollided = 3;   ///< the robot ran into a trunk or a box; the run ended there
+constexpr int kRefused = 4;    ///< the drive (or its start) was refused before it started (checkDrive)
+constexpr int kTimedOut = 5;   ///< the drive was not finished within the scenario's time-out
+}  // namespace exit_status
+
 struct ScenarioConfig
 {
   SimulatorConfig sim;
