@@ -358,14 +358,37 @@ void FastSlam::initialize(const Pose2& start, const LandmarkMap& map)
 }
 
 void FastSlam::initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy,
-                          double sigma_theta)
+                          double sigma_theta, const std::vector<double>& log_weights)
 {
   initialize(starts.empty() ? Pose2() : starts.front(), map);
-  for (std::size_t i = 0; i < particles_.size() && !starts.empty(); ++i)
+  if (starts.empty())
+    return;
+  const bool weighed = log_weights.size() == starts.size() &&
+                       std::all_of(log_weights.begin(), log_weights.end(), [](double w) { return std::isfinite(w); });
+  double lse = kNegInf;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
   {
-    const Pose2& s = starts[i % starts.size()];
+    const std::size_t k = i % starts.size();
+    const Pose2& s = starts[k];
     particles_[i].pose = Pose2(s.x + random_.gaussian(sigma_xy), s.y + random_.gaussian(sigma_xy),
                                wrapAngle(s.theta + random_.gaussian(sigma_theta)));
+    if (weighed)
+    {
+      particles_[i].log_weight = log_weights[k];
+      lse = logSumExp(lse, log_weights[k]);
+    }
+  }
+  if (!weighed)
+    return;
+  double heaviest = kNegInf;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+  {
+    particles_[i].log_weight -= lse;
+    if (particles_[i].log_weight > heaviest)
+    {
+      heaviest = particles_[i].log_weight;
+      best_ = i;
+    }
   }
 }
 

@@ -172,6 +172,19 @@ bool ConstellationMatcher::radiiAgree(const TrunkPoint& s, int tree) const
   return std::abs(s.radius - t.radius) <= config_.radius_sigmas * sigma + config_.radius_floor;
 }
 
+double ConstellationMatcher::logLikelihood(const std::vector<TrunkPoint>& seen, const Pose2& t) const
+{
+  std::vector<std::pair<int, int>> matches;
+  const int n = score(seen, seen.size(), t, &matches);
+  const double sigma2 = config_.inlier_gate * config_.inlier_gate / 9.0;
+  double sum = 0.0;
+  for (const auto& m : matches)
+    sum += (trees_[static_cast<std::size_t>(m.second)].center - apply(t, seen[static_cast<std::size_t>(m.first)].center))
+               .squaredNorm();
+  const double unexplained = static_cast<double>(seen.size()) - n;
+  return -0.5 * (sum / sigma2 + unexplained * 9.0);
+}
+
 int ConstellationMatcher::score(const std::vector<TrunkPoint>& all, std::size_t count, const Pose2& t,
                                 std::vector<std::pair<int, int>>* matches) const
 {

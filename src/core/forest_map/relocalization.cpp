@@ -117,9 +117,13 @@ bool Relocalizer::search(const std::vector<TrunkObservation>& trunks, const Pose
     if (r.accepted)
     {
       starts->clear();
+      start_log_weights_.clear();
       for (const PoseHypothesis& h : r.hypotheses)
         if (h.inliers >= rc.hypothesis_share * r.hypotheses.front().inliers)
+        {
           starts->push_back(h.transform * odom_mid);
+          start_log_weights_.push_back(matcher_.logLikelihood(seen, h.transform));
+        }
       st->hypotheses = static_cast<int>(starts->size());
       gathered_.clear();
       found = true;
@@ -167,6 +171,7 @@ Relocalizer::Tracking Relocalizer::whileTracking(const std::vector<TrunkObservat
       // Found elsewhere: the particles start again on the saved map, over the hypotheses and the estimate (should
       // the search be the one that is wrong, the next sweeps say so).
       starts->push_back(estimate);
+      start_log_weights_.push_back(matcher_.logLikelihood(last_seen_, estimate * odom_mid.inverse()));
       last_unobserved_ = false;
       st.recovered = true;
       st.found = true;

@@ -214,7 +214,8 @@ void TrunkSlamPipeline::searchWhenLost(const TrunkSweep& sw, const Pose2& odom_m
     // Found elsewhere: the particles start again on the saved map, over the hypotheses and the estimate (should
     // the search be the one that is wrong, the next sweeps say so).
     filter_->setClock(u->stamp);
-    filter_->initialize(starts, prior_, relocalizer_->config().spread_xy, relocalizer_->config().spread_theta);
+    filter_->initialize(starts, prior_, relocalizer_->config().spread_xy, relocalizer_->config().spread_theta,
+                        relocalizer_->startLogWeights());
     health_ = FilterHealth(healthConfig());
   }
   u->relocalization = status;
@@ -257,7 +258,8 @@ PipelineUpdate TrunkSlamPipeline::update(TrunkSweep&& sweep, bool covered)
       filter_->initialize(prior_start_, prior_);
     else if (relocalizer_->search(sw.trunks, mount_pose, odom_mid, &search, &starts))
     {
-      filter_->initialize(starts, prior_, relocalizer_->config().spread_xy, relocalizer_->config().spread_theta);
+      filter_->initialize(starts, prior_, relocalizer_->config().spread_xy, relocalizer_->config().spread_theta,
+                          relocalizer_->startLogWeights());
       search.found = true;
     }
     else

@@ -655,3 +655,53 @@ TEST(FastSlamConsistency, TheTruthIsInsideTheRegionWhenTheSpreadCoversTheError)
   EXPECT_FALSE(insideRegion95(Eigen::Vector2d(0.01, 0.0), Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero()));
   EXPECT_TRUE(insideRegion95(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero()));
 }
+
+TEST(FastSlam, ParticlesStartedOverSeveralPosesWeighAsTheirStartsSay)
+{
+  FastSlamConfig c = quietConfig(60);
+  FastSlam f(c);
+  LandmarkMap map;
+  const std::vector<Pose2> starts = { Pose2(1.0, 2.0, 0.3), Pose2(-5.0, 4.0, 2.9), Pose2(9.0, -1.0, -1.0) };
+  // The second start explains the trunks seen 3 times as likely as the first, the third not at all.
+  const std::vector<double> log_weights = { -40.0, -40.0 + std::log(3.0),
+                                        -std::numeric_limits<double>::infinity() };
+  for (const bool weighed : { false, true })
+  {
+    SCOPED_TRACE(weighed ? "weighed" : "unweighed");
+    if (weighed)
+      f.initialize({ starts[0], starts[1] }, map, 0.1, 0.02, { log_weights[0], log_weights[1] });
+    else
+      f.initialize(starts, map, 0.1, 0.02);
+    const std::size_t n = weighed ? 2 : 3;
+    std::vector<double> mass(n, 0.0);
+    double total = 0.0;
+    for (const Particle& p : f.particles())
+    {
+      std::size_t nearest = 0;
+      for (std::size_t k = 1; k < n; ++k)
+        if (std::hypot(p.pose.x - starts[k].x, p.pose.y - starts[k].y) <
+            std::hypot(p.pose.x - starts[nearest].x, p.pose.y - starts[nearest].y))
+          nearest = k;
+      mass[nearest] += std::exp(p.log_weight);
+      total += std::exp(p.log_weight);
+    }
+    EXPECT_NEAR(total, 1.0, 1e-9);
+    if (weighed)
+    {
+      EXPECT_NEAR(mass[1], 0.75, 1e-9);
+      EXPECT_NEAR(mass[0], 0.25, 1e-9);
+      EXPECT_LT(std::hypot(f.best().pose.x - starts[1].x, f.best().pose.y - starts[1].y), 1.0)
+          << "the best particle is one of the heavier start's";
+    }
+    else
+      for (std::size_t k = 0; k < n; ++k)
+        EXPECT_NEAR(mass[k], 1.0 / 3.0, 1e-9);
+  }
+  // Weights that do not fit the starts (a count that differs, or not finite) are not taken: equal weights.
+  f.initialize(starts, map, 0.1, 0.02, log_weights);
+  for (const Particle& p : f.particles())
+    EXPECT_NEAR(std::exp(p.log_weight), 1.0 / 60.0, 1e-12);
+  f.initialize(starts, map, 0.1, 0.02, { 0.0, 1.0 });
+  for (const Particle& p : f.particles())
+    EXPECT_NEAR(std::exp(p.log_weight), 1.0 / 60.0, 1e-12);
+}

@@ -134,3 +134,44 @@ TEST(Constellation, RefusesAMapDenserThanAForestBeforeIndexingIt)
     l.mean *= 5.0;
   EXPECT_NO_THROW(ConstellationMatcher(dense, ConstellationConfig()));
 }
+
+TEST(Constellation, TheLikelihoodOfATransformCountsItsDistancesAndWhatItLeavesUnexplained)
+{
+  const std::vector<Landmark> trees = randomStand(150, 60.0, 3);
+  ConstellationConfig config;
+  const ConstellationMatcher matcher(trees, config);
+  const Pose2 truth(25.0, 30.0, 0.8);
+  std::vector<TrunkPoint> seen = seenFrom(trees, truth, 12.0, 5);
+  for (TrunkPoint& t : seen)  // exact positions: every distance 0
+  {
+    Eigen::Vector2d exact = t.center;
+    double best = 1e9;
+    for (const Landmark& l : trees)
+    {
+      Eigen::Vector2d local;
+      truth.inverse().transformPoint(l.mean.x(), l.mean.y(), &local.x(), &local.y());
+      if ((local - t.center).norm() < best)
+      {
+        best = (local - t.center).norm();
+        exact = local;
+      }
+    }
+    t.center = exact;
+  }
+  ASSERT_GE(seen.size(), 8u);
+  EXPECT_NEAR(matcher.logLikelihood(seen, truth), 0.0, 1e-9);
+  // A trunk the map does not hold costs what one at the gate does: 3 sigma, -4.5.
+  std::vector<TrunkPoint> with_bush = seen;
+  TrunkPoint bush = seen.front();
+  bush.center += Eigen::Vector2d(1.3, 0.9);
+  with_bush.push_back(bush);
+  ASSERT_EQ(matcher.inliers(with_bush, truth), static_cast<int>(seen.size()));
+  EXPECT_NEAR(matcher.logLikelihood(with_bush, truth), -4.5, 1e-9);
+  // Shifted 0.1 m: every trunk within the gate, each costing 0.5 (0.1 / sigma)^2 with sigma = gate / 3.
+  const Pose2 shifted = Pose2(0.1 * std::cos(0.3), 0.1 * std::sin(0.3), 0.0) * truth;
+  ASSERT_EQ(matcher.inliers(seen, shifted), static_cast<int>(seen.size()));
+  const double sigma = config.inlier_gate / 3.0;
+  EXPECT_NEAR(matcher.logLikelihood(seen, shifted), -0.5 * seen.size() * 0.01 / (sigma * sigma), 1e-6);
+  // Far off: nothing explained.
+  EXPECT_NEAR(matcher.logLikelihood(seen, Pose2(500.0, 500.0, 0.0)), -4.5 * seen.size(), 1e-9);
+}

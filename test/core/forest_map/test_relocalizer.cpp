@@ -78,6 +78,10 @@ TEST(Relocalizer, TheStartIsFoundFromTwoSweepsOfTheTrunksAround)
   const Pose2 truth = kOdomInMap * odom1;
   EXPECT_LT(distance(starts.front(), truth), 0.1);
   EXPECT_NEAR(starts.front().theta, truth.theta, 0.02);
+  // One weight per start, the best hypothesis the heaviest.
+  ASSERT_EQ(r.startLogWeights().size(), starts.size());
+  for (double w : r.startLogWeights())
+    EXPECT_LE(w, r.startLogWeights().front());
 }
 
 TEST(Relocalizer, AStandThatIsNotTheSavedOneIsRefused)
@@ -131,6 +135,9 @@ TEST(Relocalizer, WhileTrackingAWrongEstimateIsReplacedAndARightOneConfirmed)
       const Pose2 truth = kOdomInMap * Pose2(0.5, 0.0, 0.0);
       EXPECT_LT(distance(starts.front(), truth), 0.1) << "the hypothesis first";
       EXPECT_NEAR(starts.back().x, truth.x + 4.0, 1e-9) << "the estimate last";
+      ASSERT_EQ(r.startLogWeights().size(), starts.size());
+      EXPECT_LT(r.startLogWeights().back(), r.startLogWeights().front() - 10.0)
+          << "the estimate, 4 m off, explains the trunks far worse than the hypothesis";
     }
     else
     {

@@ -268,8 +268,11 @@ public:
   /**
    * @brief The particles spread over the poses @p starts (in turn, each drawn around its pose with the standard
    * deviations @p sigma_xy [m] and @p sigma_theta [rad] from the filter's generator), sharing the prior map @p map.
+   * With @p log_weights (one per start), the particles around a start weigh in proportion to exp(its log weight);
+   * without, all weigh the same.
    */
-  void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta);
+  void initialize(const std::vector<Pose2>& starts, const LandmarkMap& map, double sigma_xy, double sigma_theta,
+                  const std::vector<double>& log_weights = {});
   /**
    * @brief After a loop was closed: every particle drawn around @p pose with @p covariance (x, y, theta; from the
    * filter's generator), all sharing @p map and the path @p path (one pose per update, oldest first; its last is

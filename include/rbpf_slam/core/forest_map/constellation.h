@@ -94,6 +94,15 @@ public:
    * the radii as in the search): e.g. to weigh a pose known otherwise against the search's. */
   int inliers(const std::vector<TrunkPoint>& seen, const Pose2& t) const { return score(seen, seen.size(), t, nullptr); }
 
+  /**
+   * @brief How well the transform @p t (seen frame -> map) explains @p seen, as a log-likelihood: a seen trunk's
+   * distance to its map tree (one to one, as inliers() pairs them) is Gaussian with standard deviation
+   * inlier_gate / 3 (the gate lies at 3 sigma); a trunk without a tree within the gate counts as one at the gate.
+   * Up to a constant shared by every transform of the same @p seen: hypotheses compare by differences (e.g. 36 of
+   * 39 trunks within 0.05 m RMS against 25 within 0.22 m: about 40 apart).
+   */
+  double logLikelihood(const std::vector<TrunkPoint>& seen, const Pose2& t) const;
+
   std::size_t mapPairs() const { return pairs_.size(); }
 
 private:

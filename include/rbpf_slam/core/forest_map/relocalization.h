@@ -80,8 +80,8 @@ public:
   /**
    * @brief One sweep of the search: @p trunks (sensor frame) seen from the sensor at @p mount on base_link, base_link
    * at @p odom_mid in the odometry frame. True when the search was accepted: @p starts then holds the poses to start
-   * from (base_link in the saved map), every hypothesis with hypothesis_share of the best's trunks; @p status says
-   * what the search saw either way.
+   * from (base_link in the saved map), every hypothesis with hypothesis_share of the best's trunks (their weights:
+   * startLogWeights()); @p status says what the search saw either way.
    */
   bool search(const std::vector<TrunkObservation>& trunks, const Pose2& mount, const Pose2& odom_mid,
               RelocalizationStatus* status, std::vector<Pose2>* starts);
@@ -109,6 +109,14 @@ public:
 
   const RelocalizationConfig& config() const { return config_; }
 
+  /**
+   * @brief For the starts of the last accepted search (or recovery), one each in their order: how well each explains
+   * the trunks gathered (ConstellationMatcher::logLikelihood), to weigh the particles started there: a hypothesis
+   * that explains fewer trunks, or explains them worse, starts lighter instead of as a lottery the first sweep's
+   * few matches decide.
+   */
+  const std::vector<double>& startLogWeights() const { return start_log_weights_; }
+
 private:
   void restartSearch();
 
@@ -130,6 +138,7 @@ private:
   bool lost_search_ = false;           ///< a search after lost tracking is running
   double lost_search_end_ = -1e300;    ///< [m] odometry travel when the last one ended
   bool last_unobserved_ = false;
+  std::vector<double> start_log_weights_;
 };
 
 }  // namespace core
