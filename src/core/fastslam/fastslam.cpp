@@ -365,31 +365,21 @@ void FastSlam::initialize(const std::vector<Pose2>& starts, const LandmarkMap& m
     return;
   const bool weighed = log_weights.size() == starts.size() &&
                        std::all_of(log_weights.begin(), log_weights.end(), [](double w) { return std::isfinite(w); });
-  double lse = kNegInf;
+  std::vector<double> log_w(particles_.size(), 0.0);
   for (std::size_t i = 0; i < particles_.size(); ++i)
   {
     const std::size_t k = i % starts.size();
     const Pose2& s = starts[k];
     particles_[i].pose = Pose2(s.x + random_.gaussian(sigma_xy), s.y + random_.gaussian(sigma_xy),
                                wrapAngle(s.theta + random_.gaussian(sigma_theta)));
-    if (weighed)
-    {
-      particles_[i].log_weight = log_weights[k];
-      lse = logSumExp(lse, log_weights[k]);
-    }
+    log_w[i] = weighed ? log_weights[k] : 0.0;
   }
   if (!weighed)
-    return;
-  double heaviest = kNegInf;
+    return;  // equal weights, as initialize() set them
+  normalizeLogWeights(&log_w, &weights_);
   for (std::size_t i = 0; i < particles_.size(); ++i)
-  {
-    particles_[i].log_weight -= lse;
-    if (particles_[i].log_weight > heaviest)
-    {
-      heaviest = particles_[i].log_weight;
-      best_ = i;
-    }
-  }
+    particles_[i].log_weight = log_w[i];
+  best_ = static_cast<std::size_t>(std::max_element(log_w.begin(), log_w.end()) - log_w.begin());
 }
 
 namespace

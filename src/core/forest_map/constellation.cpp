@@ -176,13 +176,14 @@ double ConstellationMatcher::logLikelihood(const std::vector<TrunkPoint>& seen, 
 {
   std::vector<std::pair<int, int>> matches;
   const int n = score(seen, seen.size(), t, &matches);
-  const double sigma2 = config_.inlier_gate * config_.inlier_gate / 9.0;
+  const double gate_sigmas = 3.0;  // the gate lies at 3 sigma
+  const double sigma = config_.inlier_gate / gate_sigmas;
   double sum = 0.0;
   for (const auto& m : matches)
     sum += (trees_[static_cast<std::size_t>(m.second)].center - apply(t, seen[static_cast<std::size_t>(m.first)].center))
                .squaredNorm();
   const double unexplained = static_cast<double>(seen.size()) - n;
-  return -0.5 * (sum / sigma2 + unexplained * 9.0);
+  return -0.5 * (sum / (sigma * sigma) + unexplained * gate_sigmas * gate_sigmas);
 }
 
 int ConstellationMatcher::score(const std::vector<TrunkPoint>& all, std::size_t count, const Pose2& t,
