@@ -14,6 +14,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -80,8 +81,37 @@ def _stop(proc, timeout=20.0):
         proc.wait()
 
 
-def _replay_screenshot(tmp, bag, launch_args, name):
-    """roslaunch replay.launch with rviz on a virtual screen; a screenshot once the bag has played."""
+# Run with the test's ROS master: returns once TOPIC has had no message for QUIET seconds (or LIMIT has passed),
+# printing whether it went quiet. The SLAM node publishes its pose for every scan it processes, so a quiet pose
+# topic after the bag has played means the node has worked through every scan that waited for it.
+_WAIT_QUIET = '''
+import sys, time
+import rospy
+topic, quiet, limit = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
+rospy.init_node('wait_until_quiet', anonymous=True, disable_signals=True)
+last = [time.time()]
+def heard(_msg):
+    last[0] = time.time()
+rospy.Subscriber(topic, rospy.AnyMsg, heard, queue_size=100)
+end = time.time() + limit
+while time.time() < end and time.time() - last[0] < quiet:
+    time.sleep(0.1)
+print('quiet' if time.time() - last[0] >= quiet else 'still publishing')
+'''
+
+
+def _wait_until_caught_up(env, topic, quiet=3.0, limit=150.0):
+    """Waits until the SLAM node has processed every scan that waited for it (its pose topic has gone quiet)."""
+    done = subprocess.run([sys.executable, '-c', _WAIT_QUIET, topic, str(quiet), str(limit)], env=env,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
+                          timeout=limit + 60.0)
+    assert done.stdout.strip().endswith('quiet'), \
+        '%s was still being published %.0f s after the bag ended: %s' % (topic, limit, done.stdout[-500:])
+
+
+def _replay_screenshot(tmp, bag, launch_args, name, pose_topic):
+    """roslaunch replay.launch with rviz on a virtual screen; a screenshot once the bag has played and the SLAM
+    node has caught up (however slow the machine)."""
     xvfb, display = _start_xvfb()
     env = dict(os.environ, DISPLAY=display, ROS_MASTER_URI='http://localhost:%d' % _free_port(),
                ROS_LOG_DIR=str(tmp / 'log'), ROS_HOME=str(tmp / 'ros_home'), LIBGL_ALWAYS_SOFTWARE='1')
@@ -104,6 +134,7 @@ def _replay_screenshot(tmp, bag, launch_args, name):
                 break
             time.sleep(1.0)
         assert played, 'the bag did not finish playing within 180 s (log: %s)' % log_path
+        _wait_until_caught_up(env, pose_topic)
         time.sleep(4.0)  # rviz draws the last messages
         subprocess.run([IMPORT, '-display', display, '-window', 'root', shot], check=True, timeout=60)
     finally:
@@ -151,7 +182,7 @@ def test_forest_rviz_shows_estimate_beside_truth(tmp_path):
     subprocess.run([_tool('record_scenario'), '--world', os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml'),
                     '--drive', str(waypoints), '--seed', '1', '--out', bag, '--quiet'], check=True,
                    stdout=subprocess.DEVNULL)
-    shot, log_text = _replay_screenshot(tmp_path, bag, ['slam:=fastslam'], 'forest')
+    shot, log_text = _replay_screenshot(tmp_path, bag, ['slam:=fastslam'], 'forest', '/fastslam/pose')
     view = _view(shot)
     assert _distinct_colours(view) > 300, 'the 3D view looks blank (%s)' % shot
     for what, rgb, least in (('true path', TRUE_PATH, 150), ('FastSLAM path', ESTIMATED_PATH, 150),
@@ -177,7 +208,8 @@ def test_grid_rviz_shows_map_scan_and_path(tmp_path):
                    check=True, stdout=subprocess.DEVNULL)
     # Grid SLAM on the replayed bag: its map and estimated path beside the true map and path, and the scan.
     shot, log_text = _replay_screenshot(
-        tmp_path, bag, ['slam:=grid', 'rviz_config:=' + os.path.join(ROOT, 'config', 'rviz', 'grid.rviz')], 'grid')
+        tmp_path, bag, ['slam:=grid', 'rviz_config:=' + os.path.join(ROOT, 'config', 'rviz', 'grid.rviz')], 'grid',
+        '/grid_slam/pose')
     view = _view(shot)
     assert _distinct_colours(view) > 20, 'the 3D view looks blank (%s)' % shot
     for what, rgb, least in (('true path', TRUE_PATH, 100), ('estimated path', ESTIMATED_PATH, 100),
