@@ -30,6 +30,71 @@ std::string format(const char* fmt, Args... args)
   return buf;
 }
 
+/** A shape the planner steers round, as the lidar sees it in the planner's height band: the points within @p radius
+ * of segment [a, b] (a circle when a == b). */
+struct Blocker
+{
+  Eigen::Vector2d a, b;
+  double radius;
+  bool clutter;  ///< not a trunk (the robot may start near it, as the planner lets it leave it)
+};
+
+/** Segment [a, b] (3D) clipped to heights [lo, hi]; false when no part of it lies there. */
+bool clipToHeights(Eigen::Vector3d a, Eigen::Vector3d b, double lo, double hi, Eigen::Vector2d* ca, Eigen::Vector2d* cb)
+{
+  if (a.z() > b.z())
+    std::swap(a, b);
+  if (b.z() < lo || a.z() > hi)
+    return false;
+  const double dz = b.z() - a.z();
+  const auto at = [&](double z) -> Eigen::Vector3d { return dz > 1e-12 ? a + (b - a) * ((z - a.z()) / dz) : a; };
+  *ca = at(std::max(lo, a.z())).head<2>();
+  *cb = at(std::min(hi, b.z())).head<2>();
+  return true;
+}
+
+/**
+ * What the planner steers round: the trunks (at the ground) and the clutter whose shape rises into its obstacle band
+ * [@p lo, @p hi] above the ground: the saplings' stems (their axes through the band, radius at its foot), bushes and
+ * crowns (foliage spheres cut by the band), rocks, fallen branches thick enough to reach it, the branches on the stems.
+ */
+std::vector<Blocker> blockersInBand(const ForestWorld& world, double lo, double hi)
+{
+  std::vector<Blocker> out;
+  for (const TrunkSpec& t : world.trunks)
+    out.push_back({ Eigen::Vector2d(t.x, t.y), Eigen::Vector2d(t.x, t.y), t.radius, false });
+  for (const TrunkSpec& t : world.saplings)
+  {
+    double r_lo = 0.0;
+    const Eigen::Vector3d a = trunkAxisAt(t, 0.0, std::max(0.0, lo), &r_lo);
+    const Eigen::Vector3d b = trunkAxisAt(t, 0.0, std::max(0.0, std::min(hi, t.height)), nullptr);
+    if (t.height >= lo)
+      out.push_back({ a.head<2>(), b.head<2>(), r_lo, true });
+  }
+  const auto spheres = [&](const Eigen::Vector3d& c, double radius) {
+    const double dz = c.z() < lo ? lo - c.z() : (c.z() > hi ? c.z() - hi : 0.0);
+    if (dz < radius)
+      out.push_back({ c.head<2>(), c.head<2>(), std::sqrt(radius * radius - dz * dz), true });
+  };
+  for (const FoliageSpec& f : world.foliage)
+    spheres(f.center, f.radius);
+  for (const RockSpec& r : world.rocks)
+    spheres(r.center, r.radius);
+  for (const BranchSpec& b : world.branches)
+  {
+    const double dz = std::max(0.0, lo - b.radius);  // the axis lies b.radius above the ground
+    if (dz < b.radius)
+      out.push_back({ b.a, b.b, std::sqrt(b.radius * b.radius - dz * dz), true });
+  }
+  for (const StubSpec& s : world.stubs)
+  {
+    Eigen::Vector2d a, b;
+    if (clipToHeights(s.a, s.b, lo - s.radius, hi + s.radius, &a, &b))
+      out.push_back({ a, b, s.radius, true });
+  }
+  return out;
+}
+
 /** The drive's points must keep @p side + @p margin from every trunk surface and box (no planner to go round). */
 bool checkClearance(const ForestWorld& world, const std::vector<Eigen::Vector2d>& path, double side, double margin,
                     std::string* error)
@@ -71,12 +136,13 @@ bool checkClearance(const ForestWorld& world, const std::vector<Eigen::Vector2d>
 }
 
 /**
- * With the planner: the places within @p band of the drive where base_link keeps @p need from every trunk surface
- * and box, searched from the drive's start (a grid of kCell); every point of the drive must have one of them within
- * @p band that the search reached. A necessary condition only: the planner does not see the world beforehand.
+ * With the planner: the places within @p band of the drive where base_link keeps @p need from every trunk surface,
+ * box and piece of clutter in @p blockers, searched from the drive's start (a grid of kCell); every point of the
+ * drive must have one of them within @p band that the search reached. A necessary condition only: the planner does
+ * not see the world beforehand.
  */
-bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>& path, double need, double band,
-                   std::string* error)
+bool checkCorridor(const ForestWorld& world, const std::vector<Blocker>& blockers,
+                   const std::vector<Eigen::Vector2d>& path, double need, double band, std::string* error)
 {
   Eigen::Vector2d lo = path.front(), hi = path.front();
   for (const Eigen::Vector2d& p : path)
@@ -98,7 +164,7 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>&
     *ix = static_cast<int>(std::lround((p.x() - lo.x()) / kCell));
     *iy = static_cast<int>(std::lround((p.y() - lo.y()) / kCell));
   };
-  // 0: outside the band, 1: free, 2: blocked, 3: reached.
+  // 0: outside the band, 1: free, 2: blocked by a trunk or a box, 3: reached, 4: blocked by clutter (in the band).
   std::vector<std::uint8_t> grid(static_cast<std::size_t>(nx) * ny, 0);
   const auto at = [&](int ix, int iy) -> std::uint8_t& { return grid[static_cast<std::size_t>(iy) * nx + ix]; };
   const auto cover = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double radius,
@@ -117,12 +183,17 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>&
       if (at(ix, iy) == 0 && (nearestOnSegment(path[k], path[k + 1], c) - c).norm() <= band)
         at(ix, iy) = 1;
     });
-  for (const TrunkSpec& t : world.trunks)
+  // Clutter blocks a cell when the cell's centre lies nearer than need less half the cell's diagonal: a gap the grid
+  // cannot resolve is left open (the check may pass what cannot be followed, never refuse what can; a bush's rim is
+  // seen sparsely, rays pass through it).
+  const double slack = 0.5 * M_SQRT2 * kCell;
+  for (const Blocker& k : blockers)
   {
-    const Eigen::Vector2d foot(t.x, t.y);
-    cover(foot, foot, t.radius + need, [&](int ix, int iy, const Eigen::Vector2d& c) {
-      if ((c - foot).norm() < t.radius + need)
-        at(ix, iy) = 2;
+    const double reach = k.radius + need - (k.clutter ? slack : 0.0);
+    cover(k.a, k.b, reach, [&](int ix, int iy, const Eigen::Vector2d& c) {
+      std::uint8_t& cell = at(ix, iy);
+      if ((nearestOnSegment(k.a, k.b, c) - c).norm() < reach && cell != 2)
+        cell = k.clutter ? (cell == 0 ? 0 : 4) : 2;
     });
   }
   for (const BoxSpec& b : world.boxes)
@@ -136,6 +207,14 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>&
   }
   int sx, sy;
   cellOf(path.front(), &sx, &sy);
+  if (at(sx, sy) == 4)
+  {
+    // Started within reach of clutter: the planner lets the robot leave it, so its footprint there is open.
+    cover(path.front(), path.front(), need, [&](int ix, int iy, const Eigen::Vector2d& c) {
+      if (at(ix, iy) == 4 && (c - path.front()).norm() <= need)
+        at(ix, iy) = 1;
+    });
+  }
   if (at(sx, sy) != 1)
   {
     *error = format("it starts at (%.2f, %.2f) in the world, nearer than %.2f m (the robot from base_link to a "
@@ -176,9 +255,9 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Eigen::Vector2d>&
           found = at(ix, iy) == 3 && (centre(ix, iy) - p).norm() <= band;
       if (!found)
       {
-        *error = format("its point (%.2f, %.2f) in the world cannot be reached: trunks or boxes leave no way there "
-                        "within %.1f m of the drive that the robot (%.2f m from base_link to a trunk or a box) fits "
-                        "through",
+        *error = format("its point (%.2f, %.2f) in the world cannot be reached: trunks, boxes and the clutter the "
+                        "planner steers round (bushes, rocks, low branches) leave no way there within %.1f m of the "
+                        "drive that the robot (%.2f m from base_link to any of them) fits through",
                         p.x(), p.y(), band, need);
         return false;
       }
@@ -238,7 +317,18 @@ bool checkDrive(const ForestWorld& world, const ScenarioConfig& config, std::str
   const PathFollowerConfig& f = config.follower;
   if (!f.avoid_obstacles || f.max_departure <= 0.0)
     return checkClearance(world, path, side, f.avoid_obstacles ? f.min_clearance : 0.0, error);
-  return checkCorridor(world, path, side + f.min_clearance, f.max_departure, error);
+  // What the planner sees: the 3D lidar's points in its height band, or else the 2D scanner's plane (with neither it
+  // sees nothing and only trunks and boxes are checked).
+  const SimulatorConfig& sc = config.sim;
+  std::vector<Blocker> blockers;
+  if (sc.lidar3d.enabled)
+    blockers = blockersInBand(world, f.obstacle_min_height, f.obstacle_max_height);
+  else if (sc.lidar2d.enabled)
+    blockers = blockersInBand(world, sc.lidar2d.mount.z, sc.lidar2d.mount.z);
+  else
+    for (const TrunkSpec& t : world.trunks)
+      blockers.push_back({ Eigen::Vector2d(t.x, t.y), Eigen::Vector2d(t.x, t.y), t.radius, false });
+  return checkCorridor(world, blockers, path, side + f.min_clearance, f.max_departure, error);
 }
 
 }  // namespace sim

@@ -592,6 +592,50 @@ TEST(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
   EXPECT_EQ(error.find("x ..."), std::string::npos) << error;
 }
 
+TEST(DriveCheck, ClutterThePlannerSteersRoundClosesTheWayAndLowClutterDoesNot)
+{
+  ForestWorld world;
+  world.ground.amplitude = 0.0;
+  ScenarioConfig config;
+  config.sim.start = rbpf_slam::core::Pose2(0.0, 15.0, 0.0);
+  config.drive = straightDrive(30.0);
+  std::string error;
+  // A hedge of bushes across the drive at x = 20 m, centres 1.0 m apart from y = 9 to 21 m, 0.8 m up (in the
+  // planner's height band): no gap at all.
+  for (double y = 9.0; y <= 21.0; y += 1.0)
+    world.foliage.push_back(FoliageSpec{ Eigen::Vector3d(20.0, y, 0.8), 0.5, 0.3 });
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  EXPECT_NE(error.find("bushes, rocks, low branches"), std::string::npos) << error;
+  // The same hedge as crowns 5 m up (above the band): the planner does not see them.
+  for (FoliageSpec& f : world.foliage)
+    f.center.z() = 5.0;
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+  // Rocks half buried (centre at the ground, 0.5 m radius: 0.8 m wide where the band starts 0.3 m up) 1.4 m apart:
+  // 0.6 m gaps, narrower than the 1.4 m the robot needs: closed.
+  world.foliage.clear();
+  for (double y = 9.0; y <= 21.0; y += 1.4)
+    world.rocks.push_back(RockSpec{ Eigen::Vector3d(20.0, y, 0.0), 0.5 });
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  // Rocks as low as the fallen branches (0.2 m radius, under the band): open.
+  for (RockSpec& r : world.rocks)
+    r.radius = 0.2;
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+  // A start beside a bush is not refused (the planner lets the robot leave it; a bush is no collision), as long as
+  // the way goes on.
+  world.rocks.clear();
+  world.foliage.push_back(FoliageSpec{ Eigen::Vector3d(0.0, 15.9, 0.8), 0.5, 0.3 });
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+  // Seen only by a 2D scanner 0.5 m up (no 3D lidar): the bushes count where they cut its plane.
+  config.sim.lidar3d.enabled = false;
+  config.sim.lidar2d.enabled = true;
+  config.sim.lidar2d.mount.z = 0.5;
+  for (double y = 9.0; y <= 21.0; y += 1.0)
+    world.foliage.push_back(FoliageSpec{ Eigen::Vector3d(20.0, y, 0.8), 0.5, 0.3 });
+  EXPECT_FALSE(checkDrive(world, config, &error));
+  config.sim.lidar2d.mount.z = 1.5;  // above the bushes' tops (1.3 m)
+  EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+}
+
 TEST(PathFollower, ObstaclesFromACloudAreWhatStandsNotTheGround)
 {
   using namespace rbpf_slam::core;
