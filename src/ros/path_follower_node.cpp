@@ -40,6 +40,7 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   readKey(params, "obstacle_max_height", &config.obstacle_max_height);
   readKey(params, "obstacle_min_extent", &config.obstacle_min_extent);
   readKey(params, "base_frame", &base_frame_);
+  readKey(params, "level_with_imu", &level_with_imu_);
   warnUnknownKeys(params);
   std::string error;
   std::vector<Eigen::Vector2d> path = sim::namedDrive(drive, &error);
@@ -60,6 +61,8 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
     cloud_sub_ = nh.subscribe("points", 5, &PathFollowerNode::onCloud, this);
     scan_sub_ = nh.subscribe("scan", 10, &PathFollowerNode::onScan, this);
+    if (level_with_imu_)
+      imu_sub_ = nh.subscribe("imu/data", 100, &PathFollowerNode::onImu, this);
   }
 
   nav_msgs::Path msg;
@@ -123,10 +126,20 @@ void PathFollowerNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
     ROS_WARN_THROTTLE(5.0, "%s: cloud ignored: %s", cloud_sub_.getTopic().c_str(), problem.c_str());
     return;
   }
+  Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
+  if (level_with_imu_)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (gravity_.ready())
+      level = gravity_.levelling();
+    else
+      ROS_WARN_THROTTLE(10.0, "%s: no accelerometer on %s yet: clouds are taken as level (set ~level_with_imu false "
+                        "for a robot without an IMU)", cloud_sub_.getTopic().c_str(), imu_sub_.getTopic().c_str());
+  }
   std::vector<Eigen::Vector3d> points;
   points.reserve(cloud.points.size());
   for (const auto& p : cloud.points)
-    points.push_back(m * p.cast<double>());
+    points.push_back(level * (m * p.cast<double>()));
   const std::vector<Eigen::Vector2d> obstacles = sim::obstaclesFromCloud(points, config_);
   std::lock_guard<std::mutex> lock(mutex_);
   follower_->addObstacles(msg->header.stamp.toSec(), pose_, obstacles);
@@ -143,6 +156,22 @@ void PathFollowerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg)
       msg->ranges, msg->angle_min, msg->angle_increment, msg->range_min, msg->range_max, mount2, config_);
   std::lock_guard<std::mutex> lock(mutex_);
   follower_->addObstacles(msg->header.stamp.toSec(), pose_, obstacles);
+}
+
+void PathFollowerNode::onImu(const sensor_msgs::Imu::ConstPtr& msg)
+{
+  Eigen::Vector3d f(msg->linear_acceleration.x, msg->linear_acceleration.y, msg->linear_acceleration.z);
+  Eigen::Isometry3d m;
+  if (!msg->header.frame_id.empty() && msg->header.frame_id != base_frame_)
+  {
+    if (!mount(msg->header.frame_id, &m))
+      return;
+    f = m.linear() * f;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!gravity_.add(msg->header.stamp.toSec(), f))
+    ROS_WARN_THROTTLE(5.0, "%s: accelerometer sample ignored (not finite, or not near 1 g: %.2f m/s^2)",
+                      imu_sub_.getTopic().c_str(), f.norm());
 }
 
 void PathFollowerNode::onOdometry(const nav_msgs::Odometry::ConstPtr& msg)

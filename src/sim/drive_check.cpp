@@ -185,14 +185,16 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Blocker>& blocker
     });
   // Clutter blocks a cell when the cell's centre lies nearer than need less half the cell's diagonal: a gap the grid
   // cannot resolve is left open (the check may pass what cannot be followed, never refuse what can; a bush's rim is
-  // seen sparsely, rays pass through it).
+  // seen sparsely, rays pass through it). Nor does it close the robot's footprint at the start: the planner lets the
+  // robot leave clutter it starts beside.
   const double slack = 0.5 * M_SQRT2 * kCell;
   for (const Blocker& k : blockers)
   {
     const double reach = k.radius + need - (k.clutter ? slack : 0.0);
     cover(k.a, k.b, reach, [&](int ix, int iy, const Eigen::Vector2d& c) {
       std::uint8_t& cell = at(ix, iy);
-      if ((nearestOnSegment(k.a, k.b, c) - c).norm() < reach && cell != 2)
+      if ((nearestOnSegment(k.a, k.b, c) - c).norm() < reach && cell != 2 &&
+          !(k.clutter && (c - path.front()).norm() <= need))
         cell = k.clutter ? (cell == 0 ? 0 : 4) : 2;
     });
   }
@@ -207,14 +209,6 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Blocker>& blocker
   }
   int sx, sy;
   cellOf(path.front(), &sx, &sy);
-  if (at(sx, sy) == 4)
-  {
-    // Started within reach of clutter: the planner lets the robot leave it, so its footprint there is open.
-    cover(path.front(), path.front(), need, [&](int ix, int iy, const Eigen::Vector2d& c) {
-      if (at(ix, iy) == 4 && (c - path.front()).norm() <= need)
-        at(ix, iy) = 1;
-    });
-  }
   if (at(sx, sy) != 1)
   {
     *error = format("it starts at (%.2f, %.2f) in the world, nearer than %.2f m (the robot from base_link to a "

@@ -121,6 +121,35 @@ std::vector<Eigen::Vector2d> obstaclesFromCloud(const std::vector<Eigen::Vector3
   return out;
 }
 
+bool GravityLevel::add(double stamp, const Eigen::Vector3d& f)
+{
+  constexpr double kG = 9.80665;
+  if (!f.allFinite() || !std::isfinite(stamp) || std::abs(f.norm() - kG) > 0.5 * kG)
+    return false;
+  if (!have_)
+    mean_ = f;
+  else
+  {
+    // An exponential average over time_constant_ (a sample that goes back in time restarts nothing: weight 0).
+    const double dt = std::max(0.0, stamp - last_stamp_);
+    const double w = time_constant_ > 0.0 ? 1.0 - std::exp(-dt / time_constant_) : 1.0;
+    mean_ += w * (f - mean_);
+  }
+  last_stamp_ = std::max(last_stamp_, stamp);
+  have_ = true;
+  return true;
+}
+
+Eigen::Matrix3d GravityLevel::levelling() const
+{
+  // base_link = Rz(yaw) Ry(pitch) Rx(roll) in a level frame; gravity's reaction seen in base_link is
+  // (Ry(pitch) Rx(roll))^T (0, 0, g), which gives roll and pitch.
+  const double roll = std::atan2(mean_.y(), mean_.z());
+  const double pitch = std::atan2(-mean_.x(), std::hypot(mean_.y(), mean_.z()));
+  return (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
 std::vector<Eigen::Vector2d> obstaclesFromScan(const std::vector<float>& ranges, double angle_min,
                                                double angle_increment, double range_min, double range_max,
                                                const Pose2& mount, const PathFollowerConfig& config)

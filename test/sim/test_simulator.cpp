@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "rbpf_slam/core/filter/random.h"
 #include "rbpf_slam/sim/drive_check.h"
 #include "rbpf_slam/sim/forest_simulator.h"
 #include "rbpf_slam/sim/scenario.h"
@@ -634,6 +635,40 @@ TEST(DriveCheck, ClutterThePlannerSteersRoundClosesTheWayAndLowClutterDoesNot)
   EXPECT_FALSE(checkDrive(world, config, &error));
   config.sim.lidar2d.mount.z = 1.5;  // above the bushes' tops (1.3 m)
   EXPECT_TRUE(checkDrive(world, config, &error)) << error;
+}
+
+TEST(GravityLevel, LevelsATiltedBodyAsItsTrueTiltDoesThroughNoiseAndBriefAccelerations)
+{
+  const double g = 9.80665;
+  // base_link rolled 4 degrees and pitched -3 (a 7 % slope, across and up).
+  const Eigen::Matrix3d tilt = (Eigen::AngleAxisd(-0.0524, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(0.0698, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  GravityLevel level(1.0);
+  EXPECT_FALSE(level.ready());
+  EXPECT_TRUE(level.levelling().isIdentity(1e-12));
+  Random random(3);
+  double t = 0.0;
+  for (int i = 0; i < 500; ++i, t += 0.01)  // 5 s at 100 Hz, 0.1 m/s^2 of noise; 0.2 s of braking at 2 m/s^2 at 2 s
+  {
+    Eigen::Vector3d f = tilt.transpose() * Eigen::Vector3d(0.0, 0.0, g);
+    if (i >= 200 && i < 220)
+      f += tilt.transpose() * Eigen::Vector3d(-2.0, 0.0, 0.0);
+    for (int k = 0; k < 3; ++k)
+      f[k] += random.gaussian(0.1);
+    EXPECT_TRUE(level.add(t, f));
+  }
+  ASSERT_TRUE(level.ready());
+  // A trunk's point 1.8 m up and 3 m ahead, seen by the tilted body, levelled: within 2 cm of where it is.
+  const Eigen::Vector3d truth(3.0, 0.5, 1.8);
+  const Eigen::Vector3d seen = tilt.transpose() * truth;
+  EXPECT_GT((seen - truth).head<2>().norm(), 0.1);  // unlevelled: over 0.1 m off
+  EXPECT_LT((level.levelling() * seen - truth).norm(), 0.02);
+  // Samples that are not gravity are left out, and do not move the level.
+  const Eigen::Matrix3d before = level.levelling();
+  EXPECT_FALSE(level.add(t, Eigen::Vector3d(0.0, 0.0, 0.0)));
+  EXPECT_FALSE(level.add(t, Eigen::Vector3d(std::nan(""), 0.0, g)));
+  EXPECT_FALSE(level.add(t, Eigen::Vector3d(0.0, 0.0, 3.0 * g)));
+  EXPECT_TRUE(level.levelling().isApprox(before, 1e-12));
 }
 
 TEST(PathFollower, ObstaclesFromACloudAreWhatStandsNotTheGround)

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "rbpf_slam/core/filter/pose2.h"
 #include "rbpf_slam/sim/velocity_noise.h"
@@ -50,6 +51,31 @@ struct PathFollowerConfig
  */
 std::vector<Eigen::Vector2d> obstaclesFromCloud(const std::vector<Eigen::Vector3d>& points,
                                                 const PathFollowerConfig& config);
+
+/**
+ * @brief Roll and pitch of base_link from an accelerometer, as an IMU levels a robot (gravity gives them without
+ * drift): the specific force averaged over @p time_constant seconds (the robot's own accelerations, brief, average
+ * out). levelling() turns points of base_link into the level frame with base_link's heading, as the simulated
+ * follower's are.
+ */
+class GravityLevel
+{
+public:
+  explicit GravityLevel(double time_constant = 1.0) : time_constant_(time_constant) {}
+  /** @brief One accelerometer sample (specific force in base_link [m/s^2]) at @p stamp [s]; non-finite ones, and
+   * those far from 1 g (more than half a g off), are left out. False when left out. */
+  bool add(double stamp, const Eigen::Vector3d& specific_force);
+  /** @brief Whether a sample has come. */
+  bool ready() const { return have_; }
+  /** @brief The rotation that levels base_link's points (identity before any sample). */
+  Eigen::Matrix3d levelling() const;
+
+private:
+  double time_constant_;
+  bool have_ = false;
+  double last_stamp_ = 0.0;
+  Eigen::Vector3d mean_ = Eigen::Vector3d::UnitZ();
+};
 
 /**
  * @brief The obstacle points (x, y in base_link) of one planar scan: the finite ranges within the scanner's limits
