@@ -133,8 +133,9 @@ void PathFollowerNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg)
     if (gravity_.ready())
       level = gravity_.levelling();
     else
-      ROS_WARN_THROTTLE(10.0, "%s: no accelerometer on %s yet: clouds are taken as level (set ~level_with_imu false "
-                        "for a robot without an IMU)", cloud_sub_.getTopic().c_str(), imu_sub_.getTopic().c_str());
+      ROS_WARN_ONCE("%s: no accelerometer on %s (yet): clouds are taken as level until one comes (the simulator's is "
+                    "imu/enabled; ~level_with_imu false for a robot without one)", cloud_sub_.getTopic().c_str(),
+                    imu_sub_.getTopic().c_str());
   }
   std::vector<Eigen::Vector3d> points;
   points.reserve(cloud.points.size());

@@ -81,32 +81,45 @@ def _stop(proc, timeout=20.0):
         proc.wait()
 
 
-# Run with the test's ROS master: returns once TOPIC has had no message for QUIET seconds (or LIMIT has passed),
-# printing whether it went quiet. The SLAM node publishes its pose for every scan it processes, so a quiet pose
-# topic after the bag has played means the node has worked through every scan that waited for it.
-_WAIT_QUIET = '''
-import sys, time
+# Run with the test's ROS master from the launch on: keeps in STATUS (replaced whole, never half written) how many
+# messages TOPIC has carried and the wall time of the last. The SLAM node publishes its pose for every scan it
+# processes, so a pose topic gone quiet after the bag has played means the node has worked through every scan that
+# waited for it, however slow the machine.
+_LISTEN = """
+import os, sys, time
 import rospy
-topic, quiet, limit = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
-rospy.init_node('wait_until_quiet', anonymous=True, disable_signals=True)
-last = [time.time()]
-def heard(_msg):
-    last[0] = time.time()
-rospy.Subscriber(topic, rospy.AnyMsg, heard, queue_size=100)
-end = time.time() + limit
-while time.time() < end and time.time() - last[0] < quiet:
+topic, status = sys.argv[1], sys.argv[2]
+rospy.init_node('caught_up_listener', anonymous=True, disable_signals=True)
+heard = {'n': 0, 'last': 0.0}
+def on_message(_msg):
+    heard['n'] += 1
+    heard['last'] = time.time()
+rospy.Subscriber(topic, rospy.AnyMsg, on_message, queue_size=100)
+while True:
+    with open(status + '.tmp', 'w') as f:
+        f.write('%d %.3f' % (heard['n'], heard['last']))
+    os.replace(status + '.tmp', status)
     time.sleep(0.1)
-print('quiet' if time.time() - last[0] >= quiet else 'still publishing')
-'''
+"""
 
 
-def _wait_until_caught_up(env, topic, quiet=3.0, limit=150.0):
-    """Waits until the SLAM node has processed every scan that waited for it (its pose topic has gone quiet)."""
-    done = subprocess.run([sys.executable, '-c', _WAIT_QUIET, topic, str(quiet), str(limit)], env=env,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
-                          timeout=limit + 60.0)
-    assert done.stdout.strip().endswith('quiet'), \
-        '%s was still being published %.0f s after the bag ended: %s' % (topic, limit, done.stdout[-500:])
+def _wait_until_caught_up(status, topic, quiet=3.0, limit=150.0):
+    """Waits until TOPIC (heard by the _LISTEN process writing STATUS) has carried a message and then none for QUIET
+    seconds: the SLAM node has caught up with the bag."""
+    end = time.time() + limit
+    n, last = 0, 0.0
+    while time.time() < end:
+        try:
+            with open(status) as f:
+                n, last = f.read().split()
+            n, last = int(n), float(last)
+        except (OSError, ValueError):
+            n, last = 0, 0.0
+        if n > 0 and time.time() - last >= quiet:
+            return
+        time.sleep(0.2)
+    assert n > 0, 'no message on %s at all: did the SLAM node run?' % topic
+    raise AssertionError('%s still carried messages %.0f s after the bag ended (%d so far)' % (topic, limit, n))
 
 
 def _replay_screenshot(tmp, bag, launch_args, name, pose_topic):
@@ -123,6 +136,9 @@ def _replay_screenshot(tmp, bag, launch_args, name, pose_topic):
                                'delay:=8'] + launch_args, env=env, stdout=log, stderr=subprocess.STDOUT,
                               start_new_session=True)
     shot = str(tmp / (name + '.png'))
+    status = str(tmp / ('%s_listener.txt' % name))
+    listener = subprocess.Popen([sys.executable, '-c', _LISTEN, pose_topic, status], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         deadline = time.time() + 180.0
         played = False
@@ -134,10 +150,11 @@ def _replay_screenshot(tmp, bag, launch_args, name, pose_topic):
                 break
             time.sleep(1.0)
         assert played, 'the bag did not finish playing within 180 s (log: %s)' % log_path
-        _wait_until_caught_up(env, pose_topic)
+        _wait_until_caught_up(status, pose_topic)
         time.sleep(4.0)  # rviz draws the last messages
         subprocess.run([IMPORT, '-display', display, '-window', 'root', shot], check=True, timeout=60)
     finally:
+        _stop(listener)
         _stop(launch)
         log.close()
         xvfb.terminate()
@@ -182,7 +199,7 @@ def test_forest_rviz_shows_estimate_beside_truth(tmp_path):
     subprocess.run([_tool('record_scenario'), '--world', os.path.join(ROOT, 'config', 'worlds', 'paper_forest.yaml'),
                     '--drive', str(waypoints), '--seed', '1', '--out', bag, '--quiet'], check=True,
                    stdout=subprocess.DEVNULL)
-    shot, log_text = _replay_screenshot(tmp_path, bag, ['slam:=fastslam'], 'forest', '/fastslam/pose')
+    shot, log_text = _replay_screenshot(tmp_path, bag, ['slam:=fastslam'], 'forest', '/pose')
     view = _view(shot)
     assert _distinct_colours(view) > 300, 'the 3D view looks blank (%s)' % shot
     for what, rgb, least in (('true path', TRUE_PATH, 150), ('FastSLAM path', ESTIMATED_PATH, 150),
@@ -209,7 +226,7 @@ def test_grid_rviz_shows_map_scan_and_path(tmp_path):
     # Grid SLAM on the replayed bag: its map and estimated path beside the true map and path, and the scan.
     shot, log_text = _replay_screenshot(
         tmp_path, bag, ['slam:=grid', 'rviz_config:=' + os.path.join(ROOT, 'config', 'rviz', 'grid.rviz')], 'grid',
-        '/grid_slam/pose')
+        '/pose')
     view = _view(shot)
     assert _distinct_colours(view) > 20, 'the 3D view looks blank (%s)' % shot
     for what, rgb, least in (('true path', TRUE_PATH, 100), ('estimated path', ESTIMATED_PATH, 100),
