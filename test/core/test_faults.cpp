@@ -279,18 +279,47 @@ TEST(ConstellationFaults, AHugeMapBuildsItsPairsFromNeighboursAndTheSearchIsBoun
   EXPECT_LE(r.candidates, cc.max_candidates);
 }
 
-TEST(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
+namespace
+{
+/** A valid fix at east-north @p en of @p plane, 100 m up, at @p stamp, with 1 m of standard deviation. */
+GnssFix fixAt(const LocalTangentPlane& plane, const Eigen::Vector2d& en, double stamp)
+{
+  const GeoPoint g = plane.toGeo(en, 100.0);
+  GnssFix fix;
+  fix.valid = true;
+  fix.stamp = stamp;
+  fix.latitude = g.latitude;
+  fix.longitude = g.longitude;
+  fix.altitude = 100.0;
+  fix.covariance = Eigen::Matrix2d::Identity();
+  return fix;
+}
+
+/** The fusion settings of the fault tests: an anchor once 20 fixes have come. */
+GnssFusionConfig anchorAfter20()
+{
+  GnssFusionConfig gc;
+  gc.anchor_min_fixes = 20;
+  return gc;
+}
+}  // namespace
+
+/** An anchor estimator and a map frame 30 degrees from east at a known origin. */
+class GnssFaults : public ::testing::Test
+{
+protected:
+  GnssFusionConfig gc = anchorAfter20();
+  GeoAnchorEstimator est{ gc };
+  const LocalTangentPlane plane{ GeoPoint{ 61.0, 24.0, 100.0 } };
+  const double yaw = 30.0 * M_PI / 180.0;
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+};
+
+TEST_F(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
 {
   // The receiver's first 20 fixes lie 1000 km east (before any anchor exists, so no gate refuses them), then 60
   // good ones along an L of 600 m legs: the 20 are left out (counted) and the anchor lands where the good fixes put
   // it, though the tangent plane the fit works in is at the first, wild, fix.
-  GnssFusionConfig gc;
-  gc.anchor_min_fixes = 20;
-  GeoAnchorEstimator est(gc);
-  const GeoPoint origin{ 61.0, 24.0, 100.0 };
-  const LocalTangentPlane plane(origin);
-  const double yaw = 30.0 * M_PI / 180.0;
-  const Eigen::Matrix2d R = Eigen::Rotation2Dd(yaw).toRotationMatrix();
   Random rng(5);
   for (int i = 0; i < 80; ++i)
   {
@@ -299,15 +328,7 @@ TEST(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
     Eigen::Vector2d en = R * map + Eigen::Vector2d(rng.gaussian(1.0), rng.gaussian(1.0));
     if (i < 20)
       en += Eigen::Vector2d(1e6, 0.0);
-    const GeoPoint g = plane.toGeo(en, 100.0);
-    GnssFix fix;
-    fix.valid = true;
-    fix.stamp = 10.0 * i;
-    fix.latitude = g.latitude;
-    fix.longitude = g.longitude;
-    fix.altitude = 100.0;
-    fix.covariance = Eigen::Matrix2d::Identity();
-    est.add(fix, map);
+    est.add(fixAt(plane, en, 10.0 * i), map);
   }
   int outliers = 0;
   const GeoAnchor a = est.anchor(&outliers);
@@ -318,17 +339,10 @@ TEST(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
   EXPECT_LT(std::abs(std::remainder(a.yaw - yaw, 2.0 * M_PI)), 0.05);
 }
 
-TEST(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
+TEST_F(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
 {
   // A drive of 60 fixes along an L (the antenna's map positions), the map frame 30 degrees from east at a known
   // origin; 10 of the fixes jump 1000 km away in a row (a receiver's fault).
-  GnssFusionConfig gc;
-  gc.anchor_min_fixes = 20;
-  GeoAnchorEstimator est(gc);
-  const GeoPoint origin{ 61.0, 24.0, 100.0 };
-  const LocalTangentPlane plane(origin);
-  const double yaw = 30.0 * M_PI / 180.0;
-  const Eigen::Matrix2d R = Eigen::Rotation2Dd(yaw).toRotationMatrix();
   Random rng(3);
   for (int i = 0; i < 60; ++i)
   {
@@ -336,15 +350,7 @@ TEST(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
     Eigen::Vector2d en = R * map + Eigen::Vector2d(rng.gaussian(1.0), rng.gaussian(1.0));
     if (i >= 40 && i < 50)
       en += Eigen::Vector2d(1e6, 0.0);  // 1000 km east
-    const GeoPoint g = plane.toGeo(en, 100.0);
-    GnssFix fix;
-    fix.valid = true;
-    fix.stamp = 10.0 * i;
-    fix.latitude = g.latitude;
-    fix.longitude = g.longitude;
-    fix.altitude = 100.0;
-    fix.covariance = Eigen::Matrix2d::Identity();
-    est.add(fix, map);
+    est.add(fixAt(plane, en, 10.0 * i), map);
   }
   int outliers = 0;
   const GeoAnchor a = est.anchor(&outliers);

@@ -539,14 +539,23 @@ TEST(PathFollower, NoArcTakesItFartherThanMaxDepartureFromThePath)
   EXPECT_GT(db.farthest, 6.0);
 }
 
-TEST(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
+/** A flat empty world and the straight drive from (0, 15) heading +x: what each drive check starts from. */
+class DriveCheck : public ::testing::Test
 {
+protected:
+  DriveCheck()
+  {
+    world.ground.amplitude = 0.0;
+    config.sim.start = rbpf_slam::core::Pose2(0.0, 15.0, 0.0);
+    config.drive = straightDrive(30.0);
+  }
   ForestWorld world;
-  world.ground.amplitude = 0.0;
   ScenarioConfig config;
-  config.sim.start = rbpf_slam::core::Pose2(0.0, 15.0, 0.0);
-  config.drive = straightDrive(30.0);
   std::string error;
+};
+
+TEST_F(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
+{
   EXPECT_TRUE(checkDrive(world, config, &error)) << error;
   // One trunk on the drive: the planner goes round it within 3 m.
   TrunkSpec t;
@@ -593,14 +602,8 @@ TEST(DriveCheck, RefusesADriveWithNoWayThroughAndSaysWhere)
   EXPECT_EQ(error.find("x ..."), std::string::npos) << error;
 }
 
-TEST(DriveCheck, ClutterThePlannerSteersRoundClosesTheWayAndLowClutterDoesNot)
+TEST_F(DriveCheck, ClutterThePlannerSteersRoundClosesTheWayAndLowClutterDoesNot)
 {
-  ForestWorld world;
-  world.ground.amplitude = 0.0;
-  ScenarioConfig config;
-  config.sim.start = rbpf_slam::core::Pose2(0.0, 15.0, 0.0);
-  config.drive = straightDrive(30.0);
-  std::string error;
   // A hedge of bushes across the drive at x = 20 m, centres 1.0 m apart from y = 9 to 21 m, 0.8 m up (in the
   // planner's height band): no gap at all.
   for (double y = 9.0; y <= 21.0; y += 1.0)
