@@ -44,6 +44,19 @@ ForestSim::ForestSim(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pn
     params.get("frames/lidar2d", &frames_.lidar2d);
     params.get("frames/gps", &frames_.gps);
     params.get("lockstep_topics", &lockstep_topics);
+    // The offline recorder's keys of the same file (its in-process follower and relay, its time-out): known, but
+    // not this node's; the launch's path_follower and noise_relay nodes take their own parameters.
+    std::string recorder_keys;
+    for (const char* key : { "follower", "relay", "timeout" })
+      if (pnh_.hasParam(key))
+      {
+        params.markUsed(key);
+        recorder_keys += std::string(recorder_keys.empty() ? "" : ", ") + key;
+      }
+    if (!recorder_keys.empty())
+      ROS_INFO("%s: %s: record_scenario's keys (its in-process follower and relay), not used here: the path_follower "
+               "and noise_relay nodes take their own parameters",
+               pnh_.getNamespace().c_str(), recorder_keys.c_str());
     warnUnknownKeys(params);
     if (world_path.empty() && indoor_map.empty())
       throw std::runtime_error("set ~world (a forest world file) or ~indoor_map (a map_server YAML)");

@@ -59,10 +59,10 @@ PathFollowerNode::PathFollowerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   {
     tf_buffer_.reset(new tf2_ros::Buffer());
     tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_));
+    if (level_with_imu_)  // first: a cloud may come before the constructor has returned
+      imu_sub_ = nh.subscribe("imu/data", 100, &PathFollowerNode::onImu, this);
     cloud_sub_ = nh.subscribe("points", 5, &PathFollowerNode::onCloud, this);
     scan_sub_ = nh.subscribe("scan", 10, &PathFollowerNode::onScan, this);
-    if (level_with_imu_)
-      imu_sub_ = nh.subscribe("imu/data", 100, &PathFollowerNode::onImu, this);
   }
 
   nav_msgs::Path msg;
