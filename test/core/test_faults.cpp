@@ -18,6 +18,7 @@
 #include "rbpf_slam/core/extraction/trunk_detector.h"
 #include "rbpf_slam/core/trunk_slam/trunk_slam_pipeline.h"
 #include "core/fastslam/fastslam_test_util.h"
+#include "core/forest_map/gnss_test_util.h"
 #include "core/grid/grid_test_world.h"
 
 using namespace rbpf_slam::core;
@@ -281,20 +282,6 @@ TEST(ConstellationFaults, AHugeMapBuildsItsPairsFromNeighboursAndTheSearchIsBoun
 
 namespace
 {
-/** A valid fix at east-north @p en of @p plane, 100 m up, at @p stamp, with 1 m of standard deviation. */
-GnssFix fixAt(const LocalTangentPlane& plane, const Eigen::Vector2d& en, double stamp)
-{
-  const GeoPoint g = plane.toGeo(en, 100.0);
-  GnssFix fix;
-  fix.valid = true;
-  fix.stamp = stamp;
-  fix.latitude = g.latitude;
-  fix.longitude = g.longitude;
-  fix.altitude = 100.0;
-  fix.covariance = Eigen::Matrix2d::Identity();
-  return fix;
-}
-
 /** The fusion settings of the fault tests: an anchor once 20 fixes have come. */
 GnssFusionConfig anchorAfter20()
 {
@@ -328,7 +315,7 @@ TEST_F(GnssFaults, WildFirstFixesAreLeftOutOfTheAnchor)
     Eigen::Vector2d en = R * map + Eigen::Vector2d(rng.gaussian(1.0), rng.gaussian(1.0));
     if (i < 20)
       en += Eigen::Vector2d(1e6, 0.0);
-    est.add(fixAt(plane, en, 10.0 * i), map);
+    est.add(rbpf_slam::test::validFix(plane.toGeo(en, 100.0), 10.0 * i), map);
   }
   int outliers = 0;
   const GeoAnchor a = est.anchor(&outliers);
@@ -350,7 +337,7 @@ TEST_F(GnssFaults, WildFixesMoveNeitherTheAnchorNorTheFilter)
     Eigen::Vector2d en = R * map + Eigen::Vector2d(rng.gaussian(1.0), rng.gaussian(1.0));
     if (i >= 40 && i < 50)
       en += Eigen::Vector2d(1e6, 0.0);  // 1000 km east
-    est.add(fixAt(plane, en, 10.0 * i), map);
+    est.add(rbpf_slam::test::validFix(plane.toGeo(en, 100.0), 10.0 * i), map);
   }
   int outliers = 0;
   const GeoAnchor a = est.anchor(&outliers);

@@ -8,6 +8,7 @@
 #include "rbpf_slam/core/forest_map/geodesy.h"
 #include "rbpf_slam/core/forest_map/gnss.h"
 #include "rbpf_slam/core/filter/random.h"
+#include "core/forest_map/gnss_test_util.h"
 
 namespace rbpf_slam
 {
@@ -179,14 +180,7 @@ TEST(GeoAnchor, FitFindsTheAnchorOfAFrameFromNoisyFixes)
     const double a = i * 0.05;
     const Eigen::Vector2d p(20.0 + 20.0 * std::cos(a), 20.0 * std::sin(a));
     const GeoPoint g = anchoredToGeo(truth, p.x() + rng.gaussian(1.0), p.y() + rng.gaussian(1.0));
-    GnssFix f;
-    f.stamp = i;
-    f.valid = true;
-    f.latitude = g.latitude;
-    f.longitude = g.longitude;
-    f.altitude = 300.0;
-    f.covariance = Eigen::Matrix2d::Identity();
-    est.add(f, p);
+    est.add(test::validFix(g, i), p);
     if (i == 10)
     {
       EXPECT_FALSE(est.anchor().valid) << "too few fixes";
@@ -206,13 +200,7 @@ TEST(GeoAnchor, FixesAtOneSpotGiveNoAnchor)
   const GeoAnchor truth = anchorAt(47.0, 8.0, 0.0, 0.0);
   for (int i = 0; i < 100; ++i)
   {
-    const GeoPoint g = anchoredToGeo(truth, 1.0, 2.0);
-    GnssFix f;
-    f.stamp = i;
-    f.valid = true;
-    f.latitude = g.latitude;
-    f.longitude = g.longitude;
-    est.add(f, Eigen::Vector2d(1.0, 2.0));
+    est.add(test::validFix(anchoredToGeo(truth, 1.0, 2.0), i), Eigen::Vector2d(1.0, 2.0));
   }
   EXPECT_EQ(est.fixes(), 100);
   EXPECT_FALSE(est.anchor().valid);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "rbpf_slam/core/forest_map/gnss_anchoring.h"
+#include "core/forest_map/gnss_test_util.h"
 
 using rbpf_slam::core::FastSlam;
 using rbpf_slam::core::FastSlamConfig;
@@ -38,16 +39,11 @@ double metresBetween(const GeoAnchor& a, double lat, double lon)
 
 GnssFix fixAt(double stamp, const Eigen::Vector2d& map_position, double offset_east = 0.0, double offset_north_deg = 0.0)
 {
-  const GeoPoint g = rbpf_slam::core::anchoredToGeo(trueAnchor(), map_position.x(), map_position.y());
-  GnssFix f;
-  f.stamp = stamp;
-  f.valid = true;
-  f.latitude = g.latitude + offset_north_deg;
+  GeoPoint g = rbpf_slam::core::anchoredToGeo(trueAnchor(), map_position.x(), map_position.y());
+  g.latitude += offset_north_deg;
   // a receiver's jump: metres east (the longitude's metres at this latitude)
-  f.longitude = g.longitude + offset_east / (111320.0 * std::cos(61.5 * M_PI / 180.0));
-  f.altitude = 300.0;
-  f.covariance = Eigen::Matrix2d::Identity();
-  return f;
+  g.longitude += offset_east / (111320.0 * std::cos(61.5 * M_PI / 180.0));
+  return rbpf_slam::test::validFix(g, stamp);
 }
 
 /**
