@@ -164,7 +164,7 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Blocker>& blocker
     *ix = static_cast<int>(std::lround((p.x() - lo.x()) / kCell));
     *iy = static_cast<int>(std::lround((p.y() - lo.y()) / kCell));
   };
-  // 0: outside the band, 1: free, 2: blocked by a trunk or a box, 3: reached, 4: blocked by clutter (in the band).
+  // 0: outside the band, 1: free, 2: blocked, 3: reached.
   std::vector<std::uint8_t> grid(static_cast<std::size_t>(nx) * ny, 0);
   const auto at = [&](int ix, int iy) -> std::uint8_t& { return grid[static_cast<std::size_t>(iy) * nx + ix]; };
   const auto cover = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double radius,
@@ -192,10 +192,8 @@ bool checkCorridor(const ForestWorld& world, const std::vector<Blocker>& blocker
   {
     const double reach = k.radius + need - (k.clutter ? slack : 0.0);
     cover(k.a, k.b, reach, [&](int ix, int iy, const Eigen::Vector2d& c) {
-      std::uint8_t& cell = at(ix, iy);
-      if ((nearestOnSegment(k.a, k.b, c) - c).norm() < reach && cell != 2 &&
-          !(k.clutter && (c - path.front()).norm() <= need))
-        cell = k.clutter ? (cell == 0 ? 0 : 4) : 2;
+      if ((nearestOnSegment(k.a, k.b, c) - c).norm() < reach && !(k.clutter && (c - path.front()).norm() <= need))
+        at(ix, iy) = 2;
     });
   }
   for (const BoxSpec& b : world.boxes)
